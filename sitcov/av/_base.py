@@ -1,0 +1,111 @@
+"""The black-box boundary between sitcov and the AV stack under test."""
+
+from __future__ import annotations
+
+import abc
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from sitcov.perception._base import CameraSpec, Detection
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from sitcov.hyperspace import Situation
+
+
+@dataclass(frozen=True)
+class RunInfo:
+    """Given to the stack once, at the start of a run.
+
+    Attributes:
+        dt: control period [s].
+        route: the ego's route as (x, y) waypoints [m], start to goal, about 1 m apart.
+        goal: the goal position (x, y) [m].
+        map_name: name of the map.
+        camera: the camera the backend renders / simulates for this stack.
+        seed: the run's seed (a stack may use it for its own randomness).
+        situation: the full situation, only in grey-box mode (None in black-box mode).
+    """
+
+    dt: float
+    route: tuple[tuple[float, float], ...]
+    goal: tuple[float, float]
+    map_name: str
+    camera: CameraSpec
+    seed: int
+    situation: Situation | None = None
+
+
+@dataclass(frozen=True)
+class EgoState:
+    """The ego's own state (what its localisation would report)."""
+
+    x: float
+    y: float
+    yaw: float
+    speed: float
+    t: float
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What the stack sees at one control step.
+
+    ``detections`` is set in PEM mode (the sensor model's detections, None on steps
+    without a new frame); ``image`` is an HxWx3 uint8 frame in camera mode (None on steps
+    without a new frame).
+    """
+
+    t: float
+    ego: EgoState
+    detections: tuple[Detection, ...] | None = None
+    image: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class Control:
+    """The stack's command for the next control period.
+
+    Attributes:
+        throttle: in [0, 1].
+        brake: in [0, 1].
+        steer: in [-1, 1], positive turns left (counter-clockwise), scaled by the vehicle's
+            maximum steering angle.
+        info: optional diagnostics (e.g. ``{"aeb": True}``), stored with the run's metrics.
+    """
+
+    throttle: float = 0.0
+    brake: float = 0.0
+    steer: float = 0.0
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+class AVStack(abc.ABC):
+    """An autonomous-driving stack under test, seen as a black box.
+
+    The backend calls ``reset(info)`` once per run, then ``step(observation)`` every
+    ``info.dt`` seconds until the run ends, and ``close()`` when the stack is no longer
+    needed (after the last run). A stack must not keep state across ``reset`` calls that
+    changes its behaviour, or runs would not be reproducible.
+    """
+
+    #: Registry name, e.g. ``"reference"``.
+    name: ClassVar[str] = "custom"
+    #: The dash-cam the stack expects; backends simulate or render this camera.
+    camera: CameraSpec = CameraSpec()
+
+    @abc.abstractmethod
+    def reset(self, info: RunInfo) -> None:
+        """Prepare for a new run."""
+
+    @abc.abstractmethod
+    def step(self, observation: Observation) -> Control:
+        """Return the control for this step."""
+
+    def close(self) -> None:  # noqa: B027
+        """Release resources."""
+
+    def config(self) -> dict[str, Any]:
+        """JSON-serialisable configuration stored with each run (faults, parameters)."""
+        return {"name": self.name}

@@ -1,0 +1,62 @@
+"""The exception hierarchy: every error sitcov raises on purpose derives from SitcovError.
+
+The CLI catches SitcovError and prints its message on one line; anything else is a bug.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class SitcovError(Exception):
+    """Root of all deliberate sitcov errors; the message is meant for the user."""
+
+
+class ConfigError(SitcovError, ValueError):
+    """A configuration or data file (or argument) is invalid.
+
+    The message names the file, the field path, the value given and what was expected,
+    in the form ``FILE: FIELD: expected EXPECTATION, got VALUE``.
+    """
+
+    def __init__(
+        self,
+        message: str | None = None,
+        *,
+        file: str | None = None,
+        field: str | None = None,
+        value: Any = None,
+        expected: str | None = None,
+    ) -> None:
+        self.file, self.field, self.value, self.expected = file, field, value, expected
+        if message is None:
+            parts = [p for p in (file, field) if p]
+            head = ": ".join(parts) + ": " if parts else ""
+            got = f", got {value!r}" if value is not None else ""
+            message = f"{head}expected {expected}{got}"
+        super().__init__(message)
+
+
+class UnknownPluginError(ConfigError):
+    """A named generator, backend, AV stack or fault does not exist."""
+
+    def __init__(self, kind: str, name: str, known: list[str]) -> None:
+        super().__init__(
+            f"unknown {kind} {name!r}; expected one of: {', '.join(sorted(known))}",
+            field=kind,
+            value=name,
+            expected=" | ".join(sorted(known)),
+        )
+
+
+class MissingExtraError(SitcovError, ImportError):
+    """An optional dependency is needed but not installed."""
+
+    def __init__(self, feature: str, extra: str, module: str) -> None:
+        super().__init__(
+            f"{feature} needs the optional package {module!r}: pip install 'sitcov[{extra}]'"
+        )
+
+
+class BackendUnavailableError(SitcovError):
+    """A simulation backend cannot be reached (e.g. no CARLA server)."""
