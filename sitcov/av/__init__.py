@@ -1,5 +1,43 @@
 """AV stacks under test: the black-box interface and the reference modular stack."""
 
-from sitcov.av._base import AVStack, Control, EgoState, Observation, RunInfo
+from typing import Any
 
-__all__ = ["AVStack", "Control", "EgoState", "Observation", "RunInfo"]
+from sitcov.av._base import AVStack, Control, EgoState, Observation, RunInfo
+from sitcov.av._external import ExternalProcessStack, external_stack
+from sitcov.av._factory import make_stack
+from sitcov.av._faults import DEFAULT_PARAMS, FAULT_DESCRIPTIONS, FAULTS, resolve_params
+from sitcov.av._pid import LateralPID, LongitudinalPID, heading_error
+from sitcov.av._reference import NoPerceptionStack, ReferenceStack, aeb_test
+
+__all__ = [
+    "DEFAULT_PARAMS",
+    "FAULTS",
+    "FAULT_DESCRIPTIONS",
+    "AVStack",
+    "Control",
+    "EgoState",
+    "ExternalProcessStack",
+    "LateralPID",
+    "LongitudinalPID",
+    "NoPerceptionStack",
+    "Observation",
+    "ReferenceStack",
+    "RunInfo",
+    "aeb_test",
+    "external_stack",
+    "heading_error",
+    "make_stack",
+    "resolve_params",
+]
+
+# The gymnasium environment and PolicyStack need the optional extra ``sitcov[gym]``: they
+# are imported (and ``sitcov/TJunction-v0`` registered) on first access.
+_GYM_NAMES = ("ENV_ID", "PolicyStack", "TJunctionEnv")
+
+
+def __getattr__(name: str) -> Any:
+    if name in _GYM_NAMES:
+        from sitcov.av import _gym
+
+        return getattr(_gym, name)
+    raise AttributeError(f"module 'sitcov.av' has no attribute {name!r}")

@@ -24,6 +24,8 @@ class RunRecord:
         wall_time: wall-clock seconds the run took, None while pending.
         config: the campaign-level settings the run was made with (generator, backend, av,
             fault, ...), for provenance.
+        replay_of: ``CAMPAIGN:INDEX`` of the stored failure this run replays (runs made by
+            ``sitcov run --replay-failures-first``), None for generated runs.
     """
 
     campaign: str
@@ -34,6 +36,7 @@ class RunRecord:
     outcome: Outcome | None = None
     wall_time: float | None = None
     config: Mapping[str, Any] = field(default_factory=dict)
+    replay_of: str | None = None
 
     @property
     def bins(self) -> Mapping[str, str]:

@@ -12,7 +12,9 @@ from typing import Any
 
 def canonical_json(obj: Any) -> str:
     """JSON with sorted keys and no whitespace: the same text on every machine."""
-    return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=False)
+    return json.dumps(
+        obj, sort_keys=True, separators=(",", ":"), ensure_ascii=True, allow_nan=False
+    )
 
 
 def _freeze(value: Any) -> Any:
@@ -60,6 +62,21 @@ class Situation(Mapping[str, str]):
             canonical_json({"bins": dict(self.bins), "values": _thaw(self.values)}).encode()
         )
         object.__setattr__(self, "id", digest.hexdigest()[:16])
+
+    @classmethod
+    def _trusted(cls, bins: dict[str, str], values: dict[str, Any], id: str) -> Situation:
+        """Build without validating or hashing (the generators' hot path).
+
+        The caller guarantees that ``values`` are already frozen, that ``bins`` and ``values``
+        name the same elements, and that ``id`` equals what ``Situation(bins, values).id``
+        would compute (``sitcov.hyperspace.Hyperspace`` assembles the same canonical JSON
+        from precomputed fragments; a test checks the two agree).
+        """
+        obj = object.__new__(cls)
+        object.__setattr__(obj, "bins", MappingProxyType(bins))
+        object.__setattr__(obj, "values", MappingProxyType(values))
+        object.__setattr__(obj, "id", id)
+        return obj
 
     def __getitem__(self, element: str) -> str:
         return self.bins[element]

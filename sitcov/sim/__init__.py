@@ -1,5 +1,43 @@
 """Simulation backends and the outcome of a run."""
 
-from sitcov.sim._base import STATUSES, Backend, Conditions, Outcome, Trace
+from __future__ import annotations
 
-__all__ = ["STATUSES", "Backend", "Conditions", "Outcome", "Trace"]
+from typing import Any
+
+from sitcov import _plugins
+from sitcov.sim._adversary import AdversaryController, AdversaryParams, arrival_time, pure_pursuit
+from sitcov.sim._base import STATUSES, Backend, Conditions, Outcome, Trace
+from sitcov.sim._conditions import conditions_from_values
+
+_plugins.register_builtin("backend", "embedded", "sitcov.sim.embedded:EmbeddedBackend")
+_plugins.register_builtin("backend", "carla", "sitcov.sim.carla:CarlaBackend")
+
+
+def make_backend(name: str = "embedded", **options: Any) -> Backend:
+    """Create a backend by registered name, entry point or ``module:Class`` path.
+
+    Raises:
+        UnknownPluginError: no such backend. ConfigError: it rejected an option.
+    """
+    cls = _plugins.load("backend", name, Backend)
+    try:
+        return cls(**options)
+    except TypeError as exc:
+        from sitcov.errors import ConfigError
+
+        raise ConfigError(f"backend {name!r}: invalid options {sorted(options)}: {exc}") from None
+
+
+__all__ = [
+    "STATUSES",
+    "AdversaryController",
+    "AdversaryParams",
+    "Backend",
+    "Conditions",
+    "Outcome",
+    "Trace",
+    "arrival_time",
+    "conditions_from_values",
+    "make_backend",
+    "pure_pursuit",
+]

@@ -1,0 +1,240 @@
+"""Coverage and failure statistics of a set of runs over a hyperspace.
+
+A run is any object with ``.bins`` (element -> label) and ``.status`` (``pass``, ``fail``,
+``error``, ``timeout`` or ``pending``), e.g. :class:`sitcov.campaign.RunRecord`; mappings
+with those keys work too. ``pending`` runs were planned but not run and are ignored;
+``generated`` counts every other run; failure rates are over *judged* runs (pass + fail),
+so errors and timeouts neither count as failures nor dilute the rate.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from itertools import combinations
+from typing import Any
+
+from sitcov.analysis._stats import uniformity, wilson_interval
+from sitcov.hyperspace import Hyperspace
+
+_STATUSES = ("pass", "fail", "error", "timeout")
+
+
+def _field(run: Any, name: str) -> Any:
+    return run[name] if isinstance(run, Mapping) else getattr(run, name)
+
+
+def _indexed(hs: Hyperspace, runs: Iterable[Any]) -> tuple[list[tuple[list[int], str]], int]:
+    """(bin indices, status) of the non-pending runs that fit ``hs``; and how many did not."""
+    out = []
+    unmatched = 0
+    lookup = hs._label_index
+    names = hs.element_names
+    for run in runs:
+        status = _field(run, "status")
+        if status == "pending":
+            continue
+        bins = _field(run, "bins")
+        idx = []
+        for e, name in enumerate(names):
+            i = lookup[e].get(bins.get(name)) if name in bins else None
+            if i is None:
+                break
+            idx.append(i)
+        if len(idx) != len(names):
+            unmatched += 1
+            continue
+        out.append((idx, status))
+    return out, unmatched
+
+
+def _rate(failures: int, judged: int) -> tuple[float | None, list[float] | None]:
+    ci = wilson_interval(failures, judged)
+    return (failures / judged if judged else None), (list(ci) if ci else None)
+
+
+def bin_stats(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, dict[str, dict[str, Any]]]:
+    """Per element and bin: generated, failures, passes, errors, timeouts, judged,
+    failure_rate (failures / judged, None if nothing judged) and ci95 (Wilson, or None)."""
+    indexed, _ = _indexed(hyperspace, runs)
+    return _bin_stats(hyperspace, indexed)
+
+
+def _bin_stats(hs: Hyperspace, indexed: list[tuple[list[int], str]]) -> dict[str, Any]:
+    tallies = [[dict.fromkeys(_STATUSES, 0) for _ in range(n)] for n in hs.sizes]
+    for idx, status in indexed:
+        for e, i in enumerate(idx):
+            if status in tallies[e][i]:
+                tallies[e][i][status] += 1
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    for e, element in enumerate(hs.elements):
+        per_bin = {}
+        for i, label in enumerate(element.labels):
+            t = tallies[e][i]
+            judged = t["pass"] + t["fail"]
+            rate, ci = _rate(t["fail"], judged)
+            per_bin[label] = {
+                "generated": sum(t.values()),
+                "failures": t["fail"],
+                "failure_rate": rate,
+                "ci95": ci,
+                "passes": t["pass"],
+                "errors": t["error"],
+                "timeouts": t["timeout"],
+                "judged": judged,
+            }
+        out[element.name] = per_bin
+    return out
+
+
+def _feasible_bins(hs: Hyperspace) -> int:
+    if not hs.constraints:
+        return sum(hs.sizes)
+    return sum(1 for e in hs.elements for label in e.labels if hs.count({e.name: [label]}) > 0)
+
+
+def coverage(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
+    """Bins covered / total and the fraction of allowed 2-way bin combinations seen.
+
+    Bins and pairs that no allowed situation contains (because of constraints) are not
+    counted in the totals.
+    """
+    indexed, _ = _indexed(hyperspace, runs)
+    return _coverage(hyperspace, indexed)
+
+
+def _pairs_of(idx: list[int]) -> list[tuple[int, int, int, int]]:
+    return [(e1, idx[e1], e2, idx[e2]) for e1, e2 in combinations(range(len(idx)), 2)]
+
+
+def _coverage(hs: Hyperspace, indexed: list[tuple[list[int], str]]) -> dict[str, Any]:
+    seen_bins = {(e, i) for idx, _ in indexed for e, i in enumerate(idx)}
+    allowed = hs.allowed_pairs
+    seen_pairs = {p for idx, _ in indexed for p in _pairs_of(idx)} & allowed
+    total_pairs = len(allowed)
+    return {
+        "bins_covered": len(seen_bins),
+        "bins_total": _feasible_bins(hs),
+        "pairwise": len(seen_pairs) / total_pairs if total_pairs else 1.0,
+        "pairs_covered": len(seen_pairs),
+        "pairs_total": total_pairs,
+    }
+
+
+def _json_uniformity(counts: list[int]) -> dict[str, Any]:
+    u = uniformity(counts)
+    if u["max_min_ratio"] is not None and math.isinf(u["max_min_ratio"]):
+        u["max_min_ratio"] = None  # JSON has no infinity; "min": 0 says why
+    return u
+
+
+def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
+    """The summary JSON of ``sitcov summary --json`` (DESIGN.md section 6, plus extras).
+
+    Keys: ``runs`` (non-pending), ``failures``, ``errors``, ``timeouts``, ``passes``,
+    ``pending``, ``failure_rate`` and ``ci95`` overall, ``elements`` (see
+    :func:`bin_stats`), ``coverage`` (see :func:`coverage`), ``uniformity`` per element
+    (see :func:`~sitcov.analysis.uniformity`; an unused bin gives ``max_min_ratio: null``
+    with ``min: 0``), ``unmatched`` (runs whose bins are not in this hyperspace) and
+    ``hyperspace`` (its name).
+    """
+    runs = list(runs)
+    pending = sum(1 for r in runs if _field(r, "status") == "pending")
+    indexed, unmatched = _indexed(hyperspace, runs)
+    statuses = [_field(r, "status") for r in runs if _field(r, "status") != "pending"]
+    n_fail = statuses.count("fail")
+    n_pass = statuses.count("pass")
+    rate, ci = _rate(n_fail, n_fail + n_pass)
+    elements = _bin_stats(hyperspace, indexed)
+    return {
+        "runs": len(statuses),
+        "failures": n_fail,
+        "errors": statuses.count("error"),
+        "elements": elements,
+        "coverage": _coverage(hyperspace, indexed),
+        "timeouts": statuses.count("timeout"),
+        "passes": n_pass,
+        "pending": pending,
+        "failure_rate": rate,
+        "ci95": ci,
+        "uniformity": {
+            name: _json_uniformity([b["generated"] for b in per_bin.values()])
+            for name, per_bin in elements.items()
+        },
+        "unmatched": unmatched,
+        "hyperspace": hyperspace.name,
+    }
+
+
+def coverage_growth(hyperspace: Hyperspace, runs: Iterable[Any]) -> list[dict[str, Any]]:
+    """Coverage after each run, in the order given (for the report's growth curve).
+
+    Returns:
+        One dict per non-pending run that fits the hyperspace: ``runs`` (how many so far),
+        ``bins_covered`` and ``pairwise`` (fraction of allowed pairs seen).
+    """
+    indexed, _ = _indexed(hyperspace, runs)
+    allowed = hyperspace.allowed_pairs
+    total = len(allowed) or 1
+    seen_bins: set[tuple[int, int]] = set()
+    seen_pairs: set[tuple[int, int, int, int]] = set()
+    out = []
+    for n, (idx, _) in enumerate(indexed, start=1):
+        seen_bins.update(enumerate(idx))
+        seen_pairs.update(p for p in _pairs_of(idx) if p in allowed)
+        out.append({"runs": n, "bins_covered": len(seen_bins), "pairwise": len(seen_pairs) / total})
+    return out
+
+
+def _ranked(rows: list[dict[str, Any]], min_judged: int, top: int | None) -> list[dict[str, Any]]:
+    rows = [r for r in rows if r["judged"] >= min_judged and r["ci95"] is not None]
+    rows.sort(key=lambda r: (-r["ci95"][0], -r["failure_rate"], -r["judged"]))
+    return rows if top is None else rows[:top]
+
+
+def worst_bins(
+    hyperspace: Hyperspace, runs: Iterable[Any], *, min_judged: int = 5, top: int | None = 10
+) -> list[dict[str, Any]]:
+    """Bins with the highest failure rates, ranked by the Wilson 95% lower bound (so a
+    rate backed by many runs outranks the same rate from a few).
+
+    Args:
+        min_judged: ignore bins with fewer judged (pass + fail) runs.
+        top: keep this many (None = all).
+    """
+    rows = []
+    for element, per_bin in bin_stats(hyperspace, runs).items():
+        for label, s in per_bin.items():
+            rows.append({"element": element, "label": label, **s})
+    return _ranked(rows, min_judged, top)
+
+
+def worst_pairs(
+    hyperspace: Hyperspace, runs: Iterable[Any], *, min_judged: int = 5, top: int | None = 10
+) -> list[dict[str, Any]]:
+    """Pairs of bins (two elements) with the highest failure rates, ranked as
+    :func:`worst_bins`; each row has ``elements`` and ``labels`` (2-tuples)."""
+    indexed, _ = _indexed(hyperspace, runs)
+    tallies: dict[tuple[int, int, int, int], list[int]] = {}
+    for idx, status in indexed:
+        if status not in ("pass", "fail"):
+            continue
+        for p in _pairs_of(idx):
+            t = tallies.setdefault(p, [0, 0])
+            t[0] += status == "fail"
+            t[1] += 1
+    names = hyperspace.element_names
+    rows = []
+    for (e1, b1, e2, b2), (fails, judged) in tallies.items():
+        rate, ci = _rate(fails, judged)
+        rows.append(
+            {
+                "elements": (names[e1], names[e2]),
+                "labels": (hyperspace.elements[e1].labels[b1], hyperspace.elements[e2].labels[b2]),
+                "failures": fails,
+                "judged": judged,
+                "failure_rate": rate,
+                "ci95": ci,
+            }
+        )
+    return _ranked(rows, min_judged, top)

@@ -1,0 +1,147 @@
+"""Campaign configuration: validated with pydantic, from a YAML file and/or flags.
+
+Example ``campaign.yaml``::
+
+    name: night-fog
+    generator: sitcov-min
+    runs: 2000
+    seed: 7
+    backend_options: {perception: pem}
+    fault: f2
+    executor: processes
+    workers: 2
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from sitcov.errors import ConfigError
+
+#: Settings that only change how a campaign executes, never what it stores; they may differ
+#: when a campaign is resumed or extended (``runs`` may grow too).
+EXECUTION_ONLY = frozenset({"runs", "executor", "workers", "ray_address"})
+
+
+class CampaignConfig(BaseModel):
+    """Everything that defines a campaign (stored with it, compared on resume).
+
+    Attributes:
+        name: campaign name, unique within a store.
+        hyperspace: ``t-junction`` (built in) or a hyperspace YAML path.
+        generator: generator name (or ``module:Class``); ``generator_options`` its options.
+        backend: backend name (or ``module:Class``); ``backend_options`` e.g. ``perception``.
+        av: AV stack name (or ``module:Class``); ``fault`` a seeded fault (f1|f2|f3);
+            ``av_params`` parameter overrides.
+        runs: total runs wanted in the campaign (running again with more extends it).
+        seed: campaign seed; every run's situation and seed derive from (seed, index).
+        batch_size: asks per batch, i.e. how often a learning generator is told outcomes.
+        executor: ``serial`` | ``processes`` | ``ray``; ``workers`` how many in parallel.
+        ray_address: an existing Ray cluster (else a local one is started).
+        run_timeout: wall-clock limit per run [s]; exceeded runs are stored as ``timeout``.
+        record_traces: store each run's trajectories (for top-down pictures).
+        replay_failures_first: first re-run the failures of the store's other campaigns.
+        tags: free labels stored with the campaign (e.g. by experiments).
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = Field("default", min_length=1)
+    hyperspace: str = "t-junction"
+    generator: str = "sitcov"
+    generator_options: dict[str, Any] = Field(default_factory=dict)
+    backend: str = "embedded"
+    backend_options: dict[str, Any] = Field(default_factory=dict)
+    av: str = "reference"
+    fault: str | None = None
+    av_params: dict[str, Any] | None = None
+    runs: int = Field(1000, ge=0)
+    seed: int = Field(0, ge=0)
+    batch_size: int = Field(32, ge=1)
+    executor: Literal["serial", "processes", "ray"] = "processes"
+    workers: int = Field(default_factory=lambda: os.cpu_count() or 1, ge=1)
+    ray_address: str | None = None
+    run_timeout: float | None = Field(None, gt=0)
+    record_traces: bool = False
+    replay_failures_first: bool = False
+    tags: dict[str, Any] = Field(default_factory=dict)
+
+    def defining(self) -> dict[str, Any]:
+        """The JSON form without execution-only settings (what must match on resume)."""
+        data = self.model_dump(mode="json")
+        return {k: v for k, v in data.items() if k not in EXECUTION_ONLY}
+
+
+def _config_error(exc: ValidationError, file: str | None) -> ConfigError:
+    first = exc.errors()[0]
+    loc = ".".join(str(p) for p in first["loc"]) or "(top level)"
+    value = first.get("input")
+    if first["type"] == "extra_forbidden":
+        known = ", ".join(sorted(CampaignConfig.model_fields))
+        return ConfigError(
+            f"{file + ': ' if file else ''}{loc}: unknown field; expected one of: {known}",
+            file=file,
+            field=loc,
+            value=value,
+            expected=known,
+        )
+    return ConfigError(file=file, field=loc, value=value, expected=first["msg"].lower())
+
+
+def load_config(
+    file: str | Path | None = None, overrides: Mapping[str, Any] | None = None
+) -> CampaignConfig:
+    """Build a config from a YAML file (optional) with ``overrides`` on top (flags).
+
+    Overrides whose value is None are ignored (a flag that was not given).
+
+    Raises:
+        ConfigError: naming the file, the field, the value and what was expected.
+    """
+    data: dict[str, Any] = {}
+    where = str(file) if file is not None else None
+    if file is not None:
+        try:
+            loaded = yaml.safe_load(Path(file).read_text())
+        except OSError as exc:
+            raise ConfigError(f"{where}: cannot read campaign config ({exc.strerror})") from None
+        except yaml.YAMLError as exc:
+            raise ConfigError(f"{where}: not valid YAML ({exc})") from None
+        if loaded is None:
+            loaded = {}
+        if not isinstance(loaded, dict):
+            raise ConfigError(file=where, field="(top level)", value=loaded, expected="a mapping")
+        data.update(loaded)
+    for key, value in (overrides or {}).items():
+        if value is None:
+            continue
+        if isinstance(value, dict) and isinstance(data.get(key), dict):
+            data[key] = {**data[key], **value}
+        else:
+            data[key] = value
+    try:
+        return CampaignConfig(**data)
+    except ValidationError as exc:
+        raise _config_error(exc, where) from None
+
+
+def config_differences(stored: Mapping[str, Any], new: CampaignConfig) -> list[str]:
+    """Fields (other than execution-only ones) where ``new`` differs from a stored config.
+
+    Each entry reads ``field: stored -> new``.
+    """
+    fresh = new.defining()
+    try:  # fill fields added since the campaign was stored with their defaults
+        stored = CampaignConfig(**{k: v for k, v in stored.items() if k != "workers"}).defining()
+    except (ValidationError, TypeError):
+        stored = dict(stored)
+    keys = sorted((set(stored) | set(fresh)) - EXECUTION_ONLY)
+    return [
+        f"{k}: {stored.get(k)!r} -> {fresh.get(k)!r}" for k in keys if stored.get(k) != fresh.get(k)
+    ]

@@ -1,0 +1,373 @@
+"""Executors: where runs execute - in this process, in local worker processes, or on Ray.
+
+Every executor takes tasks ``(index, situation, seed)`` and yields ``(index, outcome,
+wall_time)`` as runs finish, possibly out of order. A run's outcome depends only on its
+situation, seed and the config, so every executor stores the same results.
+
+Workers (processes or Ray actors) build the backend and the AV stack ONCE, when they
+start, and keep them for all their runs. A run that raises is returned as ``error`` with
+the exception's message and the worker keeps serving. A run that exceeds
+``config.run_timeout`` seconds of wall time is returned as ``timeout``:
+
+- ``serial``: a ``SIGALRM`` timer interrupts the run (main thread on POSIX only; elsewhere
+  the limit is not enforced), then backend and stack are rebuilt;
+- ``processes``: the worker is killed and replaced by a fresh one;
+- ``ray``: the actor is killed and replaced.
+"""
+
+from __future__ import annotations
+
+import abc
+import contextlib
+import multiprocessing as mp
+import os
+import signal
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Iterable, Iterator
+from multiprocessing.connection import wait
+from typing import Any
+
+from sitcov.campaign._build import build_backend, build_stack
+from sitcov.campaign._config import CampaignConfig
+from sitcov.errors import MissingExtraError, SitcovError, StackError
+from sitcov.hyperspace import Situation
+from sitcov.sim import STATUSES, Outcome
+
+#: A task: (run index, situation as ``Situation.to_dict()``, simulation seed).
+Task = tuple[int, dict, int]
+#: A result: (run index, outcome, wall-clock seconds).
+Result = tuple[int, Outcome, float]
+
+_STARTUP_TIMEOUT = 600.0  # [s] for a worker to import and build backend + stack
+
+
+class _WallTimeout(BaseException):
+    """Raised by the SIGALRM handler inside a run (BaseException: stacks can't swallow it)."""
+
+
+def _timeout_outcome(limit: float) -> Outcome:
+    return Outcome.errored(f"run exceeded the wall-time limit of {limit:g} s", status="timeout")
+
+
+def execute(backend: Any, stack: Any, task: Task, record: bool) -> Result:
+    """Run one task, turning any exception into an ``error`` (or ``timeout``) outcome."""
+    index, situation, seed = task
+    start = time.perf_counter()
+    try:
+        outcome = backend.run(Situation.from_dict(situation), stack, seed, record=record)
+        if not isinstance(outcome, Outcome) or outcome.status not in STATUSES:
+            outcome = Outcome.errored(f"backend returned an invalid outcome: {outcome!r:.200}")
+    except StackError as exc:
+        outcome = Outcome.errored(f"{type(exc).__name__}: {exc}", status=exc.status)
+    except Exception as exc:
+        outcome = Outcome.errored(f"{type(exc).__name__}: {exc}")
+    return index, outcome, time.perf_counter() - start
+
+
+class Executor(abc.ABC):
+    """Runs tasks; ``map`` yields results as they finish."""
+
+    def __init__(self, config: CampaignConfig) -> None:
+        self.config = config
+
+    @abc.abstractmethod
+    def map(self, tasks: Iterable[Task]) -> Iterator[Result]:
+        """Run every task; yield each result once, in any order."""
+
+    def close(self) -> None:  # noqa: B027
+        """Stop workers and release backends."""
+
+    def __enter__(self) -> Executor:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class SerialExecutor(Executor):
+    """Runs tasks one after another in this process (timeouts via SIGALRM)."""
+
+    def __init__(self, config: CampaignConfig, backend: Any = None) -> None:
+        super().__init__(config)
+        self._backend = backend if backend is not None else build_backend(config)
+        self._stack = build_stack(config)
+
+    def _alarm_usable(self) -> bool:
+        return (
+            self.config.run_timeout is not None
+            and hasattr(signal, "setitimer")
+            and threading.current_thread() is threading.main_thread()
+        )
+
+    def map(self, tasks: Iterable[Task]) -> Iterator[Result]:
+        for task in tasks:
+            if not self._alarm_usable():
+                yield execute(self._backend, self._stack, task, self.config.record_traces)
+                continue
+            yield self._run_with_alarm(task)
+
+    def _run_with_alarm(self, task: Task) -> Result:
+        limit = float(self.config.run_timeout)  # type: ignore[arg-type]
+
+        def on_alarm(signum: int, frame: Any) -> None:
+            raise _WallTimeout
+
+        previous = signal.signal(signal.SIGALRM, on_alarm)
+        start = time.perf_counter()
+        try:
+            signal.setitimer(signal.ITIMER_REAL, limit)
+            try:
+                return execute(self._backend, self._stack, task, self.config.record_traces)
+            finally:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+        except _WallTimeout:
+            # The interrupted backend/stack may be mid-step: start from fresh ones.
+            self._rebuild()
+            return task[0], _timeout_outcome(limit), time.perf_counter() - start
+        finally:
+            signal.signal(signal.SIGALRM, previous)
+
+    def _rebuild(self) -> None:
+        for part in (self._stack, self._backend):
+            with contextlib.suppress(Exception):  # best effort on a broken part
+                part.close()
+        self._backend = build_backend(self.config)
+        self._stack = build_stack(self.config)
+
+    def close(self) -> None:
+        self._stack.close()
+        self._backend.close()
+
+
+# -- local processes -------------------------------------------------------------------------
+
+
+def _worker_main(conn: Any, config_data: dict) -> None:
+    """A worker process: build backend + stack once, then serve tasks until told to stop."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
+    try:
+        config = CampaignConfig(**config_data)
+        backend, stack = build_backend(config), build_stack(config)
+    except BaseException as exc:
+        conn.send(("fatal", f"{type(exc).__name__}: {exc}"))
+        return
+    conn.send(("ready", os.getpid()))
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            break  # the parent is gone
+        if task is None:
+            break
+        try:
+            conn.send(("result", execute(backend, stack, task, config.record_traces)))
+        except (BrokenPipeError, OSError):
+            break  # the parent is gone
+    stack.close()
+    backend.close()
+
+
+class _Worker:
+    def __init__(self, ctx: Any, config_data: dict) -> None:
+        self.conn, child = ctx.Pipe()
+        self.process = ctx.Process(target=_worker_main, args=(child, config_data), daemon=True)
+        self.process.start()
+        child.close()
+        self.task: Task | None = None
+        self.deadline = float("inf")
+
+    def wait_ready(self) -> None:
+        if not self.conn.poll(_STARTUP_TIMEOUT):
+            raise SitcovError(f"a campaign worker did not start within {_STARTUP_TIMEOUT:g} s")
+        try:
+            kind, payload = self.conn.recv()
+        except EOFError:
+            raise SitcovError("a campaign worker died while starting") from None
+        if kind != "ready":
+            raise SitcovError(f"a campaign worker could not start: {payload}")
+
+    def kill(self) -> None:
+        self.process.kill()
+        self.process.join(5)
+        self.conn.close()
+
+
+class ProcessExecutor(Executor):
+    """Persistent local worker processes (``spawn``), one backend + stack each.
+
+    Args:
+        config: the campaign config (``workers`` processes are started).
+    """
+
+    def __init__(self, config: CampaignConfig) -> None:
+        super().__init__(config)
+        self._ctx = mp.get_context("spawn")
+        self._data = config.model_dump(mode="json")
+        self._workers = [_Worker(self._ctx, self._data) for _ in range(config.workers)]
+        try:
+            for worker in self._workers:
+                worker.wait_ready()
+        except BaseException:
+            self.close()
+            raise
+
+    def _replace(self, worker: _Worker) -> _Worker:
+        worker.kill()
+        fresh = _Worker(self._ctx, self._data)
+        fresh.wait_ready()
+        self._workers[self._workers.index(worker)] = fresh
+        return fresh
+
+    def map(self, tasks: Iterable[Task]) -> Iterator[Result]:
+        queue = deque(tasks)
+        limit = self.config.run_timeout
+        busy: dict[Any, _Worker] = {}
+        while queue or busy:
+            for worker in self._workers:
+                if queue and worker.task is None:
+                    worker.task = queue.popleft()
+                    worker.deadline = time.monotonic() + limit if limit else float("inf")
+                    worker.conn.send(worker.task)
+                    busy[worker.conn] = worker
+            soonest = min(w.deadline for w in busy.values())
+            timeout = None if soonest == float("inf") else max(0.0, soonest - time.monotonic())
+            for conn in wait(list(busy), timeout):
+                worker = busy.pop(conn)
+                task, worker.task = worker.task, None
+                try:
+                    kind, payload = conn.recv()
+                except (EOFError, OSError):
+                    code = worker.process.exitcode
+                    self._replace(worker)
+                    message = f"the worker process died (exit code {code})"
+                    yield task[0], Outcome.errored(message), 0.0
+                    continue
+                yield payload
+            now = time.monotonic()
+            for conn, worker in list(busy.items()):
+                if worker.deadline <= now:
+                    busy.pop(conn)
+                    task, worker.task = worker.task, None
+                    self._replace(worker)
+                    yield task[0], _timeout_outcome(float(limit)), float(limit)
+
+    def close(self) -> None:
+        for worker in self._workers:
+            with contextlib.suppress(OSError, ValueError):
+                worker.conn.send(None)
+        for worker in self._workers:
+            worker.process.join(5)
+            if worker.process.is_alive():
+                worker.process.kill()
+                worker.process.join(5)
+            worker.conn.close()
+        self._workers = []
+
+
+# -- Ray ---------------------------------------------------------------------------------------
+
+
+class _RayWorker:
+    """A Ray actor holding one backend + stack."""
+
+    def __init__(self, config_data: dict) -> None:
+        self.config = CampaignConfig(**config_data)
+        self.backend = build_backend(self.config)
+        self.stack = build_stack(self.config)
+
+    def ready(self) -> bool:
+        return True
+
+    def run(self, task: Task) -> Result:
+        return execute(self.backend, self.stack, task, self.config.record_traces)
+
+
+class RayExecutor(Executor):
+    """Ray actors (one backend + stack each), on ``ray_address`` or a local Ray started here.
+
+    Raises:
+        MissingExtraError: ray is not installed.
+    """
+
+    def __init__(self, config: CampaignConfig) -> None:
+        super().__init__(config)
+        try:
+            import ray
+        except ImportError:
+            raise MissingExtraError("the ray executor", "ray", "ray") from None
+        self._ray = ray
+        self._owns = not ray.is_initialized()
+        if self._owns:
+            env = {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p)}
+            kwargs: dict[str, Any] = {
+                "include_dashboard": False,
+                "log_to_driver": False,
+                "runtime_env": {"env_vars": env},
+            }
+            if config.ray_address:
+                ray.init(address=config.ray_address, **kwargs)
+            else:
+                ray.init(num_cpus=config.workers, **kwargs)
+        self._actor_cls = ray.remote(num_cpus=1)(_RayWorker)
+        self._data = config.model_dump(mode="json")
+        self._actors = [self._new_actor() for _ in range(config.workers)]
+
+    def _new_actor(self) -> Any:
+        actor = self._actor_cls.remote(self._data)
+        try:
+            self._ray.get(actor.ready.remote(), timeout=_STARTUP_TIMEOUT)
+        except Exception as exc:
+            raise SitcovError(f"a Ray campaign worker could not start: {exc}") from None
+        return actor
+
+    def map(self, tasks: Iterable[Task]) -> Iterator[Result]:
+        ray = self._ray
+        queue = deque(tasks)
+        limit = self.config.run_timeout
+        idle = list(range(len(self._actors)))
+        busy: dict[Any, tuple[int, Task, float]] = {}
+        while queue or busy:
+            while queue and idle:
+                slot = idle.pop()
+                task = queue.popleft()
+                ref = self._actors[slot].run.remote(task)
+                deadline = time.monotonic() + limit if limit else float("inf")
+                busy[ref] = (slot, task, deadline)
+            soonest = min(d for _, _, d in busy.values())
+            timeout = None if soonest == float("inf") else max(0.0, soonest - time.monotonic())
+            done, _ = ray.wait(list(busy), num_returns=1, timeout=timeout)
+            for ref in done:
+                slot, task, _ = busy.pop(ref)
+                idle.append(slot)
+                try:
+                    yield ray.get(ref)
+                except Exception as exc:  # the actor died
+                    self._actors[slot] = self._new_actor()
+                    yield task[0], Outcome.errored(f"the Ray worker died: {exc}"), 0.0
+            now = time.monotonic()
+            for ref, (slot, task, deadline) in list(busy.items()):
+                if deadline <= now:
+                    busy.pop(ref)
+                    ray.kill(self._actors[slot])
+                    self._actors[slot] = self._new_actor()
+                    idle.append(slot)
+                    yield task[0], _timeout_outcome(float(limit)), float(limit)
+
+    def close(self) -> None:
+        for actor in self._actors:
+            self._ray.kill(actor)
+        self._actors = []
+        if self._owns:
+            self._ray.shutdown()
+
+
+def make_executor(config: CampaignConfig, backend: Any = None) -> Executor:
+    """The executor named by ``config.executor`` (``backend`` is reused by ``serial``)."""
+    if config.executor == "serial":
+        return SerialExecutor(config, backend)
+    if config.executor == "ray":
+        return RayExecutor(config)
+    return ProcessExecutor(config)

@@ -1,0 +1,294 @@
+"""The run loop: ask in batches, store the plan, execute, store results, tell, repeat.
+
+For each batch of ``B = config.batch_size`` runs (independent of the worker count):
+
+1. tell the generator the outcomes of the previous batch (read back from the store, in
+   index order);
+2. ask ``B`` situations, run ``i`` with ``ask_rng(seed, i)``;
+3. in ONE transaction store the generator state and the ``B`` runs as ``pending`` with their
+   situation and ``run_seed(seed, i)``;
+4. execute them (in any order, on any executor) and store each result as it arrives.
+
+A campaign killed at any moment therefore resumes exactly: the stored generator state is
+the one that produced the stored plan; pending runs are re-run with their stored situation
+and seed; the previous batch's outcomes are told again from the store. Nothing per run is
+kept in memory beyond the current batch.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from typing import Any
+
+from sitcov._seeding import ask_rng, run_seed
+from sitcov.campaign._build import (
+    build_backend,
+    make_generator,
+    resolve_hyperspace,
+    restore_generator,
+)
+from sitcov.campaign._config import CampaignConfig, config_differences
+from sitcov.campaign._executors import Executor, make_executor
+from sitcov.campaign._store import CampaignInfo, PlannedRun, Store
+from sitcov.errors import ConfigError, SitcovError
+
+
+@dataclass(frozen=True)
+class CampaignProgress:
+    """What a progress callback receives.
+
+    Attributes:
+        event: ``start`` (before the first run of this call), ``run`` (a run finished) or
+            ``end``.
+        campaign: the campaign's name.
+        done: finished runs in the campaign (all calls together).
+        total: runs the campaign will have.
+        failures: ``fail`` runs so far; ``errors``: ``error`` + ``timeout`` runs so far.
+        executed: runs executed by this call so far.
+        no_effect: hyperspace elements the backend ignores (reported at ``start``).
+        resumed: True if the campaign existed before this call.
+    """
+
+    event: str
+    campaign: str
+    done: int
+    total: int
+    failures: int
+    errors: int
+    executed: int
+    no_effect: tuple[str, ...] = ()
+    resumed: bool = False
+
+
+@dataclass(frozen=True)
+class CampaignResult:
+    """The state of a campaign after :func:`run_campaign`.
+
+    Attributes:
+        name: campaign name.
+        counts: runs per status over the whole campaign (``pending`` included).
+        executed: runs executed by this call.
+        wall_time: seconds this call took.
+        no_effect: hyperspace elements the backend ignores.
+        resumed: the campaign existed before this call.
+        replayed: runs that replay stored failures of other campaigns.
+    """
+
+    name: str
+    counts: dict[str, int]
+    executed: int
+    wall_time: float
+    no_effect: tuple[str, ...] = ()
+    resumed: bool = False
+    replayed: int = 0
+
+    @property
+    def runs(self) -> int:
+        """Finished runs in the campaign."""
+        return sum(v for k, v in self.counts.items() if k != "pending")
+
+    @property
+    def failures(self) -> int:
+        """Runs with status ``fail``."""
+        return self.counts.get("fail", 0)
+
+    @property
+    def errors(self) -> int:
+        """Runs with status ``error`` or ``timeout``."""
+        return self.counts.get("error", 0) + self.counts.get("timeout", 0)
+
+
+def _version() -> str:
+    from sitcov import __version__
+
+    return __version__
+
+
+def _failures_to_replay(store: Store, name: str, hyperspace: dict, limit: int) -> list[PlannedRun]:
+    """Failing runs of the store's other campaigns on the same hyperspace, de-duplicated."""
+    same = {c.name for c in store.campaigns() if c.name != name and c.hyperspace == hyperspace}
+    seen: set[tuple[str, int]] = set()
+    planned: list[PlannedRun] = []
+    for run in store.iter_runs(status="fail"):
+        if run.campaign not in same or (run.situation.id, run.seed) in seen:
+            continue
+        seen.add((run.situation.id, run.seed))
+        planned.append(
+            PlannedRun(len(planned), run.situation, run.seed, f"{run.campaign}:{run.index}")
+        )
+        if len(planned) >= limit:
+            break
+    return planned
+
+
+def no_effect_elements(hyperspace: Any, backend: Any) -> tuple[str, ...]:
+    """Elements of ``hyperspace`` that ``backend.effects()`` does not list."""
+    effects = backend.effects()
+    return tuple(e for e in hyperspace.element_names if e not in effects)
+
+
+def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tuple[Any, bool, int]:
+    """Create the campaign or check it against ``config``; return (generator, resumed, replays)."""
+    hs_data = json.loads(json.dumps(hyperspace.to_dict()))  # as the store returns it
+    info = store.find_campaign(config.name)
+    if info is None:
+        generator = make_generator(config, hyperspace)
+        replays = (
+            _failures_to_replay(store, config.name, hs_data, config.runs)
+            if config.replay_failures_first
+            else []
+        )
+        store.create_campaign(
+            CampaignInfo(
+                name=config.name,
+                config=config.model_dump(mode="json"),
+                hyperspace=hs_data,
+                sitcov_version=_version(),
+                created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                generator=config.generator,
+                generator_state=generator.state(),
+                tags=dict(config.tags),
+            ),
+            replays,
+        )
+        return generator, False, len(replays)
+    diffs = config_differences(info.config, config)
+    if info.hyperspace != hs_data:
+        diffs.append(f"hyperspace content: the elements or bins of {config.hyperspace!r} changed")
+    if diffs:
+        raise ConfigError(
+            f"{store.location}: campaign {config.name!r} exists with a different config "
+            f"({'; '.join(diffs)}); use another --name or the same settings",
+            field="name",
+            value=config.name,
+        )
+    if info.config.get("runs") != config.runs:
+        store.update_config(config.name, {**info.config, "runs": config.runs})
+    generator = restore_generator(config, hyperspace, dict(info.generator_state or {}))
+    replays = store.count_runs(config.name) and sum(
+        1 for r in store.iter_runs(config.name) if r.replay_of
+    )
+    return generator, True, int(replays)
+
+
+def run_campaign(
+    config: CampaignConfig,
+    store: Store,
+    *,
+    progress: Callable[[CampaignProgress], None] | None = None,
+    executor: Executor | None = None,
+) -> CampaignResult:
+    """Run (or resume, or extend) the campaign ``config.name`` up to ``config.runs`` runs.
+
+    Args:
+        config: the campaign configuration.
+        store: where the campaign lives (see :func:`open_store`).
+        progress: called with a :class:`CampaignProgress` at start, after every run and at
+            the end.
+        executor: an executor to use instead of the one ``config`` names (not closed here).
+
+    Raises:
+        ConfigError: the campaign exists with a different defining config, or a part
+            (hyperspace, generator, backend, stack) cannot be built.
+    """
+    start = time.perf_counter()
+    hyperspace = resolve_hyperspace(config.hyperspace)
+    backend = build_backend(config)
+    no_effect = no_effect_elements(hyperspace, backend)
+    generator, resumed, replayed = _open_campaign(config, store, hyperspace)
+    name = config.name
+    counts = store.status_counts(name)
+    done = sum(v for k, v in counts.items() if k != "pending")
+    state = {"done": done, "fail": counts["fail"], "err": counts["error"] + counts["timeout"]}
+    state["executed"] = 0
+    total = max(config.runs, store.count_runs(name))
+
+    def report(event: str) -> None:
+        if progress is not None:
+            progress(
+                CampaignProgress(
+                    event=event,
+                    campaign=name,
+                    done=state["done"],
+                    total=total,
+                    failures=state["fail"],
+                    errors=state["err"],
+                    executed=state["executed"],
+                    no_effect=no_effect,
+                    resumed=resumed,
+                )
+            )
+
+    pending = [
+        PlannedRun(r.index, r.situation, r.seed, r.replay_of)
+        for r in store.iter_runs(name, "pending")
+    ]
+    own = executor is None
+    idle = not pending and store.count_runs(name) >= config.runs  # complete: start no workers
+    if idle or not own or config.executor != "serial":
+        backend.close()  # only the serial executor reuses the parent's backend
+        backend = None
+    report("start")
+    if idle:
+        report("end")
+        return _result(store, name, state["executed"], start, no_effect, resumed, replayed)
+    runner = executor or make_executor(config, backend)
+    try:
+
+        def execute(plans: list[PlannedRun]) -> None:
+            tasks = [(p.index, p.situation.to_dict(), p.seed) for p in plans]
+            for index, outcome, wall in runner.map(tasks):
+                store.record_result(name, index, outcome, wall)
+                state["done"] += 1
+                state["executed"] += 1
+                state["fail"] += outcome.status == "fail"
+                state["err"] += outcome.status in ("error", "timeout")
+                report("run")
+
+        if pending:
+            execute(pending)
+        while True:
+            planned = store.count_runs(name)
+            if planned >= config.runs:
+                break
+            batch_start = store.campaign(name).batch_start
+            for run in list(store.iter_runs(name, start=batch_start)):
+                if run.outcome is None:  # pragma: no cover - an executor lost a result
+                    raise SitcovError(f"{store.location}: run {name}:{run.index} has no result")
+                generator.tell(run.situation, run.outcome)
+            plans = []
+            for i in range(planned, min(planned + config.batch_size, config.runs)):
+                plans.append(
+                    PlannedRun(i, generator.ask(ask_rng(config.seed, i)), run_seed(config.seed, i))
+                )
+            store.plan_batch(name, generator.state(), plans)
+            execute(plans)
+    finally:
+        if own:
+            runner.close()
+    report("end")
+    return _result(store, name, state["executed"], start, no_effect, resumed, replayed)
+
+
+def _result(
+    store: Store,
+    name: str,
+    executed: int,
+    start: float,
+    no_effect: tuple[str, ...],
+    resumed: bool,
+    replayed: int,
+) -> CampaignResult:
+    return CampaignResult(
+        name=name,
+        counts=store.status_counts(name),
+        executed=executed,
+        wall_time=time.perf_counter() - start,
+        no_effect=no_effect,
+        resumed=resumed,
+        replayed=replayed,
+    )

@@ -1,0 +1,386 @@
+"""The SQLite campaign store: one file, WAL journal, versioned schema with migrations.
+
+Durability: the file uses ``journal_mode=WAL`` with ``synchronous=NORMAL``. In WAL mode a
+committed transaction survives a crash of the process (SIGKILL, an exception, a power-off
+of the *program*); only an operating-system crash or power loss can lose the last few
+commits, and never corrupts the file. A lost commit is harmless here: the batch plan and
+the generator state are one transaction, so they are lost together, and a lost result
+leaves its run ``pending``, which resume re-runs with the same situation and seed. FULL
+would fsync on every result (one per run) for no gain in what a resumed campaign contains.
+
+Schema versions: ``MIGRATIONS[i]`` upgrades version ``i`` to ``i + 1``; a new file runs
+them all. A file from a newer sitcov is refused with a clear error.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from sitcov.campaign._records import RunRecord
+from sitcov.campaign._store import (
+    CampaignInfo,
+    PlannedRun,
+    Store,
+    StoreError,
+    _statuses,
+)
+from sitcov.hyperspace import Situation
+from sitcov.sim import Outcome, Trace
+
+#: Outcome fields stored as their own columns (for SQL queries); the full outcome is JSON.
+OUTCOME_COLUMNS = (
+    "end_reason",
+    "sim_time",
+    "collision",
+    "collision_time",
+    "collision_speed",
+    "min_distance",
+    "min_ttc",
+    "pet",
+    "aeb_fired",
+    "aeb_time",
+    "message",
+)
+
+_V1 = """
+CREATE TABLE schema_version (version INTEGER NOT NULL);
+CREATE TABLE campaigns (
+    name TEXT PRIMARY KEY,
+    config TEXT NOT NULL,
+    hyperspace TEXT NOT NULL,
+    sitcov_version TEXT NOT NULL,
+    created TEXT NOT NULL,
+    generator TEXT NOT NULL,
+    generator_state TEXT,
+    batch_start INTEGER NOT NULL DEFAULT 0,
+    tags TEXT NOT NULL DEFAULT '{}'
+);
+CREATE TABLE runs (
+    campaign TEXT NOT NULL REFERENCES campaigns(name),
+    idx INTEGER NOT NULL,
+    situation_id TEXT NOT NULL,
+    bins TEXT NOT NULL,
+    vals TEXT NOT NULL,
+    seed INTEGER NOT NULL,
+    status TEXT NOT NULL,
+    end_reason TEXT,
+    sim_time REAL,
+    collision INTEGER,
+    collision_time REAL,
+    collision_speed REAL,
+    min_distance REAL,
+    min_ttc REAL,
+    pet REAL,
+    aeb_fired INTEGER,
+    aeb_time REAL,
+    message TEXT,
+    outcome TEXT,
+    wall_time REAL,
+    trace TEXT,
+    PRIMARY KEY (campaign, idx)
+);
+CREATE INDEX runs_by_status ON runs (campaign, status);
+"""
+
+_V2 = """
+ALTER TABLE runs ADD COLUMN replay_of TEXT;
+CREATE INDEX runs_by_situation ON runs (situation_id);
+"""
+
+#: ``MIGRATIONS[i]`` takes a version-``i`` file to version ``i + 1``.
+MIGRATIONS: tuple[str, ...] = (_V1, _V2)
+#: The schema version this sitcov writes.
+SCHEMA_VERSION = len(MIGRATIONS)
+
+_RUN_FIELDS = "campaign, idx, situation_id, bins, vals, seed, status, outcome, wall_time, replay_of"
+
+
+def _dumps(obj: Any) -> str:
+    """Compact JSON that keeps key order (generator states and bins may rely on it)."""
+    return json.dumps(obj, separators=(",", ":"))
+
+
+class SQLiteStore(Store):
+    """A store in one SQLite file (see the module docstring for durability and schema).
+
+    Args:
+        path: the database file; created with the current schema if absent.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        self.location = str(self.path)
+        if self.path.is_dir():
+            raise StoreError(f"{self.location}: is a directory, expected a database file")
+        try:
+            self._db = sqlite3.connect(str(self.path), isolation_level=None, timeout=30.0)
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=NORMAL")
+            self._db.execute("PRAGMA foreign_keys=ON")
+            self._configs: dict[str, dict[str, Any]] = {}
+            self._migrate()
+        except sqlite3.DatabaseError as exc:
+            raise StoreError(f"{self.location}: not a sitcov database ({exc})") from None
+
+    # -- schema ------------------------------------------------------------------------------
+    def schema_version(self) -> int:
+        """The file's schema version (0 for an empty file)."""
+        has = self._db.execute(
+            "SELECT 1 FROM sqlite_master WHERE type='table' AND name='schema_version'"
+        ).fetchone()
+        if not has:
+            tables = self._db.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]
+            if tables:
+                raise StoreError(f"{self.location}: not a sitcov database (no schema_version)")
+            return 0
+        row = self._db.execute("SELECT max(version) FROM schema_version").fetchone()
+        return int(row[0] or 0)
+
+    def _migrate(self) -> None:
+        self._db.execute("BEGIN IMMEDIATE")
+        try:
+            version = self.schema_version()
+            if version > SCHEMA_VERSION:
+                raise StoreError(
+                    f"{self.location}: database schema version {version} is newer than this "
+                    f"sitcov supports ({SCHEMA_VERSION}); upgrade sitcov to open it"
+                )
+            for target in range(version, SCHEMA_VERSION):
+                for statement in MIGRATIONS[target].split(";"):
+                    if statement.strip():
+                        self._db.execute(statement)
+                self._db.execute("DELETE FROM schema_version")
+                self._db.execute("INSERT INTO schema_version VALUES (?)", (target + 1,))
+            self._db.execute("COMMIT")
+        except BaseException:
+            self._db.execute("ROLLBACK")
+            raise
+
+    # -- campaigns ---------------------------------------------------------------------------
+    def _info(self, row: sqlite3.Row | tuple) -> CampaignInfo:
+        name, config, hyper, version, created, gen, state, batch_start, tags = row
+        return CampaignInfo(
+            name=name,
+            config=json.loads(config),
+            hyperspace=json.loads(hyper),
+            sitcov_version=version,
+            created=created,
+            generator=gen,
+            generator_state=json.loads(state) if state is not None else None,
+            batch_start=int(batch_start),
+            tags=json.loads(tags),
+        )
+
+    _CAMPAIGN_COLS = (
+        "name, config, hyperspace, sitcov_version, created, generator, generator_state, "
+        "batch_start, tags"
+    )
+
+    def campaigns(self) -> list[CampaignInfo]:
+        rows = self._db.execute(
+            f"SELECT {self._CAMPAIGN_COLS} FROM campaigns ORDER BY created, name"
+        ).fetchall()
+        return [self._info(r) for r in rows]
+
+    def find_campaign(self, name: str) -> CampaignInfo | None:
+        row = self._db.execute(
+            f"SELECT {self._CAMPAIGN_COLS} FROM campaigns WHERE name = ?", (name,)
+        ).fetchone()
+        return self._info(row) if row else None
+
+    def create_campaign(self, info: CampaignInfo, runs: Sequence[PlannedRun] = ()) -> None:
+        with self._transaction():
+            if self.find_campaign(info.name) is not None:
+                raise StoreError(f"{self.location}: campaign {info.name!r} already exists")
+            self._db.execute(
+                f"INSERT INTO campaigns ({self._CAMPAIGN_COLS}) VALUES (?,?,?,?,?,?,?,?,?)",
+                (
+                    info.name,
+                    _dumps(dict(info.config)),
+                    _dumps(dict(info.hyperspace)),
+                    info.sitcov_version,
+                    info.created,
+                    info.generator,
+                    _dumps(info.generator_state) if info.generator_state is not None else None,
+                    runs[0].index if runs else info.batch_start,
+                    _dumps(dict(info.tags)),
+                ),
+            )
+            self._insert_runs(info.name, runs)
+
+    def update_config(self, name: str, config: Mapping[str, Any]) -> None:
+        self.campaign(name)
+        with self._transaction():
+            self._db.execute(
+                "UPDATE campaigns SET config = ? WHERE name = ?", (_dumps(dict(config)), name)
+            )
+        self._configs.pop(name, None)
+
+    # -- runs --------------------------------------------------------------------------------
+    def _transaction(self) -> _Transaction:
+        return _Transaction(self._db)
+
+    def _insert_runs(self, name: str, runs: Sequence[PlannedRun]) -> None:
+        self._db.executemany(
+            "INSERT INTO runs (campaign, idx, situation_id, bins, vals, seed, status, replay_of)"
+            " VALUES (?,?,?,?,?,?,'pending',?)",
+            [
+                (
+                    name,
+                    r.index,
+                    r.situation.id,
+                    _dumps(dict(r.situation.bins)),
+                    _dumps(r.situation.to_dict()["values"]),
+                    int(r.seed),
+                    r.replay_of,
+                )
+                for r in runs
+            ],
+        )
+
+    def plan_batch(
+        self,
+        name: str,
+        generator_state: Mapping[str, Any] | None,
+        runs: Sequence[PlannedRun],
+    ) -> None:
+        with self._transaction():
+            cur = self._db.execute(
+                "UPDATE campaigns SET generator_state = ?, batch_start = ? WHERE name = ?",
+                (
+                    _dumps(generator_state) if generator_state is not None else None,
+                    runs[0].index if runs else self.campaign(name).batch_start,
+                    name,
+                ),
+            )
+            if cur.rowcount != 1:
+                raise StoreError(f"{self.location}: no campaign {name!r}")
+            self._insert_runs(name, runs)
+
+    def record_result(self, name: str, index: int, outcome: Outcome, wall_time: float) -> None:
+        data = outcome.to_dict()
+        trace = outcome.trace
+        values = [data[c] for c in OUTCOME_COLUMNS]
+        with self._transaction():
+            cur = self._db.execute(
+                "UPDATE runs SET status = ?, "
+                + ", ".join(f"{c} = ?" for c in OUTCOME_COLUMNS)
+                + ", outcome = ?, wall_time = ?, trace = ? WHERE campaign = ? AND idx = ?",
+                (
+                    outcome.status,
+                    *values,
+                    _dumps(data),
+                    float(wall_time),
+                    _dumps(_trace_dict(trace)) if trace is not None else None,
+                    name,
+                    int(index),
+                ),
+            )
+            if cur.rowcount != 1:
+                raise StoreError(f"{self.location}: no run {name}:{index}")
+
+    def _where(
+        self, campaign: str | None, status: str | Sequence[str] | None, start: int = 0
+    ) -> tuple[str, list[Any]]:
+        clauses, params = [], []
+        if campaign is not None:
+            clauses.append("campaign = ?")
+            params.append(campaign)
+        wanted = _statuses(status)
+        if wanted is not None:
+            clauses.append(f"status IN ({','.join('?' * len(wanted))})")
+            params.extend(wanted)
+        if start:
+            clauses.append("idx >= ?")
+            params.append(int(start))
+        return (" WHERE " + " AND ".join(clauses)) if clauses else "", params
+
+    def _config(self, name: str) -> dict[str, Any]:
+        if name not in self._configs:
+            info = self.find_campaign(name)
+            self._configs[name] = dict(info.config) if info else {}
+        return self._configs[name]
+
+    def _record(self, row: tuple, trace: str | None = None) -> RunRecord:
+        name, idx, _sid, bins, vals, seed, status, outcome, wall, replay_of = row
+        out = None
+        if outcome is not None:
+            data = json.loads(outcome)
+            if trace is not None:
+                data["trace"] = json.loads(trace)
+            out = Outcome.from_dict(data)
+        return RunRecord(
+            campaign=name,
+            index=int(idx),
+            situation=Situation(bins=json.loads(bins), values=json.loads(vals)),
+            seed=int(seed),
+            status=status,
+            outcome=out,
+            wall_time=wall,
+            config=self._config(name),
+            replay_of=replay_of,
+        )
+
+    def iter_runs(
+        self,
+        campaign: str | None = None,
+        status: str | Sequence[str] | None = None,
+        *,
+        start: int = 0,
+    ) -> Iterator[RunRecord]:
+        where, params = self._where(campaign, status, start)
+        # A separate cursor streams rows; 500 at a time keeps memory flat.
+        cursor = self._db.execute(
+            f"SELECT {_RUN_FIELDS} FROM runs{where} ORDER BY campaign, idx", params
+        )
+        while True:
+            rows = cursor.fetchmany(500)
+            if not rows:
+                return
+            for row in rows:
+                yield self._record(row)
+
+    def get_run(self, campaign: str, index: int, *, with_trace: bool = True) -> RunRecord:
+        row = self._db.execute(
+            f"SELECT {_RUN_FIELDS}, trace FROM runs WHERE campaign = ? AND idx = ?",
+            (campaign, int(index)),
+        ).fetchone()
+        if row is None:
+            self.campaign(campaign)
+            raise StoreError(f"{self.location}: campaign {campaign!r} has no run {index}")
+        return self._record(row[:-1], row[-1] if with_trace else None)
+
+    def count_runs(
+        self, campaign: str | None = None, status: str | Sequence[str] | None = None
+    ) -> int:
+        where, params = self._where(campaign, status)
+        return int(self._db.execute(f"SELECT count(*) FROM runs{where}", params).fetchone()[0])
+
+    def close(self) -> None:
+        self._db.close()
+
+
+def _trace_dict(trace: Trace) -> dict[str, Any]:
+    return {"ego": trace.ego, "ov": trace.ov, "meta": trace.meta}
+
+
+class _Transaction:
+    """``BEGIN IMMEDIATE`` ... ``COMMIT`` (``ROLLBACK`` on error); re-entrant-safe."""
+
+    def __init__(self, db: sqlite3.Connection) -> None:
+        self._db = db
+        self._outer = False
+
+    def __enter__(self) -> None:
+        if not self._db.in_transaction:
+            self._db.execute("BEGIN IMMEDIATE")
+            self._outer = True
+
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        if not self._outer:
+            return
+        self._db.execute("ROLLBACK" if exc_type else "COMMIT")

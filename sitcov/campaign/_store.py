@@ -1,0 +1,198 @@
+"""The campaign store interface: campaigns, planned runs and their outcomes.
+
+A store holds, per campaign, its configuration, the hyperspace it ran on, the generator's
+saved state and one row per run. The run loop writes it in two kinds of transaction
+(see ``sitcov.campaign._runner``):
+
+1. :meth:`Store.plan_batch` - the generator state after a batch of asks, together with the
+   batch's runs as ``pending`` rows (situation and seed), in ONE transaction;
+2. :meth:`Store.record_result` - one finished run's outcome, in a short transaction.
+
+So the stored generator state always matches the stored plan, and a campaign killed at any
+moment resumes by re-running its pending rows. Implementations: SQLite (files) and memory.
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from sitcov.campaign._records import RunRecord
+from sitcov.errors import SitcovError
+from sitcov.hyperspace import Situation
+from sitcov.sim import Outcome
+
+#: Statuses of stored runs: ``pending`` (planned, not yet finished) and the outcome statuses.
+RUN_STATUSES = ("pending", "pass", "fail", "error", "timeout")
+
+
+class StoreError(SitcovError):
+    """The campaign store cannot be opened or does not hold what was asked for."""
+
+
+@dataclass(frozen=True)
+class CampaignInfo:
+    """A stored campaign (without its runs).
+
+    Attributes:
+        name: unique name within the store.
+        config: the campaign configuration (``CampaignConfig`` as JSON data).
+        hyperspace: the hyperspace it runs on (``Hyperspace.to_dict()``).
+        sitcov_version: the sitcov version that created it.
+        created: creation time, ISO 8601 UTC.
+        generator: the generator's name.
+        generator_state: the generator's saved state after the last planned batch.
+        batch_start: index of the first run of the last planned batch (the runs the
+            generator has not been told about yet).
+        tags: free labels, e.g. ``{"experiment": "faults", "fault": "f1", "seed": 3}``.
+    """
+
+    name: str
+    config: Mapping[str, Any]
+    hyperspace: Mapping[str, Any]
+    sitcov_version: str
+    created: str
+    generator: str
+    generator_state: Mapping[str, Any] | None = None
+    batch_start: int = 0
+    tags: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class PlannedRun:
+    """A run to store as ``pending``: its index, situation and simulation seed."""
+
+    index: int
+    situation: Situation
+    seed: int
+    replay_of: str | None = None
+
+
+class Store(abc.ABC):
+    """Where campaigns and their runs live (the analogue of Optuna's storage).
+
+    Reads return :class:`RunRecord` objects ordered by (campaign, index). ``iter_runs``
+    streams them, so long campaigns are never held in memory at once.
+    """
+
+    #: Where the data lives (a file path, or ``":memory:"``); used in error messages.
+    location: str = ":memory:"
+
+    # -- campaigns ---------------------------------------------------------------------------
+    @abc.abstractmethod
+    def campaigns(self) -> list[CampaignInfo]:
+        """All campaigns, ordered by creation (then name)."""
+
+    @abc.abstractmethod
+    def find_campaign(self, name: str) -> CampaignInfo | None:
+        """The campaign called ``name``, or None."""
+
+    def campaign(self, name: str) -> CampaignInfo:
+        """The campaign called ``name``; a StoreError naming the known ones if absent."""
+        info = self.find_campaign(name)
+        if info is None:
+            known = ", ".join(c.name for c in self.campaigns()) or "none"
+            raise StoreError(f"{self.location}: no campaign {name!r} (campaigns: {known})")
+        return info
+
+    @abc.abstractmethod
+    def create_campaign(self, info: CampaignInfo, runs: Sequence[PlannedRun] = ()) -> None:
+        """Add a campaign and (same transaction) its first planned runs; error if it exists."""
+
+    @abc.abstractmethod
+    def update_config(self, name: str, config: Mapping[str, Any]) -> None:
+        """Replace a campaign's stored config (e.g. when ``runs`` extends it)."""
+
+    # -- runs --------------------------------------------------------------------------------
+    @abc.abstractmethod
+    def plan_batch(
+        self,
+        name: str,
+        generator_state: Mapping[str, Any] | None,
+        runs: Sequence[PlannedRun],
+    ) -> None:
+        """In ONE transaction: save the generator state and add ``runs`` as pending.
+
+        ``batch_start`` becomes the first index of ``runs``.
+        """
+
+    @abc.abstractmethod
+    def record_result(self, name: str, index: int, outcome: Outcome, wall_time: float) -> None:
+        """Store a finished run's outcome (and its trace, if it has one)."""
+
+    @abc.abstractmethod
+    def iter_runs(
+        self,
+        campaign: str | None = None,
+        status: str | Sequence[str] | None = None,
+        *,
+        start: int = 0,
+    ) -> Iterator[RunRecord]:
+        """Stream runs ordered by (campaign, index), optionally filtered.
+
+        Args:
+            campaign: only this campaign's runs.
+            status: only runs with this status (or any of these statuses).
+            start: only runs with index >= start.
+        """
+
+    @abc.abstractmethod
+    def get_run(self, campaign: str, index: int, *, with_trace: bool = True) -> RunRecord:
+        """One run (with its stored trace, if any); StoreError if absent."""
+
+    @abc.abstractmethod
+    def count_runs(
+        self, campaign: str | None = None, status: str | Sequence[str] | None = None
+    ) -> int:
+        """How many runs match (same filters as :meth:`iter_runs`)."""
+
+    def runs(
+        self, campaign: str | None = None, status: str | Sequence[str] | None = None
+    ) -> list[RunRecord]:
+        """All matching runs as a list, ordered by (campaign, index)."""
+        return list(self.iter_runs(campaign, status))
+
+    def status_counts(self, campaign: str | None = None) -> dict[str, int]:
+        """Run count per status (every status in :data:`RUN_STATUSES` present)."""
+        return {s: self.count_runs(campaign, s) for s in RUN_STATUSES}
+
+    def close(self) -> None:  # noqa: B027
+        """Release the underlying connection."""
+
+    def __enter__(self) -> Store:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _statuses(status: str | Sequence[str] | None) -> tuple[str, ...] | None:
+    """Normalise a status filter to a tuple (None = no filter), checking the names."""
+    if status is None:
+        return None
+    wanted = (status,) if isinstance(status, str) else tuple(status)
+    bad = [s for s in wanted if s not in RUN_STATUSES]
+    if bad:
+        raise StoreError(f"unknown run status {bad[0]!r}; expected one of {RUN_STATUSES}")
+    return wanted
+
+
+def open_store(path: str | Path | None) -> Store:
+    """Open (creating if needed) the store at ``path``; None gives an in-memory store.
+
+    Args:
+        path: a SQLite file path, ``":memory:"`` or None.
+
+    Raises:
+        StoreError: the file is not a sitcov store, or was written by a newer sitcov.
+    """
+    if path is None or str(path) == ":memory:":
+        from sitcov.campaign._memory import MemoryStore
+
+        return MemoryStore()
+    from sitcov.campaign._sqlite import SQLiteStore
+
+    return SQLiteStore(Path(path))

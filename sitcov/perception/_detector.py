@@ -1,0 +1,175 @@
+"""Image detectors: the ``Detector`` interface and the SSD-MobileNetV2 (OIDv4) implementation.
+
+The TFLite model outputs raw tensors: box regressions (1, 1917, 4) and class logits
+(1, 1917, 24). Everything after the network -- anchors, box decoding, sigmoid scores and
+non-maximum suppression -- is done here in numpy so it is inspectable and deterministic.
+"""
+
+from __future__ import annotations
+
+import abc
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from sitcov.errors import MissingExtraError, SitcovError
+from sitcov.perception._anchors import decode_boxes, ssd_anchors
+from sitcov.perception._base import Detection
+from sitcov.perception._models import labels_path, model_path
+from sitcov.perception._nms import per_class_nms
+
+#: Input side of the network [px].
+INPUT_SIZE = 300
+#: The Open Images V4 label map inside the npm package (index 0 is background).
+OIDV4_LABELS = (
+    "???", "Bicycle", "Boot", "Laptop", "Person", "Chair", "Cattle", "Desk", "Cat",
+    "Computer mouse", "Computer monitor", "Box", "Mug", "Coffee cup", "Stationary bicycle",
+    "Table", "Bottle", "High heels", "Vehicle", "Footwear", "Dog", "Book", "Camera", "Car",
+)  # fmt: skip
+#: Our output label -> the model's classes that count as it.
+CAR_CLASSES: Mapping[str, tuple[str, ...]] = {"car": ("Car", "Vehicle")}
+
+
+class Detector(abc.ABC):
+    """Finds objects in an RGB image.
+
+    Implement ``__call__`` to plug another model into the camera path: it receives an
+    HxWx3 uint8 frame and returns detections with boxes in that frame's pixels.
+    """
+
+    @abc.abstractmethod
+    def __call__(self, image: np.ndarray) -> tuple[Detection, ...]:
+        """Detections in ``image`` (HxWx3 uint8), best score first."""
+
+    def close(self) -> None:  # noqa: B027
+        """Release resources."""
+
+
+def _load_labels(model: Path) -> tuple[str, ...]:
+    path = labels_path(model)
+    if path.is_file():
+        names = tuple(line.strip() for line in path.read_text().splitlines() if line.strip())
+        if len(names) == len(OIDV4_LABELS):
+            return names
+    return OIDV4_LABELS
+
+
+class SSDDetector(Detector):
+    """SSD-MobileNetV2 trained on Open Images V4, run by ai-edge-litert on one thread.
+
+    Args:
+        model: path to the ``.tflite`` file (default: the fetched model, see
+            :func:`sitcov.perception.model_path`).
+        min_score: detections below this score [0, 1] are dropped. Low by default so the
+            AEB's own threshold (0.5, or 0.95 with fault f1) is what decides.
+        iou_threshold: NMS overlap above which the lower-scoring box is suppressed.
+        classes: output label -> model class names merged into it (default: Car and
+            Vehicle both count as ``"car"``).
+        max_detections: at most this many detections per frame.
+
+    Raises:
+        MissingExtraError: ai-edge-litert is not installed.
+        ModelNotFoundError: the model has not been fetched.
+    """
+
+    def __init__(
+        self,
+        model: str | os.PathLike[str] | None = None,
+        *,
+        min_score: float = 0.3,
+        iou_threshold: float = 0.5,
+        classes: Mapping[str, Sequence[str]] | None = None,
+        max_detections: int = 20,
+    ) -> None:
+        try:
+            from ai_edge_litert.interpreter import Interpreter
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise MissingExtraError("the camera detector", "camera", "ai-edge-litert") from exc
+        self.model = model_path(model)
+        self.min_score = float(min_score)
+        self.iou_threshold = float(iou_threshold)
+        self.max_detections = int(max_detections)
+        self._interp = Interpreter(model_path=str(self.model), num_threads=1)
+        self._interp.allocate_tensors()
+        inp = self._interp.get_input_details()[0]
+        outs = {d["name"]: d for d in self._interp.get_output_details()}
+        self._in_index = inp["index"]
+        if tuple(inp["shape"]) != (1, INPUT_SIZE, INPUT_SIZE, 3):
+            raise SitcovError(f"{self.model}: expected input 1x300x300x3, got {inp['shape']}")
+        try:
+            self._box_index = outs["raw_outputs/box_encodings"]["index"]
+            self._cls_index = outs["raw_outputs/class_predictions"]["index"]
+        except KeyError as exc:
+            raise SitcovError(f"{self.model}: missing output tensor {exc}") from exc
+        self.anchors = ssd_anchors()
+        names = _load_labels(self.model)
+        wanted = CAR_CLASSES if classes is None else classes
+        self._groups: list[tuple[str, list[int]]] = []
+        for label, members in wanted.items():
+            idx = [names.index(m) for m in members if m in names]
+            if not idx:
+                raise SitcovError(f"none of {list(members)} is a class of {self.model.name}")
+            self._groups.append((label, idx))
+
+    @staticmethod
+    def letterbox(shape: tuple[int, ...]) -> tuple[float, float, float]:
+        """Scale [input px per image px] and x/y padding [input px] of the letterbox."""
+        h, w = shape[:2]
+        scale = INPUT_SIZE / max(h, w)
+        return scale, 0.5 * (INPUT_SIZE - w * scale), 0.5 * (INPUT_SIZE - h * scale)
+
+    @classmethod
+    def preprocess(cls, image: np.ndarray) -> np.ndarray:
+        """Letterbox to 300x300 (aspect kept, grey padding) and scale pixels to [-1, 1].
+
+        Squashing a 16:9 frame to a square distorts cars enough to cost ~0.2 in score;
+        padding keeps their shape, as the network saw them in training.
+        """
+        from PIL import Image
+
+        img = Image.fromarray(np.ascontiguousarray(image[..., :3]))
+        scale, px, py = cls.letterbox(image.shape)
+        size = (max(1, round(img.width * scale)), max(1, round(img.height * scale)))
+        canvas = Image.new("RGB", (INPUT_SIZE, INPUT_SIZE), (128, 128, 128))
+        canvas.paste(img.resize(size, Image.BILINEAR), (round(px), round(py)))
+        arr = np.asarray(canvas, dtype=np.float32)
+        return (arr * (2.0 / 255.0) - 1.0)[None]
+
+    def raw(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The network's raw outputs for ``image``: (1917, 4) boxes, (1917, 24) logits."""
+        self._interp.set_tensor(self._in_index, self.preprocess(image))
+        self._interp.invoke()
+        boxes = self._interp.get_tensor(self._box_index)[0]
+        logits = self._interp.get_tensor(self._cls_index)[0]
+        return boxes.copy(), logits.copy()
+
+    def __call__(self, image: np.ndarray) -> tuple[Detection, ...]:
+        """Detections in ``image``; boxes in its pixels, clipped to it."""
+        h, w = image.shape[:2]
+        raw_boxes, logits = self.raw(image)
+        scores_all = 1.0 / (1.0 + np.exp(-logits.astype(np.float64)))
+        label_ids, best = [], []
+        for gi, (_, idx) in enumerate(self._groups):
+            label_ids.append(np.full(len(scores_all), gi))
+            best.append(scores_all[:, idx].max(axis=1))
+        scores = np.concatenate(best)
+        groups = np.concatenate(label_ids)
+        cand = np.flatnonzero(scores >= self.min_score)
+        if cand.size == 0:
+            return ()
+        anchor_idx = cand % len(scores_all)
+        boxes = decode_boxes(raw_boxes[anchor_idx], self.anchors[anchor_idx])
+        scale, px, py = self.letterbox(image.shape)
+        boxes = (boxes * INPUT_SIZE - np.array([px, py, px, py])) / scale
+        boxes = np.clip(boxes, 0.0, np.array([w, h, w, h], dtype=np.float64))
+        keep = per_class_nms(boxes, scores[cand], groups[cand], self.iou_threshold)
+        out = []
+        for k in keep[: self.max_detections]:
+            x0, y0, x1, y1 = (float(v) for v in boxes[k])
+            if x1 - x0 < 1.0 or y1 - y0 < 1.0:
+                continue
+            label = self._groups[int(groups[cand[k]])][0]
+            out.append(Detection(box=(x0, y0, x1, y1), score=float(scores[cand[k]]), label=label))
+        return tuple(out)

@@ -1,0 +1,307 @@
+"""The perception error model (PEM): what an SSD car detector would report, without rendering.
+
+For each actor the camera geometry (:func:`sitcov.perception.project_box`) gives the box a
+detector would draw; the PEM turns what makes that box hard to detect into a score:
+
+    z = bias
+        + size_gain  * ln(clamp(h, size_min_px, size_max_px) / size_ref_px)   apparent size
+        - view_gain  * sin(view_angle)                                        side view
+        - trunc_gain * truncation                                             image edge
+        + fog_gain   * ln(transmittance(distance))                            fog contrast
+        + illum_gain * ln(illumination)                                       darkness
+        - rain_gain  * rain_noise                                             rain, spray
+    score = sigmoid(z + N(0, noise_sigma + rain_sigma * rain_noise))
+
+with ``h`` the unclipped box height [px]. A detection is reported when the score reaches
+the detector's output ``floor``; rain also drops whole frames with probability
+``rain_miss * rain_noise``, and the box corners jitter by a Gaussian whose standard
+deviation is ``jitter + rain_jitter * rain_noise`` times the box size. The parameters live
+in ``data/pem.yaml`` (documented in docs/pem.md); ``sitcov calibrate`` refits them
+against the real detector, keeping this functional form.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+import yaml
+
+from sitcov.errors import ConfigError
+from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
+from sitcov.perception._camera import project_raw
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from sitcov.sim import Conditions
+
+#: The shipped parameter file.
+PEM_PARAMS_FILE = Path(__file__).parent / "data" / "pem.yaml"
+
+
+@dataclass(frozen=True)
+class PEMParams:
+    """Coefficients of the PEM (see the module docstring for the formula).
+
+    The defaults are the hand-tuned values first shipped in ``pem.yaml`` (docs/pem.md).
+
+    Attributes:
+        bias: logit of a rear view at the reference size in clear daylight [-].
+        size_gain: logit per e-fold of box height [-].
+        size_ref_px: box height where the size term is zero [px].
+        size_min_px: below this box height the detector finds nothing [px].
+        size_max_px: box heights above this count as this (detectors saturate) [px].
+        view_gain: logit lost when seen exactly side-on [-].
+        trunc_gain: logit lost when the box is entirely cut by the image edge [-].
+        fog_gain: multiplies ln(fog transmittance) [-].
+        illum_gain: multiplies ln(illumination) [-].
+        rain_gain: logit lost at full rain noise [-].
+        noise_sigma: standard deviation of the logit noise in clear weather [-].
+        rain_sigma: extra logit noise at full rain noise [-].
+        rain_miss: probability of a missed frame at full rain noise [-].
+        jitter: box-corner noise as a fraction of the box size [-].
+        rain_jitter: extra box-corner noise at full rain noise [-].
+        floor: the detector's output threshold: lower scores are not reported [-].
+    """
+
+    bias: float = 0.5
+    size_gain: float = 2.5
+    size_ref_px: float = 25.0
+    size_min_px: float = 6.0
+    size_max_px: float = 250.0
+    view_gain: float = 0.5
+    trunc_gain: float = 3.0
+    fog_gain: float = 2.5
+    illum_gain: float = 0.7
+    rain_gain: float = 2.0
+    noise_sigma: float = 0.5
+    rain_sigma: float = 1.0
+    rain_miss: float = 0.3
+    jitter: float = 0.03
+    rain_jitter: float = 0.05
+    floor: float = 0.3
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
+        """Validate a mapping of parameter names to numbers (unknown names are errors)."""
+        known = {f.name for f in fields(cls)}
+        values: dict[str, float] = {}
+        for name, value in data.items():
+            if name not in known:
+                raise ConfigError(
+                    f"{file + ': ' if file else ''}unknown PEM parameter {name!r}; "
+                    f"expected one of: {', '.join(sorted(known))}",
+                    file=file,
+                    field=name,
+                    value=name,
+                )
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ConfigError(file=file, field=name, value=value, expected="a number")
+            values[name] = float(value)
+        params = cls(**values)
+        params._check(file)
+        return params
+
+    def _check(self, file: str | None) -> None:
+        for name in ("size_ref_px", "size_min_px", "size_max_px"):
+            if getattr(self, name) <= 0:
+                raise ConfigError(file=file, field=name, value=getattr(self, name), expected="> 0")
+        if self.size_max_px < self.size_min_px:
+            raise ConfigError(
+                file=file, field="size_max_px", value=self.size_max_px, expected=">= size_min_px"
+            )
+        for name in ("noise_sigma", "rain_sigma", "jitter", "rain_jitter"):
+            if getattr(self, name) < 0:
+                raise ConfigError(file=file, field=name, value=getattr(self, name), expected=">= 0")
+        for name in ("rain_miss", "floor"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ConfigError(
+                    file=file, field=name, value=getattr(self, name), expected="in [0, 1]"
+                )
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain mapping, the form of ``pem.yaml``'s ``params``."""
+        return asdict(self)
+
+
+def load_pem_params(path: str | Path | None = None) -> PEMParams:
+    """Read PEM parameters from a YAML file (default: the shipped ``pem.yaml``).
+
+    The file holds ``params:`` (name -> number; missing names take the class defaults)
+    and an optional free-form ``meta:`` (where the numbers came from).
+    """
+    if path is None:
+        return _default_params()
+    return _read(Path(path))
+
+
+@lru_cache(maxsize=1)
+def _default_params() -> PEMParams:
+    return _read(PEM_PARAMS_FILE)
+
+
+def _read(path: Path) -> PEMParams:
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read PEM parameters: {exc}") from exc
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: invalid YAML: {exc}") from exc
+    if not isinstance(data, Mapping) or not isinstance(data.get("params", {}), Mapping):
+        raise ConfigError(file=str(path), field="params", expected="a mapping name -> number")
+    return PEMParams.from_mapping(data.get("params", {}), file=str(path))
+
+
+class PEMFeatures(NamedTuple):
+    """What the PEM's score depends on (one actor, one frame).
+
+    Attributes:
+        height_px: unclipped box height [px].
+        view_angle: folded view angle [rad], 0 = rear/front, pi/2 = side-on.
+        truncation: fraction of the box outside the image [-].
+        transmittance: fog contrast transmittance over the distance, in [0, 1] [-].
+        illumination: relative scene illumination in (0, 1] [-].
+        rain_noise: rain/spray/glare noise intensity in [0, 1] [-].
+    """
+
+    height_px: float
+    view_angle: float
+    truncation: float
+    transmittance: float = 1.0
+    illumination: float = 1.0
+    rain_noise: float = 0.0
+
+
+_TINY = 1e-9  # floor inside logarithms [-]
+
+
+def pem_logit(features: PEMFeatures, params: PEMParams) -> float:
+    """The noise-free logit ``z`` of the detection score (formula in the module docstring)."""
+    return _logit(params, *features)
+
+
+def _logit(
+    p: PEMParams,
+    height_px: float,
+    view_angle: float,
+    truncation: float,
+    transmittance: float,
+    illumination: float,
+    rain_noise: float,
+) -> float:
+    h = min(max(height_px, p.size_min_px), p.size_max_px)
+    return (
+        p.bias
+        + p.size_gain * math.log(h / p.size_ref_px)
+        - p.view_gain * math.sin(view_angle)
+        - p.trunc_gain * truncation
+        + p.fog_gain * math.log(max(transmittance, _TINY))
+        + p.illum_gain * math.log(max(illumination, _TINY))
+        - p.rain_gain * rain_noise
+    )
+
+
+def pem_score(features: PEMFeatures, params: PEMParams) -> float:
+    """The noise-free detection score in (0, 1): ``sigmoid(pem_logit(features, params))``."""
+    return _sigmoid(pem_logit(features, params))
+
+
+def _sigmoid(z: float) -> float:
+    if z >= 0.0:
+        return 1.0 / (1.0 + math.exp(-z))
+    e = math.exp(z)
+    return e / (1.0 + e)
+
+
+class PEMSensor(Sensor):
+    """A simulated SSD car detector: projection + :func:`pem_score` + noise from the run's rng.
+
+    Args:
+        params: None (the shipped ``pem.yaml``), a :class:`PEMParams`, a mapping of
+            overrides of the shipped values, or a path to a YAML file.
+        camera: the dash-cam whose image the boxes are in.
+    """
+
+    def __init__(
+        self,
+        params: PEMParams | Mapping[str, Any] | str | Path | None = None,
+        camera: CameraSpec | None = None,
+    ) -> None:
+        if params is None:
+            self.params = load_pem_params()
+        elif isinstance(params, PEMParams):
+            self.params = params
+        elif isinstance(params, Mapping):
+            merged = load_pem_params().to_dict()
+            merged.update(params)
+            self.params = PEMParams.from_mapping(merged)
+        else:
+            self.params = load_pem_params(params)
+        self.camera = camera or CameraSpec()
+
+    def features(self, ego: Pose, actor: ActorView, conditions: Conditions) -> PEMFeatures | None:
+        """The PEM features of ``actor`` seen from ``ego``, or None if it is not in the image."""
+        proj = project_raw(self.camera, ego, actor)
+        if proj is None or not proj[6]:
+            return None
+        raw = proj[1]
+        return PEMFeatures(
+            raw[3] - raw[1],
+            proj[5],
+            proj[2],
+            conditions.transmittance(proj[3]),
+            conditions.illumination,
+            conditions.rain_noise,
+        )
+
+    def detect(
+        self,
+        ego: Pose,
+        actors: tuple[ActorView, ...],
+        conditions: Conditions,
+        rng: np.random.Generator,
+    ) -> tuple[Detection, ...]:
+        """Detections of the actors in view whose noisy score reaches the floor."""
+        p = self.params
+        camera = self.camera
+        out = []
+        for actor in actors:
+            proj = project_raw(camera, ego, actor)
+            if proj is None or not proj[6]:
+                continue
+            (x0, y0, x1, y1), raw, truncation, distance, _, view, _ = proj
+            height = raw[3] - raw[1]
+            if height < p.size_min_px:
+                continue
+            rain = conditions.rain_noise
+            if rain > 0.0 and p.rain_miss > 0.0 and rng.random() < p.rain_miss * rain:
+                continue
+            n0, n1, n2, n3, n4 = rng.standard_normal(5).tolist()
+            z = _logit(
+                p,
+                height,
+                view,
+                truncation,
+                conditions.transmittance(distance),
+                conditions.illumination,
+                rain,
+            )
+            score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n0)
+            if score < p.floor:
+                continue
+            jit = p.jitter + p.rain_jitter * rain
+            sx, sy = jit * (x1 - x0), jit * (y1 - y0)
+            w, h = float(camera.width), float(camera.height)
+            x0 = min(max(x0 + sx * n1, 0.0), w)
+            x1 = min(max(x1 + sx * n3, 0.0), w)
+            y0 = min(max(y0 + sy * n2, 0.0), h)
+            y1 = min(max(y1 + sy * n4, 0.0), h)
+            if x1 <= x0 or y1 <= y0:
+                continue
+            out.append(Detection((x0, y0, x1, y1), score, "car"))
+        return tuple(out)

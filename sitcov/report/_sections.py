@@ -1,0 +1,322 @@
+"""The sections of the HTML report, each computed from stored runs into template data.
+
+Each ``*_section`` function returns the plain data (strings, numbers, base64 PNGs) its part of
+``index.html.j2`` renders; :func:`sitcov.report.build_report` calls them in page order.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import shlex
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from sitcov.report import _figures
+from sitcov.report._data import NO_FAULT, CampaignView, group_runs
+from sitcov.report._stats import pair_table
+
+#: At most this many campaigns get a coverage-growth line (more would be unreadable).
+MAX_GROWTH_LINES = 10
+
+
+def b64(data: bytes) -> str:
+    """PNG bytes as the base64 text of a ``data:`` URI."""
+    return base64.b64encode(data).decode("ascii")
+
+
+def pct(x: float | None) -> str:
+    """A fraction as a percentage with one decimal, ``–`` for None."""
+    return "–" if x is None else f"{100.0 * x:.1f}%"
+
+
+def rate_ci(k: int, n: int) -> str:
+    """``k / n`` as a percentage with its Wilson 95 % interval, ``–`` when ``n`` is 0."""
+    from sitcov.analysis import wilson_interval
+
+    if n <= 0:
+        return "–"
+    lo, hi = wilson_interval(k, n)
+    return f"{100.0 * k / n:.1f}% [{100.0 * lo:.1f}–{100.0 * hi:.1f}]"
+
+
+def slug(text: str) -> str:
+    """``text`` made safe for a file name."""
+    keep = "".join(c if c.isalnum() or c in "-_" else "_" for c in text)
+    return keep.strip("_") or "element"
+
+
+def hyperspace_of(views: Sequence[CampaignView]) -> Any:
+    """The hyperspace stored with the first campaign (else the one its config names)."""
+    from sitcov.hyperspace import Hyperspace, load_hyperspace
+
+    for view in views:
+        if view.hyperspace:
+            return Hyperspace.from_dict(view.hyperspace)
+    name = next((v.config.get("hyperspace") for v in views if v.config.get("hyperspace")), None)
+    return load_hyperspace(name)
+
+
+def status_counts(runs: Sequence[Any]) -> dict[str, int]:
+    """Runs per status (pass, fail, error, timeout always present)."""
+    counts = {"pass": 0, "fail": 0, "error": 0, "timeout": 0}
+    for run in runs:
+        counts[run.status] = counts.get(run.status, 0) + 1
+    return counts
+
+
+def ranked_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, str]]:
+    """Rows of :func:`sitcov.analysis.worst_bins` / ``worst_pairs`` formatted for the page."""
+    out = []
+    for row in rows:
+        elements = row.get("elements") or (row["element"],)
+        labels = row.get("labels") or (row["label"],)
+        ci = row["ci95"]
+        out.append(
+            {
+                "elements": " × ".join(elements),
+                "labels": " × ".join(str(lab) for lab in labels),
+                "fj": f"{row['failures']} / {row['judged']}",
+                "rate": pct(row["failure_rate"]),
+                "ci": f"{100 * ci[0]:.1f}–{100 * ci[1]:.1f}%" if ci else "–",
+            }
+        )
+    return out
+
+
+def run_command(db: str, view: CampaignView, experiment: str | None) -> str:
+    """The command that (re)creates ``view``'s campaign: ``sitcov run`` with its settings,
+    or, for a fault-experiment campaign, the experiment command."""
+    if view.is_fault_experiment and experiment:
+        return experiment
+    cfg = view.config
+    parts = ["sitcov", "run", "--db", db, "--name", view.name]
+    for key, flag in (
+        ("hyperspace", "--hyperspace"),
+        ("generator", "--generator"),
+        ("runs", "--runs"),
+        ("seed", "--seed"),
+        ("batch_size", "--batch-size"),
+        ("backend", "--backend"),
+        ("av", "--av"),
+        ("fault", "--fault"),
+    ):
+        value = cfg.get(key)
+        if value is not None and not (key == "hyperspace" and value == "t-junction"):
+            parts += [flag, str(value)]
+    perception = (cfg.get("backend_options") or {}).get("perception")
+    if perception:
+        parts += ["--perception", str(perception)]
+    command = shlex.join(parts)
+    if cfg.get("generator_options") or cfg.get("av_params") or cfg.get("replay_failures_first"):
+        command += "   # plus the options in the config above: pass them with --config FILE"
+    return command
+
+
+def experiment_command(db: str, table: dict[str, Any]) -> str | None:
+    """``sitcov experiment faults`` with the stored experiment's generators, runs and seeds."""
+    if not table:
+        return None
+    first = next(iter(table.values()))
+    seeds = [s for s in first["seeds"] if isinstance(s, int)]
+    parts = ["sitcov", "experiment", "faults", "--db", db, "--generators", ",".join(table)]
+    parts += ["--runs", str(first["runs"]), "--seeds", str(len(first["seeds"]))]
+    if seeds:
+        parts += ["--seed", str(min(seeds))]
+    return shlex.join(parts)
+
+
+def table2_section(table: dict[str, Any], out: Path) -> dict[str, Any] | None:
+    """Table 2 rows and chart from :func:`sitcov.campaign.fault_table` output."""
+    from sitcov.campaign._experiments import FAULT_LABELS
+
+    if not table:
+        return None
+    faults = list(FAULT_LABELS)
+    rows = []
+    for gen, row in table.items():
+        runs = row["runs"]
+        for fault in faults:
+            nf = fault == "NF"
+            rows.append(
+                {
+                    "first": nf,
+                    "generator": gen if nf else "",
+                    "fault": fault,
+                    "count": f"{row[fault]} / {runs}",
+                    "rate": rate_ci(row[fault], runs),
+                    "triggered": "" if nf else f"{row['triggered'][fault]:+d}",
+                    "newly": "" if nf else str(row["newly_failing"][fault]),
+                    "cured": "" if nf else str(row["cured"][fault]),
+                }
+            )
+    png = _figures.save(_figures.table2_figure(table), out / "table2.png")
+    runs_note = ", ".join(sorted({str(r["runs"]) for r in table.values()}))
+    return {"faults": faults, "rows": rows, "figure": b64(png), "runs_note": runs_note}
+
+
+def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[Any]) -> dict:
+    """The summary cards and the per-campaign table."""
+    from sitcov.analysis import coverage
+
+    counts = status_counts(all_runs)
+    judged = counts["pass"] + counts["fail"]
+    cov = coverage(hs, all_runs)
+    ci = rate_ci(counts["fail"], judged).partition(" ")[2]
+    cards = [
+        {"key": "runs", "value": len(all_runs), "detail": f"{len(views)} campaign(s)"},
+        {"key": "failures", "value": counts["fail"], "detail": f"of {judged} judged runs"},
+        {
+            "key": "failure rate",
+            "value": pct(counts["fail"] / judged if judged else None),
+            "detail": f"95% CI {ci}" if judged else "no judged runs",
+        },
+        {
+            "key": "errors / timeouts",
+            "value": f"{counts['error']} / {counts['timeout']}",
+            "detail": "runs that could not be judged",
+        },
+        {
+            "key": "bins covered",
+            "value": f"{cov['bins_covered']} / {cov['bins_total']}",
+            "detail": f"{len(hs.elements)} elements",
+        },
+        {"key": "pairwise coverage", "value": pct(cov["pairwise"]), "detail": "2-way bins"},
+    ]
+    rows = []
+    for view in views:
+        c = status_counts(view.runs)
+        s = coverage(hs, view.runs) if view.runs else None
+        rows.append(
+            {
+                "name": view.name,
+                "generator": view.generator,
+                "fault": view.fault,
+                "seed": view.seed,
+                "runs": len(view.runs),
+                "failures": c["fail"],
+                "rate": rate_ci(c["fail"], c["pass"] + c["fail"]),
+                "errors": c["error"],
+                "timeouts": c["timeout"],
+                "bins": f"{s['bins_covered']}/{s['bins_total']}" if s else "–",
+                "pairwise": pct(s["pairwise"]) if s else "–",
+            }
+        )
+    return {"cards": cards, "campaigns": rows, "bins_total": cov["bins_total"]}
+
+
+def element_section(hs: Any, views: Sequence[CampaignView], fig_dir: Path) -> dict:
+    """Per element: runs per bin and failure rate per bin, by (generator, fault)."""
+    from sitcov.analysis import bin_stats
+
+    groups = group_runs(views)
+    stats = {key: bin_stats(hs, runs) for key, runs in groups.items()}
+    generators = list(dict.fromkeys(g for g, _ in groups))
+    faults = list(dict.fromkeys(f for _, f in groups))
+    figures = []
+    for element in hs.elements:
+        name, labels = element.name, [b.label for b in element.bins]
+        counts = {}
+        for gen in generators:
+            first = next(k for k in groups if k[0] == gen)  # NF if present: same situations
+            counts[gen] = {lab: stats[first][name][lab]["generated"] for lab in labels}
+        rates = {
+            ("no fault" if f == NO_FAULT else f"fault {f}"): {
+                g: stats[(g, f)][name] for g in generators if (g, f) in stats
+            }
+            for f in faults
+        }
+        file = f"element_{slug(name)}.png"
+        png = _figures.save(_figures.element_figure(name, labels, counts, rates), fig_dir / file)
+        figures.append(
+            {
+                "png": b64(png),
+                "alt": f"Runs and failure rate per bin of {name}",
+                "caption": f"{name}: runs per bin and failure rate per bin",
+                "file": f"figures/{file}",
+                "wide": len(labels) > 8,
+            }
+        )
+    series = ", ".join(generators)
+    if len(faults) > 1:
+        series += " (one panel per fault: " + ", ".join(faults) + ")"
+    return {
+        "element_figures": figures,
+        "several_series": len(generators) > 1 or len(faults) > 1,
+        "series_names": series,
+    }
+
+
+def growth_section(
+    hs: Any, views: Sequence[CampaignView], has_nf: bool, bins_total: int, fig_dir: Path
+) -> dict:
+    """Coverage growth per campaign (fault replays are not drawn: same situations as NF)."""
+    from sitcov.analysis import coverage_growth
+
+    drawn = [v for v in views if v.runs and (v.fault == NO_FAULT or not has_nf)]
+    note = ""
+    if len(drawn) > MAX_GROWTH_LINES:
+        note = f"first {MAX_GROWTH_LINES} of {len(drawn)} campaigns"
+        drawn = drawn[:MAX_GROWTH_LINES]
+    elif has_nf and len(drawn) < len(views):
+        note = "fault campaigns replay these situations and are not drawn again"
+    curves = {}
+    for view in drawn:
+        points = coverage_growth(hs, view.runs)
+        curves[view.name] = (
+            [p["bins_covered"] for p in points],
+            [p["pairwise"] for p in points],
+            bins_total,
+        )
+    png = _figures.save(_figures.growth_figure(curves), fig_dir / "coverage_growth.png")
+    return {"growth_figure": b64(png), "growth_note": note}
+
+
+def heat_section(
+    hs: Any, runs: Sequence[Any], pair: tuple[str, str] | None, scope: str, fig_dir: Path
+) -> dict:
+    """The failure-rate heat map over two elements."""
+    if pair is None:
+        return {"heat": {"a": "", "b": "", "note": "fewer than two elements", "png": None}}
+    a, b = pair
+    cells = pair_table(runs, a, b)
+    figure = _figures.heatmap_figure(a, hs.labels(a), b, hs.labels(b), cells)
+    png = _figures.save(figure, fig_dir / "heatmap.png")
+    note = f"Each cell: failures / judged runs; grey = no judged run. {scope}"
+    return {"heat": {"a": a, "b": b, "png": b64(png), "note": note}}
+
+
+def provenance_section(
+    db: str,
+    out: str,
+    views: Sequence[CampaignView],
+    heat: tuple[str, str] | None,
+    experiment_cmd: str | None,
+) -> dict:
+    """Commands that recompute every number, and each campaign's stored config."""
+    dbq = shlex.quote(db)
+    commands = [f"sitcov summary --db {dbq} --json"]
+    report = f"sitcov report --db {dbq} --out {shlex.quote(out)}"
+    commands.append(report + (f" --heatmap {heat[0]},{heat[1]}" if heat else ""))
+    if experiment_cmd:
+        commands.append(experiment_cmd + " --json   # Table 2 (completes a partial one)")
+    details = []
+    if len(views) > 12:
+        commands.append(f"sitcov summary --db {dbq} --campaign NAME --json   # one campaign")
+    for view in views:
+        if len(views) <= 12:
+            name = shlex.quote(view.name)
+            commands.append(f"sitcov summary --db {dbq} --campaign {name} --json")
+        details.append(
+            {
+                "name": view.name,
+                "seed": view.seed,
+                "version": view.sitcov_version,
+                "created": view.created,
+                "tags": sorted((str(k), str(v)) for k, v in view.tags.items()),
+                "config": json.dumps(view.config, indent=2, sort_keys=True, default=str),
+                "command": run_command(db, view, experiment_cmd),
+            }
+        )
+    return {"commands": commands, "campaign_details": details}

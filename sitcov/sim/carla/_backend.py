@@ -1,0 +1,414 @@
+"""The CARLA backend: one situation per run on a real CARLA server (synchronous, 0.05 s).
+
+Per run: connect (the client is cached), load the town if needed, switch the world to
+synchronous mode with a fixed step (the original settings are restored afterwards), set the
+weather from the situation, spawn ego and OV at the map file's points, scale every wheel's
+tyre friction and read it back, attach the ego's RGB camera (the stack's CameraSpec) and a
+collision sensor, then step: the stack gets camera frames in ``Observation.image`` and runs
+its own detector, the OV follows the adversary's timing law. Every actor and sensor is
+destroyed in ``finally``. Server time-outs or disconnects: reconnect and retry once, then an
+``error`` outcome. Only the members listed in ``_surface.SURFACE`` are used.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from sitcov.av._base import EgoState, Observation, RunInfo
+from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
+from sitcov.sim._base import Backend, Outcome
+from sitcov.sim.carla._geometry import plan_route, to_sitcov
+from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
+from sitcov.sim.carla._metrics import MetricTracker, VehicleState
+from sitcov.sim.carla._ovdriver import OVDriver
+from sitcov.sim.carla._surface import WEATHER_ELEMENTS
+
+if TYPE_CHECKING:
+    from sitcov.av import AVStack
+    from sitcov.hyperspace import Situation
+
+#: Fixed simulation step [s] (the paper's controllers assume 0.05 s).
+DT = 0.05
+#: Simulated time limit of a run [s].
+SIM_TIMEOUT = 60.0
+#: Rate at which camera frames are handed to the stack [Hz] (the embedded camera mode's).
+CAMERA_RATE_HZ = 10.0
+#: Relative tolerance of the tyre-friction read-back.
+FRICTION_RTOL = 1e-3
+FRICTION_MODES = ("wheels", "trigger", "both")
+
+
+class _StackFailure(Exception):
+    """Wraps an exception raised by the AV stack, so it is not mistaken for a server error."""
+
+
+class CarlaBackend(Backend):
+    """Runs situations on a CARLA server (0.9.15/0.9.16).
+
+    Args:
+        host, port: the server (ignored when ``servers`` is given).
+        timeout: client time-out [s] for connecting and for every server call.
+        map: a shipped map file name (``Town03``) or a map YAML path.
+        servers: ``[(host, port), ...]`` or ``["host:port", ...]``; this backend uses
+            ``servers[worker_index % len(servers)]`` (scale-out: one server per worker).
+        worker_index: index of the worker process that owns this backend.
+        friction_mode: ``wheels`` (scale every wheel's tire_friction of both vehicles),
+            ``trigger`` (a static.trigger.friction box over the junction) or ``both``.
+        camera_rate_hz: frames per second handed to the stack.
+        sun_altitude: sun altitude [deg] (the paper never varied the sun).
+        connect: connect now (fail fast without a server) rather than at the first run.
+        carla_module: the module providing the client API (tests pass a fake).
+    """
+
+    name: ClassVar[str] = "carla"
+
+    def __init__(
+        self,
+        host: str = "localhost",
+        port: int = 2000,
+        timeout: float = 10.0,
+        map: str = "Town03",  # noqa: A002 - the CLI's name
+        servers: list[Any] | str | None = None,
+        worker_index: int = 0,
+        *,
+        dt: float = DT,
+        sim_timeout: float = SIM_TIMEOUT,
+        friction_mode: str = "wheels",
+        camera_rate_hz: float = CAMERA_RATE_HZ,
+        sun_altitude: float = 45.0,
+        connect: bool = True,
+        carla_module: Any = None,
+    ) -> None:
+        from sitcov.sim.carla._options import parse_servers
+
+        if servers:
+            chosen = parse_servers(servers)
+            host, port = chosen[int(worker_index) % len(chosen)]
+        if friction_mode not in FRICTION_MODES:
+            raise ConfigError(
+                field="friction_mode", value=friction_mode, expected=" | ".join(FRICTION_MODES)
+            )
+        if not (timeout > 0):
+            raise ConfigError(field="carla_timeout", value=timeout, expected="seconds > 0")
+        self.host, self.port, self.timeout = str(host), int(port), float(timeout)
+        self.map: CarlaMap = load_carla_map(map)
+        self.dt, self.sim_timeout = float(dt), float(sim_timeout)
+        self.friction_mode = friction_mode
+        self.camera_every = max(1, round(1.0 / (camera_rate_hz * self.dt)))
+        self.sun_altitude = float(sun_altitude)
+        self._carla = carla_module if carla_module is not None else _import_carla()
+        self._client: Any = None
+        self._world: Any = None
+        self._cmap: Any = None
+        self._routes: dict[tuple, list[tuple[float, float]]] = {}
+        self._versions: dict[str, str] = {}
+        if connect:
+            self._connect()
+
+    # -- connection ------------------------------------------------------------------------
+
+    def _connect(self) -> None:
+        carla = self._carla
+        client = carla.Client(host=self.host, port=self.port)
+        client.set_timeout(self.timeout)
+        try:
+            server = client.get_server_version()
+        except RuntimeError:
+            raise BackendUnavailableError(
+                f"no CARLA server at {self.host}:{self.port} after {self.timeout:g}s: "
+                "start CarlaUE4.sh or pass --carla-host/--carla-port"
+            ) from None
+        self._versions = {"server": str(server), "client": str(client.get_client_version())}
+        self._client, self._world, self._cmap = client, None, None
+
+    def _ensure_world(self) -> tuple[Any, Any]:
+        if self._client is None:
+            self._connect()
+        if self._world is None:
+            world = self._client.get_world()
+            cmap = world.get_map()
+            if cmap.name.rsplit("/", 1)[-1] != self.map.town:
+                world = self._client.load_world(self.map.town)
+                cmap = world.get_map()
+            self._world, self._cmap = world, cmap
+            self._routes.clear()
+        return self._world, self._cmap
+
+    def check(self) -> dict[str, str]:
+        """Smoke test without running a situation: versions, town, and every route.
+
+        Plans the route of every spawn entry to every other leg's goal on the server's lane
+        graph (a ConfigError names the first one that cannot be planned).
+        """
+        _, cmap = self._ensure_world()
+        lengths = []
+        for table in (self.map.ego_spawns, self.map.ov_spawns):
+            for key, spawn in table.items():
+                start = key.split("-")[0]
+                ends = [key.split("-")[1]] if "-" in key else self.map.legs
+                for leg in ends:
+                    if leg != start:
+                        route = self._route(cmap, spawn, self.map.goals[leg])
+                        lengths.append(len(route))
+        report = {
+            "server": f"{self.host}:{self.port}",
+            "carla_server": self._versions.get("server", "?"),
+            "carla_client": self._versions.get("client", "?"),
+            "town": cmap.name,
+            "map_file": self.map.name,
+            "routes": f"{len(lengths)} planned, {min(lengths)}-{max(lengths)} points",
+        }
+        if report["carla_server"] != report["carla_client"]:
+            report["warning"] = "client and server versions differ: install the matching wheel"
+        return report
+
+    def close(self) -> None:
+        """Drop the connection (the server keeps running)."""
+        self._client = self._world = self._cmap = None
+
+    def effects(self) -> dict[str, str]:
+        """What each element does in CARLA."""
+        out = {
+            name: f"carla.WeatherParameters.{name} (rendering: reaches the stack via the camera)"
+            for name in WEATHER_ELEMENTS
+        }
+        out["friction"] = (
+            "scales every wheel's tire_friction of ego and OV (with the wet-road factor of "
+            "sitcov.sim.conditions_from_values), read back after applying"
+        )
+        out["intsit"] = "ego/OV spawn points, routes and conflict point from the map file"
+        return out
+
+    # -- runs ------------------------------------------------------------------------------
+
+    def run(
+        self, situation: Situation, av_stack: AVStack, seed: int, *, record: bool = False
+    ) -> Outcome:
+        """Run one situation; retry once after a server failure, then an ``error`` outcome.
+
+        Raises:
+            BackendUnavailableError: no server could be reached for the first connection.
+            Exception: whatever the AV stack raised (after cleaning up the world).
+        """
+        last: Exception | None = None
+        for attempt in (1, 2):
+            try:
+                outcome = self._run_once(situation, av_stack, seed, record)
+            except _StackFailure as exc:
+                raise exc.__cause__ from None  # type: ignore[misc]
+            except RuntimeError as exc:  # carla's time-outs and disconnects
+                last = exc
+                if attempt == 2:
+                    break
+                self.close()
+                try:
+                    self._ensure_world()
+                except (BackendUnavailableError, RuntimeError) as again:
+                    last = again
+                    break
+            else:
+                outcome.metrics["attempts"] = attempt
+                return outcome
+        return Outcome.errored(f"CARLA server failed twice (reconnected once): {last}")
+
+    def _intsit(self, situation: Situation) -> tuple[str, str, str]:
+        value = situation.value("intsit")
+        if not isinstance(value, Mapping) or not {"ego", "ov", "conflict"} <= set(value):
+            raise ConfigError(
+                field="intsit", value=value, expected="a mapping with ego, ov and conflict"
+            )
+        return str(value["ego"]), str(value["ov"]), str(value["conflict"])
+
+    def _route(self, cmap: Any, spawn: SpawnPoint, goal: tuple[float, float]) -> list:
+        key = (spawn.x, spawn.y, goal)
+        if key not in self._routes:
+            start = self._carla.Location(x=spawn.x, y=spawn.y, z=spawn.z)
+            self._routes[key] = plan_route(cmap, start, goal, tolerance=self.map.goal_tolerance)
+        return self._routes[key]
+
+    def _transform(self, x: float, y: float, z: float = 0.0, yaw: float = 0.0) -> Any:
+        carla = self._carla
+        return carla.Transform(
+            carla.Location(x=x, y=y, z=z), carla.Rotation(pitch=0.0, yaw=yaw, roll=0.0)
+        )
+
+    def _weather(self, values: Mapping[str, Any]) -> tuple[Any, dict[str, float]]:
+        params = {name: float(values.get(name, 0.0)) for name in WEATHER_ELEMENTS}
+        params["sun_altitude_angle"] = self.sun_altitude
+        return self._carla.WeatherParameters(**params), params
+
+    def _run_once(self, situation: Situation, stack: AVStack, seed: int, record: bool) -> Outcome:
+        from sitcov.sim.carla._episode import Episode
+
+        world, cmap = self._ensure_world()
+        ego_mv, ov_mv, label = self._intsit(situation)
+        spec = self.map
+        ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
+        ego_goal = spec.goal(ego_mv)
+        ego_route = self._route(cmap, ego_sp, ego_goal)
+        ov_route = self._route(cmap, ov_sp, spec.goal(ov_mv))
+        conflict = spec.conflict_point(label)
+        weather, weather_values = self._weather(situation.values)
+        scale = friction_scale(situation.values)
+        original = world.get_settings()
+        actors: list[Any] = []
+        sensors: list[Any] = []
+        try:
+            settings = world.get_settings()
+            settings.synchronous_mode = True
+            settings.fixed_delta_seconds = self.dt
+            world.apply_settings(settings)
+            world.set_weather(weather)
+            library = world.get_blueprint_library()
+            ego = world.spawn_actor(
+                library.find(spec.ego_blueprint),
+                self._transform(ego_sp.x, ego_sp.y, ego_sp.z, ego_sp.yaw),
+            )
+            actors.append(ego)
+            ov = world.spawn_actor(
+                library.find(spec.ov_blueprint),
+                self._transform(ov_sp.x, ov_sp.y, ov_sp.z, ov_sp.yaw),
+            )
+            actors.append(ov)
+            friction = self._apply_friction(world, library, (ego, ov), scale, actors)
+            if friction.get("error"):
+                return Outcome.errored(friction["error"])
+            episode = Episode(self, world, stack, ego, ov, record=record)
+            episode.attach_sensors(library, sensors)
+            info = RunInfo(
+                dt=self.dt,
+                route=tuple((x, -y) for x, y in ego_route),
+                goal=(ego_goal[0], -ego_goal[1]),
+                map_name=spec.name,
+                camera=stack.camera,
+                seed=int(seed),
+            )
+            try:
+                stack.reset(info)
+            except Exception as exc:
+                raise _StackFailure() from exc
+            sit_conflict = (conflict[0], -conflict[1])
+            driver = OVDriver(
+                list(info.route),
+                [(x, -y) for x, y in ov_route],
+                sit_conflict,
+                friction["max_steer"],
+            )
+            outcome = episode.drive(driver, MetricTracker(sit_conflict), ego_goal)
+            outcome.metrics.update(
+                friction_scale=scale,
+                tire_friction=friction["readback"],
+                friction_mode=self.friction_mode,
+                weather=weather_values,
+                map=spec.name,
+                town=spec.town,
+                carla_server=self._versions.get("server"),
+                carla_client=self._versions.get("client"),
+                ov_released_at=driver.released_at,
+            )
+            return outcome
+        finally:
+            self._cleanup(world, original, actors, sensors)
+
+    def _apply_friction(
+        self, world: Any, library: Any, vehicles: tuple[Any, ...], scale: float, actors: list
+    ) -> dict[str, Any]:
+        wanted: list[list[float]] = []
+        base = 1.0  # the wheels' own friction before scaling (the trigger's reference)
+        max_steer = math.radians(70.0)  # of the last vehicle, the OV (for its pure pursuit)
+        for vehicle in vehicles:
+            control = vehicle.get_physics_control()
+            wheels = control.wheels
+            if wheels:
+                base = wheels[0].tire_friction
+                max_steer = math.radians(max(w.max_steer_angle for w in wheels) or 70.0)
+            if self.friction_mode in ("wheels", "both"):
+                for wheel in wheels:
+                    wheel.tire_friction = wheel.tire_friction * scale
+                control.wheels = wheels
+                vehicle.apply_physics_control(control)
+            wanted.append([w.tire_friction for w in wheels])
+        if self.friction_mode in ("trigger", "both"):
+            bp = library.find("static.trigger.friction")
+            bp.set_attribute("friction", str(base * scale))
+            extent = str(self.map.junction.radius * 100.0)  # centimetres
+            for axis in ("extent_x", "extent_y"):
+                bp.set_attribute(axis, extent)
+            bp.set_attribute("extent_z", "1000.0")
+            junction = self.map.junction
+            actors.append(world.spawn_actor(bp, self._transform(junction.x, junction.y)))
+        world.tick(seconds=self.timeout)
+        readback = [[w.tire_friction for w in v.get_physics_control().wheels] for v in vehicles]
+        result: dict[str, Any] = {"readback": readback, "max_steer": max_steer}
+        for got, want in zip(readback, wanted, strict=True):
+            pairs = zip(got, want, strict=False)
+            if len(got) != len(want) or any(
+                abs(g - w) > FRICTION_RTOL * max(abs(w), 1e-9) for g, w in pairs
+            ):
+                result["error"] = (
+                    f"tyre friction did not take effect: read back {got}, wanted {want}"
+                )
+        return result
+
+    def _cleanup(self, world: Any, original: Any, actors: list, sensors: list) -> None:
+        for sensor in sensors:
+            with contextlib.suppress(RuntimeError):
+                sensor.stop()
+        for actor in [*reversed(sensors), *reversed(actors)]:
+            with contextlib.suppress(RuntimeError):
+                actor.destroy()
+        sensors.clear()
+        actors.clear()
+        try:
+            world.apply_settings(original)
+        except RuntimeError:
+            self.close()  # a dead connection: reconnect next time
+
+
+def friction_scale(values: Mapping[str, Any]) -> float:
+    """Factor applied to the tyres' friction: the situation's mu relative to clear, dry mu.
+
+    Uses ``sitcov.sim.conditions_from_values`` so both backends share one friction model
+    (friction element × wet-road factor).
+    """
+    from sitcov.sim._conditions import conditions_from_values
+
+    return conditions_from_values(values).mu / conditions_from_values({}).mu
+
+
+def image_to_rgb(image: Any) -> np.ndarray:
+    """A carla.Image (BGRA bytes) as an HxWx3 uint8 RGB array."""
+    bgra = np.frombuffer(image.raw_data, dtype=np.uint8).reshape(image.height, image.width, 4)
+    return bgra[:, :, [2, 1, 0]]  # fancy indexing copies into a contiguous array
+
+
+def vehicle_state(actor: Any) -> VehicleState:
+    """An actor's pose, velocity and box in the sitcov frame."""
+    tf = actor.get_transform()
+    vel = actor.get_velocity()
+    x, y, yaw = to_sitcov(tf.location.x, tf.location.y, tf.rotation.yaw)
+    ext = actor.bounding_box.extent
+    return VehicleState(x, y, yaw, vel.x, -vel.y, ext.x, ext.y)
+
+
+def ego_state(state: VehicleState, t: float) -> EgoState:
+    """What the ego's localisation reports."""
+    return EgoState(x=state.x, y=state.y, yaw=state.yaw, speed=state.speed, t=t)
+
+
+def make_observation(t: float, state: VehicleState, image: np.ndarray | None) -> Observation:
+    """Camera-mode observation (detections are the stack's job)."""
+    return Observation(t=t, ego=ego_state(state, t), image=image)
+
+
+def _import_carla() -> Any:
+    try:
+        import carla
+    except ImportError:
+        raise MissingExtraError("CARLA backend", "carla", "carla") from None
+    return carla

@@ -1,0 +1,346 @@
+"""OpenSCENARIO 1.0 export of situations on a CARLA map file (Town03 by default).
+
+One ``.xosc`` per situation, written with ``scenariogeneration`` so ScenarioRunner and
+esmini users can replay what sitcov found. Contents:
+
+- entities ``hero`` (the ego, ScenarioRunner's ``type=ego_vehicle``) and ``adversary``,
+  the map file's blueprints as vehicle names, teleported to the map file's spawn points;
+- the environment: cloud state, fog visual range, rain and sun from the situation's
+  weather values, and ``RoadCondition frictionScaleFactor`` = the backend's friction
+  scale; the exact CARLA weather values are kept as ``carla_*`` parameters;
+- the ego drives its route (spawn, conflict point, goal) at 25 km/h (the reference stack's
+  target speed; drop the ``hero`` maneuver group to let your own agent drive);
+- the OV's timed approach, simplified to what OpenSCENARIO can express: it starts when the
+  ego moves, holds the constant speed that brings it to the conflict point when the ego
+  (at 25 km/h) arrives there, and switches to 15 km/h once the ego is within the
+  adversary's switch distance of the conflict point (no closed-loop timing law);
+- a stop trigger: collision hero/adversary, the ego at its goal, or 60 s.
+
+OpenSCENARIO's world frame is right-handed (y to the left, heading counter-clockwise),
+CARLA's is left-handed: positions are written as (x, −y) and headings as −yaw [rad], the
+conversion ScenarioRunner undoes when it reads them.
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from sitcov.errors import ConfigError, MissingExtraError
+from sitcov.sim.carla._mapfile import CarlaMap, load_carla_map
+from sitcov.sim.carla._surface import WEATHER_ELEMENTS
+
+#: The ego's cruise speed assumed for the OV's timing [m/s] (25 km/h).
+EGO_SPEED = 25.0 / 3.6
+#: Acceleration assumed for speed changes [m/s^2].
+ACCEL = 2.0
+#: Speed of the OV after the switch [m/s] (15 km/h).
+OV_CRUISE = 15.0 / 3.6
+#: Bounds of the OV's approach speed [m/s].
+OV_SPEED_RANGE = (1.0, 20.0)
+#: Simulated time limit [s].
+SIM_TIMEOUT = 60.0
+#: Fixed header date: the same situation always gives the same file.
+CREATION_DATE = datetime.datetime(2024, 1, 1)
+
+
+def _xosc() -> Any:
+    try:
+        from scenariogeneration import xosc
+    except ImportError:
+        raise MissingExtraError("OpenSCENARIO export", "xosc", "scenariogeneration") from None
+    return xosc
+
+
+def _world(xosc: Any, x: float, y: float, yaw_deg: float | None = None) -> Any:
+    h = None if yaw_deg is None else -math.radians(yaw_deg)
+    return xosc.WorldPosition(x=x, y=-y, z=0.0, h=h)
+
+
+def _path_length(points: list[tuple[float, float]]) -> float:
+    return sum(math.dist(a, b) for a, b in zip(points, points[1:], strict=False))
+
+
+def approach_speed(d_ego: float, d_ov: float) -> float:
+    """Constant OV speed [m/s] that reaches the conflict point when the ego does.
+
+    The ego accelerates at ACCEL to EGO_SPEED; the OV starts at the same moment and
+    accelerates at ACCEL to the returned speed.
+    """
+    t_ego = d_ego / EGO_SPEED + EGO_SPEED / (2.0 * ACCEL)
+    lo, hi = OV_SPEED_RANGE
+    # d_ov = v (t - v / (2 a))  ->  v^2 / (2a) - v t + d_ov = 0, the smaller root
+    disc = t_ego * t_ego - 2.0 * d_ov / ACCEL
+    v = (t_ego - math.sqrt(disc)) * ACCEL if disc >= 0 else hi
+    return max(lo, min(hi, v))
+
+
+def _weather(xosc: Any, values: Mapping[str, Any]) -> Any:
+    from sitcov.sim._conditions import conditions_from_values
+    from sitcov.sim.carla._backend import friction_scale
+
+    cloud = float(values.get("cloudiness", 0.0))
+    rain = float(values.get("precipitation", 0.0))
+    if rain >= 50.0:
+        state = xosc.CloudState.rainy
+    elif cloud >= 60.0:
+        state = xosc.CloudState.overcast
+    elif cloud >= 20.0:
+        state = xosc.CloudState.cloudy
+    else:
+        state = xosc.CloudState.free
+    visibility = conditions_from_values(values).visibility
+    fog = xosc.Fog(visual_range=int(min(100000.0, visibility)))
+    precipitation = xosc.Precipitation(
+        xosc.PrecipitationType.rain if rain > 0 else xosc.PrecipitationType.dry, rain / 100.0
+    )
+    sun = xosc.Sun(intensity=100000.0, azimuth=0.0, elevation=math.radians(45.0))
+    weather = xosc.Weather(cloudstate=state, sun=sun, fog=fog, precipitation=precipitation)
+    road = xosc.RoadCondition(friction_scale_factor=round(friction_scale(values), 6))
+    return xosc.Environment(
+        "sitcov_environment",
+        xosc.TimeOfDay(False, 2024, 6, 21, 12, 0, 0),
+        weather,
+        road,
+    )
+
+
+def _vehicle(xosc: Any, blueprint: str, ego: bool) -> Any:
+    box = xosc.BoundingBox(2.0, 4.8, 1.5, 1.4, 0.0, 0.75)
+    front = xosc.Axle(math.radians(70.0), 0.7, 1.6, 2.8, 0.35)
+    rear = xosc.Axle(0.0, 0.7, 1.6, 0.0, 0.35)
+    car = xosc.Vehicle(blueprint, xosc.VehicleCategory.car, box, front, rear, 50.0, 5.0, 10.0)
+    car.add_property("type", "ego_vehicle" if ego else "simulation")
+    return car
+
+
+def _route(xosc: Any, name: str, points: Iterable[tuple[float, float]]) -> Any:
+    route = xosc.Route(name)
+    for x, y in points:
+        route.add_waypoint(_world(xosc, x, y), xosc.RouteStrategy.shortest)
+    return xosc.AssignRouteAction(route)
+
+
+def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any:
+    """The ``scenariogeneration`` Scenario of one situation (see the module docstring).
+
+    Raises:
+        ConfigError: the situation has no usable ``intsit`` for this map.
+        MissingExtraError: scenariogeneration is not installed.
+    """
+    xosc = _xosc()
+    spec = carla_map or load_carla_map("Town03")
+    values = dict(situation.values)
+    intsit = values.get("intsit")
+    if not isinstance(intsit, Mapping) or not {"ego", "ov", "conflict"} <= set(intsit):
+        raise ConfigError(field="intsit", value=intsit, expected="a mapping with ego, ov, conflict")
+    ego_mv, ov_mv = str(intsit["ego"]), str(intsit["ov"])
+    ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
+    cp = spec.conflict_point(str(intsit["conflict"]))
+    junction = (spec.junction.x, spec.junction.y)
+    ego_goal, ov_goal = spec.goal(ego_mv), spec.goal(ov_mv)
+    d_ego = _path_length([(ego_sp.x, ego_sp.y), junction, cp])
+    d_ov = _path_length([(ov_sp.x, ov_sp.y), junction, cp])
+    v_ov = approach_speed(d_ego, d_ov)
+
+    params = xosc.ParameterDeclarations()
+    params.add_parameter(
+        xosc.Parameter("sitcov_situation", xosc.ParameterType.string, situation.id)
+    )
+    for name in WEATHER_ELEMENTS + ("friction",):
+        if name in values:
+            params.add_parameter(
+                xosc.Parameter(f"carla_{name}", xosc.ParameterType.double, str(float(values[name])))
+            )
+    entities = xosc.Entities()
+    entities.add_scenario_object("hero", _vehicle(xosc, spec.ego_blueprint, True))
+    entities.add_scenario_object("adversary", _vehicle(xosc, spec.ov_blueprint, False))
+
+    init = xosc.Init()
+    init.add_global_action(xosc.EnvironmentAction(_weather(xosc, values)))
+    init.add_init_action("hero", xosc.TeleportAction(_world(xosc, ego_sp.x, ego_sp.y, ego_sp.yaw)))
+    init.add_init_action(
+        "adversary", xosc.TeleportAction(_world(xosc, ov_sp.x, ov_sp.y, ov_sp.yaw))
+    )
+    init.add_init_action("hero", _route(xosc, "hero_route", [(ego_sp.x, ego_sp.y), cp, ego_goal]))
+    init.add_init_action("adversary", _route(xosc, "ov_route", [(ov_sp.x, ov_sp.y), cp, ov_goal]))
+
+    def speed(v: float) -> Any:
+        dyn = xosc.TransitionDynamics(
+            xosc.DynamicsShapes.linear, xosc.DynamicsDimension.rate, ACCEL
+        )
+        return xosc.AbsoluteSpeedAction(round(v, 3), dyn)
+
+    start = xosc.ValueTrigger(
+        "start",
+        0.0,
+        xosc.ConditionEdge.none,
+        xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan),
+    )
+    ego_event = xosc.Event("hero_drive", xosc.Priority.overwrite)
+    ego_event.add_action("hero_speed", speed(EGO_SPEED))
+    ego_event.add_trigger(start)
+
+    from sitcov.sim._adversary import AdversaryParams
+
+    switch = AdversaryParams().switch_distance
+    ov_go = xosc.Event("adversary_approach", xosc.Priority.overwrite)
+    ov_go.add_action("adversary_timed_speed", speed(v_ov))
+    ov_go.add_trigger(
+        xosc.EntityTrigger(
+            "hero_moves",
+            0.0,
+            xosc.ConditionEdge.rising,
+            xosc.SpeedCondition(0.1, xosc.Rule.greaterThan),
+            "hero",
+        )
+    )
+    ov_cruise = xosc.Event("adversary_cruise", xosc.Priority.overwrite)
+    ov_cruise.add_action("adversary_cruise_speed", speed(OV_CRUISE))
+    ov_cruise.add_trigger(
+        xosc.EntityTrigger(
+            "hero_near_conflict",
+            0.0,
+            xosc.ConditionEdge.rising,
+            xosc.ReachPositionCondition(_world(xosc, *cp), switch),
+            "hero",
+        )
+    )
+    storyboard = xosc.StoryBoard(init, _stop_trigger(xosc, ego_goal, spec.goal_tolerance))
+    for actor, events in (("hero", [ego_event]), ("adversary", [ov_go, ov_cruise])):
+        maneuver = xosc.Maneuver(f"{actor}_maneuver")
+        for event in events:
+            maneuver.add_event(event)
+        group = xosc.ManeuverGroup(f"{actor}_group")
+        group.add_actor(actor)
+        group.add_maneuver(maneuver)
+        storyboard.add_maneuver_group(group, starttrigger=start)
+    return xosc.Scenario(
+        f"sitcov_{situation.id}",
+        "sitcov",
+        params,
+        entities,
+        storyboard,
+        xosc.RoadNetwork(roadfile=spec.town),
+        xosc.Catalog(),
+        osc_minor_version=0,
+        creation_date=CREATION_DATE,
+    )
+
+
+def _stop_trigger(xosc: Any, goal: tuple[float, float], tolerance: float) -> Any:
+    trigger = xosc.Trigger("stop")
+    conditions = [
+        xosc.EntityTrigger(
+            "collision",
+            0.0,
+            xosc.ConditionEdge.rising,
+            xosc.CollisionCondition("adversary"),
+            "hero",
+        ),
+        xosc.EntityTrigger(
+            "ego_at_goal",
+            0.0,
+            xosc.ConditionEdge.rising,
+            xosc.ReachPositionCondition(_world(xosc, *goal), tolerance),
+            "hero",
+        ),
+        xosc.ValueTrigger(
+            "time_limit",
+            0.0,
+            xosc.ConditionEdge.rising,
+            xosc.SimulationTimeCondition(SIM_TIMEOUT, xosc.Rule.greaterThan),
+        ),
+    ]
+    for condition in conditions:  # groups are OR-ed
+        trigger.add_conditiongroup(xosc.ConditionGroup().add_condition(condition))
+    return trigger
+
+
+def export_xosc(
+    situations: Iterable[Any],
+    out_dir: str | Path,
+    *,
+    map: str | Path = "Town03",  # noqa: A002
+) -> list[Path]:
+    """Write one ``<situation id>.xosc`` per situation into ``out_dir``; the paths written.
+
+    Situations with the same id are written once.
+    """
+    spec = load_carla_map(map)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    seen: set[str] = set()
+    for situation in situations:
+        if situation.id in seen:
+            continue
+        seen.add(situation.id)
+        path = out / f"{situation.id}.xosc"
+        situation_scenario(situation, spec).write_xml(str(path))
+        written.append(path)
+    return written
+
+
+def situations_from_json(text: str) -> list[Any]:
+    """Situations from JSON text: one object, a list, or JSON lines (``sitcov generate``).
+
+    ``text`` starting with ``@`` names a file to read.
+
+    Raises:
+        ConfigError: not JSON, or an object without ``bins`` and ``values``.
+    """
+    import json
+
+    from sitcov.hyperspace import Situation
+
+    source = "--situation-json"
+    if text.startswith("@"):
+        source = text[1:]
+        try:
+            text = Path(source).read_text(encoding="utf-8")
+        except OSError as exc:
+            raise ConfigError(f"{source}: cannot read situations: {exc}") from None
+    try:
+        data = json.loads(text)
+        items = data if isinstance(data, list) else [data]
+    except json.JSONDecodeError:
+        try:
+            items = [json.loads(line) for line in text.splitlines() if line.strip()]
+        except json.JSONDecodeError as exc:
+            raise ConfigError(
+                file=source, field="(json)", expected=f"JSON situations ({exc.msg})"
+            ) from None
+    out = []
+    for i, item in enumerate(items):
+        if not isinstance(item, Mapping) or not {"bins", "values"} <= set(item):
+            raise ConfigError(
+                file=source, field=f"[{i}]", expected='an object with "bins" and "values"'
+            )
+        try:
+            out.append(Situation.from_dict(item))
+        except (TypeError, ValueError) as exc:
+            raise ConfigError(f"{source}: [{i}]: {exc}") from None
+    return out
+
+
+def failing_situations(db: str | Path, campaign: str | None = None) -> list[Any]:
+    """The situations of the failing runs stored in a campaign database.
+
+    Raises:
+        ConfigError: the database file does not exist.
+    """
+    from sitcov.campaign import open_store
+
+    if not Path(db).exists():
+        raise ConfigError(field="--db", value=str(db), expected="an existing campaign database")
+    store = open_store(db)
+    try:
+        if campaign is not None:
+            store.campaign(campaign)  # a clear error naming the known campaigns
+        return [run.situation for run in store.runs(campaign=campaign, status="fail")]
+    finally:
+        store.close()

@@ -1,0 +1,246 @@
+"""Single-track (bicycle) vehicle dynamics with saturating tyres, in plain-float Python.
+
+Parameters are CommonRoad's vehicle 2 (BMW 320i), read once from
+``vehiclemodels.parameters_vehicle2``. The model is integrated here rather than with
+CommonRoad's functions, which are far too slow to call every 25 ms sub-step:
+
+- lateral tyre force ``Fy = Fy_max * tanh(C * Fz * alpha / Fy_max)``: linear with the
+  cornering stiffness for small slip angles, saturating at the friction limit;
+- combined slip by a friction ellipse: ``Fy_max = sqrt((mu*Fz)^2 - Fx^2)``;
+- braking as ideal ABS (force split by axle load, each axle capped at ``mu*Fz``), so a
+  full brake decelerates at ``min(mu, brake_max) * g``; rear-wheel drive, up to ~3 m/s^2;
+- below ``V_KIN_LOW`` the kinematic single-track model, blended into the dynamic one up to
+  ``V_KIN_HIGH``, because tyre slip angles are ill-defined at walking pace.
+
+See ``docs/embedded.md`` for the equations.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+G = 9.81  #: gravity [m/s^2]
+#: Control period [s] and dynamic sub-steps per period.
+DT = 0.05
+SUBSTEPS = 2
+#: Speeds [m/s] between which the kinematic model hands over to the dynamic one.
+V_KIN_LOW = 2.0
+V_KIN_HIGH = 4.0
+#: Height of a saloon car for sensors and renderers [m].
+VEHICLE_HEIGHT = 1.45
+
+
+@dataclass(frozen=True)
+class VehicleParams:
+    """Physical parameters of a vehicle (SI units).
+
+    Attributes:
+        mass: [kg]. iz: yaw inertia [kg m^2]. lf, lr: centre of gravity to front/rear axle [m].
+        h_cg: height of the centre of gravity [m]. length, width, height: body [m].
+        steer_max: maximum road-wheel angle [rad]. c_front, c_rear: normalised cornering
+            stiffness, lateral force per unit load per radian [1/rad].
+        accel_max: full-throttle acceleration at low speed [m/s^2].
+        power: engine power limit at the wheels [W]. brake_max: full-brake deceleration on
+            a dry road [g]. drag: aerodynamic drag 0.5*rho*cd*A [kg/m]. roll: rolling
+            resistance coefficient [-].
+    """
+
+    mass: float
+    iz: float
+    lf: float
+    lr: float
+    h_cg: float
+    length: float
+    width: float
+    height: float
+    steer_max: float
+    c_front: float
+    c_rear: float
+    accel_max: float = 3.0
+    power: float = 100_000.0
+    brake_max: float = 1.0
+    drag: float = 0.5 * 1.225 * 0.29 * 2.2
+    roll: float = 0.012
+
+    @property
+    def wheelbase(self) -> float:
+        """lf + lr [m]."""
+        return self.lf + self.lr
+
+
+def bmw_320i() -> VehicleParams:
+    """CommonRoad vehicle 2 (BMW 320i): mass, inertia, geometry, steering, tyre stiffness."""
+    from vehiclemodels.parameters_vehicle2 import parameters_vehicle2
+
+    p = parameters_vehicle2()
+    stiffness = -p.tire.p_ky1 / p.tire.p_dy1  # as CommonRoad's ST model derives C_S
+    return VehicleParams(
+        mass=float(p.m),
+        iz=float(p.I_z),
+        lf=float(p.a),
+        lr=float(p.b),
+        h_cg=float(p.h_cg),
+        length=float(p.l),
+        width=float(p.w),
+        height=VEHICLE_HEIGHT,
+        steer_max=float(p.steering.max),
+        c_front=float(stiffness),
+        c_rear=float(stiffness),
+    )
+
+
+_DEFAULT: VehicleParams | None = None
+
+
+def default_params() -> VehicleParams:
+    """The reference vehicle, built once per process."""
+    global _DEFAULT
+    if _DEFAULT is None:
+        _DEFAULT = bmw_320i()
+    return _DEFAULT
+
+
+class Vehicle:
+    """State and integrator of one single-track vehicle.
+
+    State: position ``x, y`` [m] of the centre of gravity, heading ``yaw`` [rad], body-frame
+    velocities ``vx`` (forward), ``vy`` (left) [m/s] and yaw rate ``r`` [rad/s]. The
+    vehicle never reverses (there is no reverse gear in :class:`~sitcov.av.Control`).
+    """
+
+    __slots__ = ("p", "x", "y", "yaw", "vx", "vy", "r", "steer", "_k")
+
+    def __init__(
+        self, params: VehicleParams, x: float, y: float, yaw: float, speed: float = 0.0
+    ) -> None:
+        self.p = params
+        self.x, self.y, self.yaw = float(x), float(y), float(yaw)
+        self.vx, self.vy, self.r = float(speed), 0.0, 0.0
+        self.steer = 0.0
+        m, g, lf, lr = params.mass, G, params.lf, params.lr
+        wb = lf + lr
+        fzf, fzr = m * g * lr / wb, m * g * lf / wb
+        # constants used every sub-step
+        self._k = (
+            m,
+            params.iz,
+            lf,
+            lr,
+            wb,
+            fzf,
+            fzr,
+            params.c_front * fzf,
+            params.c_rear * fzr,
+            params.accel_max * m,
+            params.power,
+            params.brake_max * m * g,
+            params.drag,
+            params.roll * m * g,
+        )
+
+    @property
+    def speed(self) -> float:
+        """Speed over ground [m/s]."""
+        return math.hypot(self.vx, self.vy)
+
+    def step(
+        self,
+        throttle: float,
+        brake: float,
+        steer: float,
+        mu: float,
+        lateral_accel: float = 0.0,
+        dt: float = DT,
+        substeps: int = SUBSTEPS,
+    ) -> None:
+        """Advance by ``dt`` under constant commands.
+
+        Args:
+            throttle, brake: in [0, 1]. steer: in [-1, 1], positive left, times steer_max.
+            mu: tyre-road friction [-]. lateral_accel: external acceleration to the
+                vehicle's left [m/s^2] (crosswind).
+        """
+        (m, iz, lf, lr, wb, fzf, fzr, cf, cr, fdrive, power, fbrake, drag, roll) = self._k
+        throttle = 0.0 if throttle < 0.0 else (1.0 if throttle > 1.0 else throttle)
+        if throttle == 0.0 and self.vx == 0.0 and self.vy == 0.0 and self.r == 0.0:
+            return  # standing still with no drive: nothing moves (wind cannot push a braked car)
+        brake = 0.0 if brake < 0.0 else (1.0 if brake > 1.0 else brake)
+        steer = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
+        delta = steer * self.p.steer_max
+        self.steer = delta
+        h = dt / substeps
+        share_f = fzf / (fzf + fzr)
+        share_r = 1.0 - share_f
+        muf, mur = mu * fzf, mu * fzr
+        cos_d, sin_d, tan_d = math.cos(delta), math.sin(delta), math.tan(delta)
+        cos_bk = sin_bk = 0.0
+        if self.vx < V_KIN_HIGH + 1.0:  # the kinematic model may be needed this period
+            beta_k = math.atan(lr * tan_d / wb)
+            cos_bk, sin_bk = math.cos(beta_k), math.sin(beta_k)
+        for _ in range(substeps):
+            vx, vy, r = self.vx, self.vy, self.r
+            v = math.hypot(vx, vy)
+            # longitudinal forces: drive (rear), brake split by axle load, each axle <= mu*Fz
+            drive = fdrive * throttle
+            if v > 1.0 and drive * v > power * throttle:
+                drive = power * throttle / v
+            if drive > mur:
+                drive = mur
+            fb = fbrake * brake
+            fbf, fbr = fb * share_f, fb * share_r
+            if fbf > muf:
+                fbf = muf
+            if fbr > mur - drive:
+                fbr = mur - drive
+            resist = (drag * v * v + roll) if v > 0.05 else 0.0
+            fxf = -fbf
+            fxr = drive - fbr
+            if v >= V_KIN_HIGH:
+                w = 1.0
+            elif v <= V_KIN_LOW:
+                w = 0.0
+            else:
+                w = (v - V_KIN_LOW) / (V_KIN_HIGH - V_KIN_LOW)
+            yaw = self.yaw
+            if w > 0.0:
+                # dynamic single-track with saturating tyres
+                alpha_f = delta - math.atan2(vy + lf * r, vx)
+                alpha_r = -math.atan2(vy - lr * r, vx)
+                lim = muf * muf - fxf * fxf
+                fyf_max = math.sqrt(lim) if lim > 1.0 else 1.0
+                lim = mur * mur - fxr * fxr
+                fyr_max = math.sqrt(lim) if lim > 1.0 else 1.0
+                fyf = fyf_max * math.tanh(cf * alpha_f / fyf_max)
+                fyr = fyr_max * math.tanh(cr * alpha_r / fyr_max)
+                fyf_c = fxf * sin_d + fyf * cos_d
+                vx_n = vx + ((fxf * cos_d - fyf * sin_d + fxr - resist) / m + vy * r) * h
+                vy_n = vy + ((fyf_c + fyr) / m + lateral_accel - vx * r) * h
+                r_n = r + ((lf * fyf_c - lr * fyr) / iz) * h
+                if vx_n < 0.0:
+                    vx_n = 0.0
+            if w < 1.0:
+                # kinematic single-track (speed along the body, no slip)
+                v_kin = v + (fxf + fxr - resist) / m * h
+                if v_kin < 0.0:
+                    v_kin = 0.0
+                vx_k, vy_k = v_kin * cos_bk, v_kin * sin_bk
+                if v_kin > 0.0:
+                    vy_k += lateral_accel * h
+                r_k = v_kin * cos_bk * tan_d / wb
+                if w > 0.0:
+                    vx_n = w * vx_n + (1.0 - w) * vx_k
+                    vy_n = w * vy_n + (1.0 - w) * vy_k
+                    r_n = w * r_n + (1.0 - w) * r_k
+                else:
+                    vx_n, vy_n, r_n = vx_k, vy_k, r_k
+            # position update with the mean velocity over the sub-step (semi-implicit)
+            yaw_n = yaw + 0.5 * (r + r_n) * h
+            mvx, mvy = 0.5 * (vx + vx_n), 0.5 * (vy + vy_n)
+            c, s = math.cos(yaw), math.sin(yaw)
+            self.x += (mvx * c - mvy * s) * h
+            self.y += (mvx * s + mvy * c) * h
+            self.yaw = yaw_n
+            self.vx, self.vy, self.r = vx_n, vy_n, r_n
+        if self.yaw > math.pi or self.yaw < -math.pi:
+            self.yaw = math.atan2(math.sin(self.yaw), math.cos(self.yaw))

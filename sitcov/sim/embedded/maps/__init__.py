@@ -1,0 +1,1 @@
+"""Built-in junction maps (YAML data files, format in docs/embedded.md)."""

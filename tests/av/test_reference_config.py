@@ -1,0 +1,99 @@
+"""Faults and parameters as configuration; make_stack's name resolution and errors."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from sitcov.av import (
+    DEFAULT_PARAMS,
+    FAULT_DESCRIPTIONS,
+    FAULTS,
+    AVStack,
+    NoPerceptionStack,
+    ReferenceStack,
+    make_stack,
+)
+from sitcov.errors import ConfigError, UnknownPluginError
+
+
+def test_faults_are_the_papers_values():
+    assert FAULTS == {
+        "f1": {"threshold": 0.95},
+        "f2": {"centering": (0.3, 0.6)},
+        "f3": {"distance": 0.35},
+    }
+    assert set(FAULT_DESCRIPTIONS) == set(FAULTS)
+
+
+@pytest.mark.parametrize("fault", sorted(FAULTS))
+def test_config_reports_fault_and_effective_params(fault):
+    cfg = ReferenceStack(fault=fault).config()
+    assert cfg["name"] == "reference" and cfg["fault"] == fault
+    ((name, value),) = FAULTS[fault].items()
+    assert cfg["params"][name] == (list(value) if isinstance(value, tuple) else value)
+    json.dumps(cfg)  # stored with every run
+
+
+def test_params_override_defaults_and_faults():
+    stack = ReferenceStack(fault="f1", params={"threshold": 0.7, "target_speed_kmh": 30})
+    assert stack.params["threshold"] == 0.7
+    assert stack.params["target_speed_kmh"] == 30.0
+    assert stack.params["distance"] == DEFAULT_PARAMS["distance"]
+    assert ReferenceStack(params={"centering": [0.1, 0.9]}).params["centering"] == (0.1, 0.9)
+
+
+def test_unknown_fault_lists_the_allowed_ones():
+    with pytest.raises(ConfigError, match=r"'f9'.*f1, f2, f3"):
+        ReferenceStack(fault="f9")
+
+
+def test_unknown_param_lists_the_allowed_ones():
+    with pytest.raises(ConfigError, match=r"'treshold'.*centering.*threshold") as info:
+        ReferenceStack(params={"treshold": 0.4})
+    assert info.value.field == "params.treshold"
+
+
+@pytest.mark.parametrize(
+    "params",
+    [
+        {"threshold": 1.5},
+        {"threshold": "high"},
+        {"centering": (0.6, 0.3)},
+        {"centering": 0.5},
+        {"distance": -1},
+        {"pid_window": 0},
+        {"max_brake": True},
+    ],
+)
+def test_invalid_values_are_config_errors(params):
+    with pytest.raises(ConfigError, match=next(iter(params))):
+        ReferenceStack(params=params)
+
+
+def test_make_stack_names_and_paths():
+    assert type(make_stack()) is ReferenceStack
+    assert make_stack("reference", fault="f2").params["centering"] == (0.3, 0.6)
+    blind = make_stack("no-perception")
+    assert isinstance(blind, NoPerceptionStack) and not blind.aeb
+    by_path = make_stack("sitcov.av:ReferenceStack", params={"distance": 0.5})
+    assert by_path.params["distance"] == 0.5
+
+
+class _Plain(AVStack):
+    def reset(self, info):
+        pass
+
+    def step(self, observation):
+        raise NotImplementedError
+
+
+def test_make_stack_errors():
+    with pytest.raises(UnknownPluginError, match="reference"):
+        make_stack("nonexistent")
+    with pytest.raises(ConfigError, match="does not implement"):
+        make_stack("sitcov.av:Control")
+    with pytest.raises(ConfigError, match="does not take 'fault'"):
+        make_stack(f"{__name__}:_Plain", fault="f1")
+    assert isinstance(make_stack(f"{__name__}:_Plain"), _Plain)

@@ -1,0 +1,74 @@
+"""Route following of the reference stack: PID signs, straight and turning routes, speed."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from _kinematic import cross_track, drive
+
+from sitcov.av import LateralPID, LongitudinalPID, ReferenceStack, heading_error
+
+
+def test_heading_error_sign_and_magnitude():
+    # Target to the left of an east-facing car is a positive (counter-clockwise) error.
+    assert heading_error(0, 0, 0.0, 10, 10) == pytest.approx(math.pi / 4)
+    assert heading_error(0, 0, 0.0, 10, -10) == pytest.approx(-math.pi / 4)
+    # Heading north, target due east: a right turn of 90 degrees.
+    assert heading_error(0, 0, math.pi / 2, 5, 0) == pytest.approx(-math.pi / 2)
+    assert heading_error(1, 1, 0.3, 1, 1) == 0.0
+
+
+def test_lateral_pid_matches_carla_window_formula():
+    pid = LateralPID(0.58, 0.02, 0.5, 0.05)
+    errors = [0.1 * (i % 4) for i in range(13)]
+    outs = [pid.update(e) for e in errors]
+    # Independent formula: window of the last 10 errors, D from the last two.
+    for i in range(1, len(errors)):
+        window = errors[max(0, i - 9) : i + 1]
+        expected = 0.58 * errors[i] + 0.02 * (errors[i] - errors[i - 1]) / 0.05
+        expected += 0.5 * sum(window) * 0.05
+        assert outs[i] == pytest.approx(expected)
+    assert outs[0] == pytest.approx(0.58 * errors[0])
+
+
+def test_longitudinal_pid_throttles_below_and_brakes_above_target():
+    pid = LongitudinalPID(0.15, 0.05, 0.07, 0.05)
+    assert pid.step(25.0, 0.0) == 1.0  # clipped
+    pid.reset()
+    assert pid.step(25.0, 40.0) < 0.0
+
+
+def test_follows_straight_route_from_an_offset_and_holds_speed():
+    route = [(float(i), 0.0) for i in range(300)]
+    rows = drive(ReferenceStack(), route, start=(0.0, 1.5, 0.2), steps=400)
+    late = rows[200:]
+    assert max(abs(r[1]) for r in late) < 0.3  # converged onto the lane centre [m]
+    speeds = [r[3] * 3.6 for r in late]
+    assert sum(speeds) / len(speeds) == pytest.approx(25.0, abs=1.0)
+    assert max(speeds) < 27.5
+    # Speed regulation never brakes harder than CARLA's 0.3 cap.
+    assert all(r[4].brake <= 0.3 + 1e-12 for r in rows)
+
+
+@pytest.mark.parametrize("direction", [1.0, -1.0])
+def test_follows_a_turn_left_and_right(direction):
+    # 40 m straight, a quarter circle of radius 15 m, then 60 m straight, points ~1 m apart.
+    radius = 15.0
+    route = [(float(i), 0.0) for i in range(40)]
+    arc = int(radius * math.pi / 2)
+    for k in range(arc + 1):
+        a = k / arc * math.pi / 2
+        route.append((40.0 + radius * math.sin(a), direction * radius * (1 - math.cos(a))))
+    for i in range(1, 60):
+        route.append((40.0 + radius, direction * (radius + i)))
+    rows = drive(ReferenceStack(), route, start=(0.0, 0.0, 0.0), steps=500)
+    driving = [r for r in rows if r[4].brake < 1.0]  # before the end-of-route stop
+    worst = max(cross_track(route, r[0], r[1]) for r in driving)
+    assert worst < 1.0  # stays well inside its 3.5 m lane [m]
+    end = rows[-1]
+    # Went round the corner the right way and stopped at the end of the route.
+    assert math.hypot(end[0] - route[-1][0], end[1] - route[-1][1]) < 3.0
+    assert end[3] == 0.0
+    assert math.cos(end[2] - direction * math.pi / 2) > 0.99
+    assert rows[-1][4].brake == 1.0 and not rows[-1][4].info

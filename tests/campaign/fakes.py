@@ -1,0 +1,120 @@
+"""Tiny deterministic stand-ins for a backend, an AV stack and a learning generator.
+
+They are loaded by ``module:Class`` path (``fakes:FakeBackend`` with this folder on the
+path), so worker processes and Ray actors build them exactly like real plugins.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from typing import Any, ClassVar
+
+import numpy as np
+
+from sitcov.av import AVStack, Control
+from sitcov.generation import Generator
+from sitcov.sim import Backend, Outcome, Trace
+
+BACKEND = "fakes:FakeBackend"
+STACK = "fakes:FakeStack"
+GENERATOR = "fakes:FakeGenerator"
+
+
+def fake_outcome(situation: Any, seed: int) -> Outcome:
+    """The outcome FakeBackend gives (independently computable in tests)."""
+    rng = np.random.default_rng([int(seed), 7])
+    friction = float(situation.value("friction", 1.0))
+    p_fail = 0.6 if friction <= 0.2 else 0.15
+    failed = bool(rng.random() < p_fail)
+    distance = float(rng.uniform(0.0, 5.0))
+    return Outcome(
+        status="fail" if failed else "pass",
+        end_reason="collision" if failed else "goal",
+        sim_time=round(float(rng.uniform(5.0, 20.0)), 3),
+        collision=failed,
+        min_distance=0.0 if failed else distance,
+        metrics={"draw": distance},
+    )
+
+
+def raises(seed: int, rate: float) -> bool:
+    """Whether FakeBackend raises for this seed (deterministic, ~``rate`` of seeds)."""
+    return bool(np.random.default_rng([int(seed), 99]).random() < rate)
+
+
+class FakeBackend(Backend):
+    """Outcome from the seed and the friction value; optional raising and hanging."""
+
+    name: ClassVar[str] = "fake"
+
+    def __init__(
+        self, raise_rate: float = 0.0, hang_rate: float = 0.0, sleep: float = 0.0, **_: Any
+    ) -> None:
+        self.raise_rate, self.hang_rate, self.sleep = raise_rate, hang_rate, sleep
+
+    def run(self, situation: Any, av_stack: AVStack, seed: int, *, record: bool = False) -> Outcome:
+        if raises(seed, self.raise_rate):
+            raise RuntimeError(f"fake backend exploded on seed {seed}")
+        if self.hang_rate and np.random.default_rng([int(seed), 5]).random() < self.hang_rate:
+            time.sleep(3600)
+        if self.sleep:
+            time.sleep(self.sleep)
+        av_stack.step(None)  # type: ignore[arg-type]
+        outcome = fake_outcome(situation, seed)
+        if record:
+            ego = [(0.1 * k, float(k), 0.0, 0.0, 5.0) for k in range(3)]
+            trace = Trace(ego=ego, ov=[(0.0, 9.0, 9.0, 1.0, float(seed % 5))], meta={"seed": seed})
+            outcome = replace(outcome, trace=trace)
+        return outcome
+
+    def effects(self) -> dict[str, str]:
+        return {"friction": "raises the failure probability at 0.1 and 0.2", "intsit": "none"}
+
+
+class FakeStack(AVStack):
+    """Does nothing (the fake backend decides everything)."""
+
+    name: ClassVar[str] = "fake-stack"
+
+    def reset(self, info: Any) -> None:
+        pass
+
+    def step(self, observation: Any) -> Control:
+        return Control()
+
+
+class FakeGenerator(Generator):
+    """A learning generator: bins that failed are drawn more often (weight 1 + failures)."""
+
+    name: ClassVar[str] = "fake"
+    learns: ClassVar[bool] = True
+
+    def __init__(self, hyperspace: Any, **options: Any) -> None:
+        super().__init__(hyperspace)
+        self.fails = {e: dict.fromkeys(hyperspace.labels(e), 0) for e in hyperspace.element_names}
+        self.told = 0
+
+    def ask(self, rng: np.random.Generator) -> Any:
+        bins = {}
+        for element, counts in self.fails.items():
+            labels = list(counts)
+            weights = np.array([1.0 + counts[lab] for lab in labels])
+            bins[element] = labels[int(rng.choice(len(labels), p=weights / weights.sum()))]
+        return self.hyperspace.situation_from_bins(bins, rng)
+
+    def tell(self, situation: Any, outcome: Outcome) -> None:
+        self.told += 1
+        if outcome.status == "fail":
+            for element, label in situation.bins.items():
+                self.fails[element][label] += 1
+
+    def state(self) -> dict[str, Any]:
+        return {"fails": self.fails, "told": self.told}
+
+    @classmethod
+    def from_state(cls, hyperspace: Any, state: dict[str, Any]) -> FakeGenerator:
+        gen = cls(hyperspace)
+        gen.fails = {e: dict(c) for e, c in state["fails"].items()}
+        gen.told = state["told"]
+        return gen

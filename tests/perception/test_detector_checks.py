@@ -1,0 +1,73 @@
+"""Acceptance checks of the camera path (issue 5): detection rates by view and in fog."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sitcov.perception import ActorView, CameraSpec, Pose, project_box, render_frame
+from sitcov.perception._calibrate import PALETTE
+from sitcov.perception._nms import iou
+from sitcov.sim import conditions_from_values
+
+CAM = CameraSpec()
+VIEWS = {"rear": (0.0,), "front": (math.pi,), "side": (math.pi / 2, -math.pi / 2)}
+FLOOR = 0.3  # the detector's reporting threshold in use
+
+
+NEAR = (6.0, 8.0, 10.0, 12.0, 14.0)  # [m] boxes of 10% of the image width and more
+RANGE = (8.0, 12.0, 16.0, 20.0, 25.0, 30.0)  # [m]
+
+
+def _frames(geometry, ego: Pose, view: str, values=None, distances=NEAR, min_width=0.1):
+    """Frames of the OV at ``distances``, bearings -20..20 deg, in five colours, whose box
+    is at least ``min_width`` of the image width."""
+    cond = conditions_from_values(values or {})
+    cx = ego.x + CAM.mount_x * math.cos(ego.yaw)
+    cy = ego.y + CAM.mount_x * math.sin(ego.yaw)
+    for dist in distances:
+        for bearing in (-20.0, 0.0, 20.0):
+            for k, color in enumerate(PALETTE):
+                los = ego.yaw + math.radians(bearing)
+                yaw = los + VIEWS[view][k % len(VIEWS[view])]
+                actor = ActorView(
+                    Pose(cx + dist * math.cos(los), cy + dist * math.sin(los), yaw), 4.5, 1.9, 1.5
+                )
+                proj = project_box(CAM, ego, actor)
+                if proj is None or proj.width < min_width * CAM.width:
+                    continue
+                rng = np.random.default_rng(k)
+                img = render_frame(CAM, ego, (actor,), cond, geometry, rng, body_colors=[color])
+                yield img, proj
+
+
+def _rate(detector, geometry, ego, view, values=None, threshold=FLOOR, **kw) -> tuple[float, int]:
+    hits = n = 0
+    for img, proj in _frames(geometry, ego, view, values, **kw):
+        n += 1
+        dets = [d for d in detector(img) if d.score >= threshold]
+        if dets and iou(np.array(proj.box), np.array([d.box for d in dets])).max() >= 0.3:
+            hits += 1
+    return hits / n, n
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("view", sorted(VIEWS))
+def test_clear_daylight_detection_rate_by_view(ssd_detector, tjunction_geometry, view) -> None:
+    geometry, ego = tjunction_geometry
+    rate, n = _rate(ssd_detector, geometry, ego, view)
+    assert n >= 40
+    assert rate >= 0.9, f"{view}: {rate:.0%} of {n} frames"
+
+
+@pytest.mark.slow
+def test_fog_100_is_detected_clearly_less_often(ssd_detector, tjunction_geometry) -> None:
+    geometry, ego = tjunction_geometry
+    # Same frames (8..30 m, every view), with and without fog (visibility 25 m).
+    kw = {"distances": RANGE, "min_width": 0.0}
+    clear = np.mean([_rate(ssd_detector, geometry, ego, v, **kw)[0] for v in VIEWS])
+    fog = np.mean([_rate(ssd_detector, geometry, ego, v, {"fog_density": 100}, **kw)[0]
+                   for v in VIEWS])  # fmt: skip
+    assert fog <= clear - 0.25, f"clear {clear:.0%}, fog 100 {fog:.0%}"

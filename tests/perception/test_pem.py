@@ -1,0 +1,162 @@
+"""The perception error model: monotone in what makes detection hard, reproducible, valid."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sitcov.errors import ConfigError
+from sitcov.perception import (
+    PEM_PARAMS_FILE,
+    ActorView,
+    PEMFeatures,
+    PEMParams,
+    PEMSensor,
+    Pose,
+    load_pem_params,
+    pem_score,
+)
+from sitcov.sim import Conditions, conditions_from_values
+
+EGO = Pose(0.0, 0.0, 0.0)
+CLEAR = conditions_from_values({})
+
+
+def car(x: float, y: float = 0.0, yaw: float = 0.0) -> ActorView:
+    return ActorView(Pose(x, y, yaw), 4.7, 1.85, 1.5)
+
+
+def mean_score(sensor, actor, conditions, n=400, seed=1):
+    """Mean logit-free score over ``n`` frames, counting misses as 0, and the hit rate."""
+    rng = np.random.default_rng(seed)
+    scores = []
+    for _ in range(n):
+        dets = sensor.detect(EGO, (actor,), conditions, rng)
+        scores.append(dets[0].score if dets else 0.0)
+    hits = sum(s > 0 for s in scores)
+    return sum(scores) / n, hits / n, np.std([s for s in scores if s > 0] or [0.0])
+
+
+def feats(sensor, actor, conditions=CLEAR):
+    f = sensor.features(EGO, actor, conditions)
+    assert f is not None
+    return f
+
+
+def test_score_drops_with_distance():
+    s = PEMSensor()
+    scores = [pem_score(feats(s, car(d)), s.params) for d in (8, 15, 30, 60, 90)]
+    assert all(a > b for a, b in zip(scores, scores[1:], strict=False))
+    assert scores[0] > 0.9 and scores[-1] < 0.6
+
+
+def test_side_view_scores_lower_than_rear_view():
+    s = PEMSensor()
+    rear = pem_score(feats(s, car(25.0, 0.0, 0.0)), s.params)
+    side = pem_score(feats(s, car(25.0, 0.0, math.pi / 2)), s.params)
+    assert side < rear
+    # The feature itself, at a fixed box height: sin(view) enters with -view_gain.
+    f = PEMFeatures(40.0, 0.0, 0.0)
+    assert pem_score(f._replace(view_angle=math.pi / 2), s.params) < pem_score(f, s.params)
+
+
+def test_truncation_lowers_the_score():
+    s = PEMSensor()
+    f = PEMFeatures(60.0, 0.3, 0.0)
+    values = [pem_score(f._replace(truncation=t), s.params) for t in (0.0, 0.3, 0.7)]
+    assert values[0] > values[1] > values[2]
+    # And through the geometry: the same car at the image edge vs centred.
+    centred = feats(s, car(15.0, 0.0, math.pi / 2))
+    edge = feats(s, car(15.0, 12.5 * math.tan(math.radians(50.0)), math.pi / 2))
+    assert centred.truncation == 0.0 and edge.truncation > 0.2
+
+
+@pytest.mark.parametrize(
+    "element,lo,hi",
+    [("fog_density", 0, 100), ("cloudiness", 0, 100), ("precipitation", 0, 100)],
+)
+def test_weather_lowers_the_mean_score(element, lo, hi):
+    s = PEMSensor()
+    actor = car(25.0, 3.0, math.pi / 2)
+    good = mean_score(s, actor, conditions_from_values({element: lo}))[0]
+    bad = mean_score(s, actor, conditions_from_values({element: hi}))[0]
+    assert bad < good - 0.05
+
+
+def test_fog_hurts_more_when_it_starts_closer():
+    s = PEMSensor()
+    near = feats(s, car(40.0), conditions_from_values({"fog_density": 60, "fog_distance": 0}))
+    far = feats(s, car(40.0), conditions_from_values({"fog_density": 60, "fog_distance": 40}))
+    assert pem_score(near, s.params) < pem_score(far, s.params)
+
+
+def test_rain_adds_noise_and_misses():
+    s = PEMSensor()
+    actor = car(12.0, 2.0, math.pi / 2)  # close: almost always detected when dry
+    _, dry_hits, dry_sd = mean_score(s, actor, CLEAR, n=600)
+    wet = conditions_from_values(
+        {"precipitation": 100, "precipitation_deposits": 100, "wetness": 100}
+    )
+    _, wet_hits, wet_sd = mean_score(s, actor, wet, n=600)
+    assert dry_hits > 0.97
+    assert wet_hits < dry_hits - 0.1
+    assert wet_sd > 2 * dry_sd
+
+
+def test_box_jitter_grows_with_rain():
+    s = PEMSensor(params={"rain_miss": 0.0, "floor": 0.0})
+    actor = car(15.0, 0.0, 0.0)
+
+    def width_sd(cond):
+        rng = np.random.default_rng(3)
+        widths = [s.detect(EGO, (actor,), cond, rng)[0].box for _ in range(300)]
+        return np.std([b[2] - b[0] for b in widths])
+
+    assert width_sd(Conditions(rain_noise=1.0)) > 1.5 * width_sd(Conditions())
+
+
+def test_same_rng_same_detections_and_boxes_inside_the_image():
+    s = PEMSensor()
+    cond = conditions_from_values({"precipitation": 60, "fog_density": 40})
+    actors = (car(10.0, 4.0, math.pi / 2), car(30.0, -3.0, 0.0), car(6.0, 6.5, 2.0))
+    a = [s.detect(EGO, actors, cond, np.random.default_rng(9)) for _ in range(3)]
+    assert a[0] == a[1] == a[2]
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        for d in s.detect(EGO, actors, cond, rng):
+            x0, y0, x1, y1 = d.box
+            assert 0.0 <= x0 < x1 <= 800.0 and 0.0 <= y0 < y1 <= 450.0
+            assert s.params.floor <= d.score <= 1.0 and d.label == "car"
+
+
+def test_nothing_outside_the_view():
+    s = PEMSensor()
+    rng = np.random.default_rng(0)
+    assert s.detect(EGO, (car(-20.0),), CLEAR, rng) == ()
+    assert s.detect(EGO, (car(3.0, 20.0),), CLEAR, rng) == ()  # 80 deg to the left
+    assert s.detect(EGO, (car(400.0),), CLEAR, rng) == ()  # a few pixels tall
+
+
+def test_shipped_file_sets_every_parameter():
+    import yaml
+
+    data = yaml.safe_load(PEM_PARAMS_FILE.read_text())
+    assert set(data["params"]) == set(PEMParams().to_dict())
+    assert load_pem_params() == PEMParams.from_mapping(data["params"])
+
+
+def test_parameter_file_errors(tmp_path):
+    bad = tmp_path / "pem.yaml"
+    bad.write_text("params:\n  bias: 1.0\n  sise_gain: 2\n")
+    with pytest.raises(ConfigError, match=r"sise_gain.*size_gain"):
+        load_pem_params(bad)
+    bad.write_text("params:\n  floor: 2\n")
+    with pytest.raises(ConfigError, match="floor"):
+        load_pem_params(bad)
+    good = tmp_path / "ok.yaml"
+    good.write_text("params:\n  bias: -1.0\n")
+    assert PEMSensor(good).params.bias == -1.0
+    with pytest.raises(ConfigError, match="noise_sigma"):
+        PEMSensor({"noise_sigma": -1})
