@@ -5,6 +5,7 @@ Usage::
     python benchmarks/bench_campaign.py                  # 2,000-run speed-up + 10,000-run RSS
     python benchmarks/bench_campaign.py --speedup-runs 200 --memory-runs 1000   # quick look
     python benchmarks/bench_campaign.py --memory-backend null   # RSS with a no-op backend
+    python benchmarks/bench_campaign.py --backend sleep --memory-runs 0  # executor parallelism
 
 Measures, on fresh SQLite files in a temporary directory:
 
@@ -41,6 +42,17 @@ class NullBackend(Backend):
         return Outcome(status="pass", end_reason="goal", sim_time=1.0, min_distance=float(seed % 7))
 
 
+class SleepBackend(NullBackend):
+    """Waits 20 ms per run without using CPU: measures the executor's parallelism alone,
+    independent of how much CPU a shared machine grants."""
+
+    name: ClassVar[str] = "sleep"
+
+    def run(self, situation: Any, av_stack: Any, seed: int, *, record: bool = False) -> Outcome:
+        time.sleep(0.02)
+        return super().run(situation, av_stack, seed, record=record)
+
+
 def rss_mib() -> float:
     """Resident set size of this process [MiB] (Linux /proc)."""
     with open("/proc/self/statm") as fh:
@@ -61,14 +73,20 @@ def timed_campaign(db: Path, backend: str, runs: int, workers: int, sample_every
         name="bench", backend=backend, runs=runs, workers=workers, executor="processes", seed=1
     )
     with open_store(db) as store:
-        start = time.perf_counter()
+        start, cpu0 = time.perf_counter(), os.times()
         result = run_campaign(config, store, progress=progress)
-        wall = time.perf_counter() - start
+        wall, cpu1 = time.perf_counter() - start, os.times()
+    # CPU seconds of this process and its (joined) workers: on a machine shared with other
+    # jobs, wall-clock speed-up is capped by the CPU actually granted; CPU per run is not.
+    cpu = sum(b - a for a, b in zip(cpu0[:4], cpu1[:4], strict=True))
     out = {
         "runs": runs,
         "workers": workers,
         "wall_s": round(wall, 2),
         "runs_per_s": round(runs / wall, 1),
+        "cpu_s": round(cpu, 2),
+        "cpu_ms_per_run": round(1000 * cpu / max(runs, 1), 2),
+        "cpu_utilisation": round(cpu / wall, 2),
         "failures": result.failures,
         "errors": result.errors,
     }
@@ -82,7 +100,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--speedup-runs", type=int, default=2000)
     parser.add_argument("--memory-runs", type=int, default=10000)
-    parser.add_argument("--backend", default="embedded", help="backend for the speed-up")
+    parser.add_argument(
+        "--backend", default="embedded", help="backend for the speed-up (or 'null', 'sleep')"
+    )
     parser.add_argument(
         "--memory-backend", default="embedded", help="backend for the RSS run (or 'null')"
     )
@@ -90,7 +110,7 @@ def main(argv: list[str] | None = None) -> dict:
     args = parser.parse_args(argv)
     if str(HERE) not in sys.path:
         sys.path.insert(0, str(HERE))  # workers import NullBackend as bench_campaign:NullBackend
-    names = {"null": "bench_campaign:NullBackend"}
+    names = {"null": "bench_campaign:NullBackend", "sleep": "bench_campaign:SleepBackend"}
     report: dict[str, Any] = {"cpus": os.cpu_count(), "loadavg_start": os.getloadavg()}
     with tempfile.TemporaryDirectory() as tmp:
         if args.speedup_runs:

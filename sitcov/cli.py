@@ -118,7 +118,9 @@ def generate_cmd(
         saved = load_state(state_in)
         if generator is not None and generator != saved["generator"]:
             raise ConfigError(
-                file=str(state_in), field="generator", value=generator,
+                file=str(state_in),
+                field="generator",
+                value=generator,
                 expected=f"{saved['generator']!r} (the generator that wrote the state)",
             )
         gen = restore_generator(saved["generator"], hs, saved["state"])
@@ -144,26 +146,32 @@ def run_cmd(
     config: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--config", help="Campaign YAML file; flags override its fields."
     ),
-    name: Optional[str] = typer.Option(None, "--name", help="Campaign name [default]."),  # noqa: UP045
-    generator: Optional[str] = typer.Option(None, "--generator", help="Generator [sitcov]."),  # noqa: UP045
-    runs: Optional[int] = typer.Option(None, "--runs", help="Total runs [1000]."),  # noqa: UP045
-    seed: Optional[int] = typer.Option(None, "--seed", help="Campaign seed [0]."),  # noqa: UP045
+    name: Optional[str] = typer.Option(None, "--name", help="Campaign name (default: default)."),  # noqa: UP045
+    generator: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--generator", help="Generator (default: sitcov)."
+    ),
+    runs: Optional[int] = typer.Option(None, "--runs", help="Total runs (default: 1000)."),  # noqa: UP045
+    seed: Optional[int] = typer.Option(None, "--seed", help="Campaign seed (default: 0)."),  # noqa: UP045
     fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
-    backend: Optional[str] = typer.Option(None, "--backend", help="Backend [embedded]."),  # noqa: UP045
+    backend: Optional[str] = typer.Option(None, "--backend", help="Backend (default: embedded)."),  # noqa: UP045
     perception: Optional[str] = typer.Option(  # noqa: UP045
         None, "--perception", help="pem | camera (embedded backend)."
     ),
-    av: Optional[str] = typer.Option(None, "--av", help="AV stack [reference]."),  # noqa: UP045
+    av: Optional[str] = typer.Option(None, "--av", help="AV stack (default: reference)."),  # noqa: UP045
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
     executor: Optional[str] = typer.Option(  # noqa: UP045
-        None, "--executor", help="serial | processes | ray [processes]."
+        None, "--executor", help="serial | processes | ray (default: processes)."
     ),
-    workers: Optional[int] = typer.Option(None, "--workers", help="Parallel workers [CPUs]."),  # noqa: UP045
+    workers: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--workers", help="Parallel workers (default: CPU count)."
+    ),
     ray_address: Optional[str] = typer.Option(None, "--ray-address", help="Ray cluster."),  # noqa: UP045
     run_timeout: Optional[float] = typer.Option(  # noqa: UP045
         None, "--run-timeout", help="Wall-clock seconds per run; over = stored as timeout."
     ),
-    batch_size: Optional[int] = typer.Option(None, "--batch-size", help="Asks per batch [32]."),  # noqa: UP045
+    batch_size: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--batch-size", help="Asks per batch (default: 32)."
+    ),
     record: Optional[bool] = typer.Option(  # noqa: UP045
         None, "--record/--no-record", help="Store each run's trajectories."
     ),
@@ -175,29 +183,65 @@ def run_cmd(
     report: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--report", help="Write the HTML report to this directory afterwards."
     ),
+    av_cmd: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--av-cmd", help="Run an external stack process (docs/protocol.md)."
+    ),
+    av_step_timeout: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--av-step-timeout", help="Seconds an external stack may take per step."
+    ),
+    grey_box: bool = typer.Option(
+        False, "--grey-box", help="Also give the stack the situation at reset."
+    ),
+    carla_host: Optional[str] = typer.Option(None, "--carla-host", help="CARLA server host."),  # noqa: UP045
+    carla_port: Optional[int] = typer.Option(None, "--carla-port", help="CARLA server port."),  # noqa: UP045
+    carla_timeout: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--carla-timeout", help="Seconds to wait for the CARLA server."
+    ),
+    carla_map: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--map", help="CARLA map file or name (default: Town03)."
+    ),
+    carla_servers: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--carla-servers", help="host:port,... one CARLA server per worker."
+    ),
 ) -> None:
     """Run, resume or extend a campaign and print its summary."""
     from sitcov.campaign import load_config, open_store, run_campaign
+    from sitcov.campaign._config import run_overrides
     from sitcov.campaign._console import ProgressView, print_end_of_run
 
-    overrides = {
-        "name": name,
-        "generator": generator,
-        "runs": runs,
-        "seed": seed,
-        "fault": fault,
-        "backend": backend,
-        "backend_options": {"perception": perception} if perception else None,
-        "av": av,
-        "hyperspace": hyperspace,
-        "executor": executor,
-        "workers": workers,
-        "ray_address": ray_address,
-        "run_timeout": run_timeout,
-        "batch_size": batch_size,
-        "record_traces": record,
-        "replay_failures_first": replay_failures_first,
+    carla = {
+        key: value
+        for key, value in {
+            "host": carla_host,
+            "port": carla_port,
+            "timeout": carla_timeout,
+            "map": carla_map,
+            "servers": carla_servers,
+        }.items()
+        if value is not None
     }
+    overrides = run_overrides(
+        perception=perception,
+        carla=carla,
+        av_cmd=av_cmd,
+        av_step_timeout=av_step_timeout,
+        grey_box=grey_box,
+        name=name,
+        generator=generator,
+        runs=runs,
+        seed=seed,
+        fault=fault,
+        backend=backend,
+        av=av,
+        hyperspace=hyperspace,
+        executor=executor,
+        workers=workers,
+        ray_address=ray_address,
+        run_timeout=run_timeout,
+        batch_size=batch_size,
+        record_traces=record,
+        replay_failures_first=replay_failures_first,
+    )
     cfg = load_config(config, overrides)
     store = open_store(db)
     try:
@@ -238,7 +282,7 @@ def summary_cmd(
 def export_cmd(
     db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
     fmt: str = typer.Option(..., "--format", help="csv | parquet | json | junit"),
-    out: Optional[Path] = typer.Option(None, "--out", help="Output file [stdout]."),  # noqa: UP045
+    out: Optional[Path] = typer.Option(None, "--out", help="Output file (default: stdout)."),  # noqa: UP045
     campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign."),  # noqa: UP045
 ) -> None:
     """Export stored runs (one row / test case per run)."""
@@ -310,12 +354,17 @@ def experiment_faults_cmd(
     runs: int = typer.Option(100, "--runs", min=1, help="Runs per generator (split over seeds)."),
     seeds: int = typer.Option(5, "--seeds", min=1, help="Number of seeds."),
     seed: int = typer.Option(0, "--seed", min=0, help="Base seed (seed index s uses seed+s)."),
-    workers: Optional[int] = typer.Option(None, "--workers", min=1),  # noqa: UP045
+    workers: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--workers", min=1, help="Parallel processes (default: CPU count)."
+    ),
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     as_json: bool = typer.Option(False, "--json", help="Print Table 2 as JSON."),
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
     av: str = typer.Option("reference", "--av", help="AV stack under test (must take faults)."),
     backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
+    batch_size: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--batch-size", min=1, help="Asks per batch (how often learning generators learn)."
+    ),
 ) -> None:
     """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
     import json
@@ -323,10 +372,9 @@ def experiment_faults_cmd(
     from rich.progress import Progress
 
     from sitcov.campaign import open_store, run_fault_experiment
+    from sitcov.campaign._experiments import split_runs
     from sitcov.errors import ConfigError
     from sitcov.report import table2_rich
-
-    from sitcov.campaign._experiments import split_runs
 
     names = [g.strip() for g in generators.split(",") if g.strip()]
     if executor not in ("serial", "processes", "ray"):
@@ -347,6 +395,7 @@ def experiment_faults_cmd(
                 backend=backend,
                 executor=executor,
                 workers=workers,
+                batch_size=batch_size,
                 progress=lambda _name, n: bar.advance(task, n),
             )
     finally:
@@ -404,7 +453,7 @@ def models_fetch_cmd(
     from sitcov.perception import fetch_model, model_path
 
     path = model_path(model) if model is not None else fetch_model(dest)
-    console.print(f"detector model: {path}", highlight=False)
+    console.print(f"detector model: {path}", highlight=False, soft_wrap=True)
 
 
 @models_app.command("path")
@@ -456,6 +505,7 @@ def render_cmd(
         f"wrote {out} (t = {info['time']:.2f} s of {info['sim_time']:.2f} s, run "
         f"{info['status']}/{info['end_reason']}, OV box {info['ov_box']})",
         highlight=False,
+        soft_wrap=True,
     )
 
 
@@ -562,7 +612,7 @@ def carla_check_cmd(
 def main(argv: Optional[list[str]] = None) -> None:  # noqa: UP045
     """Entry point: run the app, turning SitcovError into one clear line and exit code 2."""
     try:
-        app(args=argv, standalone_mode=False)
+        code = app(args=argv, standalone_mode=False)
     except SitcovError as exc:
         err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
         sys.exit(2)
@@ -578,6 +628,5 @@ def main(argv: Optional[list[str]] = None) -> None:  # noqa: UP045
             exc.show()
             sys.exit(exc.exit_code)
         raise
-
-
-_ = (Path,)  # used by the commands below
+    if isinstance(code, int) and code:
+        sys.exit(code)  # typer.Exit(code) in non-standalone mode is returned, not raised

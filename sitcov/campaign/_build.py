@@ -34,41 +34,37 @@ def resolve_hyperspace(spec: str | None) -> Any:
 
 def make_generator(config: CampaignConfig, hyperspace: Any) -> Generator:
     """A fresh generator as the config names it."""
-    from sitcov.generation import Generator
+    from sitcov.generation import make_generator as factory
 
-    try:
-        from sitcov.generation import make_generator as factory
-    except ImportError:  # pragma: no cover - before the foundation's factory exists
-        cls = load("generator", config.generator, Generator)
-        return cls(hyperspace, **config.generator_options)
     return factory(config.generator, hyperspace, **config.generator_options)
 
 
 def restore_generator(config: CampaignConfig, hyperspace: Any, state: dict) -> Generator:
     """The generator rebuilt from its saved state."""
-    from sitcov.generation import Generator
+    from sitcov.generation import restore_generator as factory
 
-    try:
-        from sitcov.generation import restore_generator as factory
-    except ImportError:  # pragma: no cover
-        cls = load("generator", config.generator, Generator)
-        return cls.from_state(hyperspace, state)
     return factory(config.generator, hyperspace, state)
 
 
 def build_backend(
-    config: CampaignConfig, *, backend: str | None = None, options: dict | None = None
+    config: CampaignConfig,
+    *,
+    backend: str | None = None,
+    options: dict | None = None,
+    worker_index: int = 0,
 ) -> Backend:
-    """The simulation backend of ``config`` (or ``backend`` with ``options`` instead)."""
-    from sitcov.sim import Backend
+    """The simulation backend of ``config`` (or ``backend`` with ``options`` instead).
+
+    A backend configured with a ``servers`` list (e.g. several CARLA servers) is told its
+    ``worker_index`` so that worker k uses server k mod len(servers).
+    """
+    from sitcov.sim import Backend, make_backend
 
     name = backend or config.backend
     opts = dict(config.backend_options if options is None else options)
+    if opts.get("servers"):
+        opts["worker_index"] = worker_index
     if ":" in name:
-        return load("backend", name, Backend)(**opts)
-    try:
-        from sitcov.sim import make_backend
-    except ImportError:  # pragma: no cover - before the embedded backend exists
         return load("backend", name, Backend)(**opts)
     return make_backend(name, **opts)
 

@@ -145,3 +145,57 @@ def config_differences(stored: Mapping[str, Any], new: CampaignConfig) -> list[s
     return [
         f"{k}: {stored.get(k)!r} -> {fresh.get(k)!r}" for k in keys if stored.get(k) != fresh.get(k)
     ]
+
+
+def run_overrides(
+    *,
+    perception: str | None = None,
+    carla: Mapping[str, Any] | None = None,
+    av_cmd: str | None = None,
+    av_step_timeout: float | None = None,
+    grey_box: bool | None = None,
+    **fields: Any,
+) -> dict[str, Any]:
+    """Config overrides from ``sitcov run`` flags (None = flag not given).
+
+    Args:
+        perception: ``--perception``, an option of the embedded backend.
+        carla: the ``--carla-*``/``--map`` flags that were given, as keyword arguments of
+            ``sitcov.sim.carla.carla_backend_options``; they need ``backend="carla"``.
+        av_cmd: ``--av-cmd``, an external-process stack (protocol in docs/protocol.md).
+        av_step_timeout: ``--av-step-timeout`` [s] for an external stack.
+        grey_box: ``--grey-box``: the stack is also given the situation at reset.
+        **fields: flags that map one-to-one onto CampaignConfig fields.
+
+    Raises:
+        ConfigError: flags that do not go together.
+    """
+    overrides = dict(fields)
+    backend_options: dict[str, Any] = {}
+    av_params: dict[str, Any] = {}
+    if perception:
+        backend_options["perception"] = perception
+    if carla:
+        if fields.get("backend") != "carla":
+            names = {"map": "--map", "servers": "--carla-servers"}
+            flags = ", ".join(names.get(k, "--carla-" + k) for k in carla)
+            raise ConfigError(f"{flags}: these flags need --backend carla")
+        from sitcov.sim.carla import carla_backend_options
+
+        backend_options.update(carla_backend_options(**carla))
+    if av_cmd:
+        if fields.get("av"):
+            raise ConfigError("--av and --av-cmd: give one stack, not both")
+        overrides["av"] = "cmd:" + av_cmd
+    external = str(overrides.get("av") or "").startswith("cmd:")
+    if av_step_timeout is not None:
+        if not external:
+            raise ConfigError("--av-step-timeout applies to external stacks (--av-cmd) only")
+        av_params["step_timeout"] = av_step_timeout
+    if grey_box:
+        backend_options["grey_box"] = True
+        if external:
+            av_params["grey_box"] = True
+    overrides["backend_options"] = backend_options or None
+    overrides["av_params"] = av_params or None
+    return overrides

@@ -42,6 +42,9 @@ Task = tuple[int, dict, int]
 Result = tuple[int, Outcome, float]
 
 _STARTUP_TIMEOUT = 600.0  # [s] for a worker to import and build backend + stack
+#: Tasks in flight per worker process: the next one already waits in the worker's pipe, so
+#: a worker never idles while the parent stores a result (matters on busy machines).
+_PIPELINE = 2
 
 
 class _WallTimeout(BaseException):
@@ -145,12 +148,13 @@ class SerialExecutor(Executor):
 # -- local processes -------------------------------------------------------------------------
 
 
-def _worker_main(conn: Any, config_data: dict) -> None:
+def _worker_main(conn: Any, config_data: dict, worker_index: int) -> None:
     """A worker process: build backend + stack once, then serve tasks until told to stop."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent handles Ctrl-C
     try:
         config = CampaignConfig(**config_data)
-        backend, stack = build_backend(config), build_stack(config)
+        backend = build_backend(config, worker_index=worker_index)
+        stack = build_stack(config)
     except BaseException as exc:
         conn.send(("fatal", f"{type(exc).__name__}: {exc}"))
         return
@@ -171,13 +175,16 @@ def _worker_main(conn: Any, config_data: dict) -> None:
 
 
 class _Worker:
-    def __init__(self, ctx: Any, config_data: dict) -> None:
+    def __init__(self, ctx: Any, config_data: dict, index: int) -> None:
+        self.index = index
         self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=_worker_main, args=(child, config_data), daemon=True)
+        self.process = ctx.Process(
+            target=_worker_main, args=(child, config_data, index), daemon=True
+        )
         self.process.start()
         child.close()
-        self.task: Task | None = None
-        self.deadline = float("inf")
+        self.inflight: deque[Task] = deque()  # sent, not yet answered; the first is running
+        self.deadline = float("inf")  # [monotonic s] when the running task times out
 
     def wait_ready(self) -> None:
         if not self.conn.poll(_STARTUP_TIMEOUT):
@@ -206,7 +213,7 @@ class ProcessExecutor(Executor):
         super().__init__(config)
         self._ctx = mp.get_context("spawn")
         self._data = config.model_dump(mode="json")
-        self._workers = [_Worker(self._ctx, self._data) for _ in range(config.workers)]
+        self._workers = [_Worker(self._ctx, self._data, k) for k in range(config.workers)]
         try:
             for worker in self._workers:
                 worker.wait_ready()
@@ -216,7 +223,7 @@ class ProcessExecutor(Executor):
 
     def _replace(self, worker: _Worker) -> _Worker:
         worker.kill()
-        fresh = _Worker(self._ctx, self._data)
+        fresh = _Worker(self._ctx, self._data, worker.index)
         fresh.wait_ready()
         self._workers[self._workers.index(worker)] = fresh
         return fresh
@@ -224,33 +231,43 @@ class ProcessExecutor(Executor):
     def map(self, tasks: Iterable[Task]) -> Iterator[Result]:
         queue = deque(tasks)
         limit = self.config.run_timeout
-        busy: dict[Any, _Worker] = {}
-        while queue or busy:
+
+        def give_back(worker: _Worker) -> Task:
+            """Take the worker's tasks back: the running one is returned, the rest re-queued."""
+            head = worker.inflight.popleft()
+            queue.extendleft(reversed(worker.inflight))
+            worker.inflight.clear()
+            return head
+
+        while queue or any(w.inflight for w in self._workers):
+            now = time.monotonic()
             for worker in self._workers:
-                if queue and worker.task is None:
-                    worker.task = queue.popleft()
-                    worker.deadline = time.monotonic() + limit if limit else float("inf")
-                    worker.conn.send(worker.task)
-                    busy[worker.conn] = worker
+                while queue and len(worker.inflight) < _PIPELINE:
+                    if not worker.inflight:
+                        worker.deadline = now + limit if limit else float("inf")
+                    worker.inflight.append(queue.popleft())
+                    worker.conn.send(worker.inflight[-1])
+            busy = {w.conn: w for w in self._workers if w.inflight}
             soonest = min(w.deadline for w in busy.values())
             timeout = None if soonest == float("inf") else max(0.0, soonest - time.monotonic())
             for conn in wait(list(busy), timeout):
-                worker = busy.pop(conn)
-                task, worker.task = worker.task, None
+                worker = busy[conn]
                 try:
-                    kind, payload = conn.recv()
+                    _kind, payload = conn.recv()
                 except (EOFError, OSError):
-                    code = worker.process.exitcode
+                    task, code = give_back(worker), worker.process.exitcode
                     self._replace(worker)
                     message = f"the worker process died (exit code {code})"
                     yield task[0], Outcome.errored(message), 0.0
                     continue
+                worker.inflight.popleft()
+                # the next queued task starts now in the worker: its clock starts now
+                worker.deadline = time.monotonic() + limit if limit else float("inf")
                 yield payload
             now = time.monotonic()
-            for conn, worker in list(busy.items()):
-                if worker.deadline <= now:
-                    busy.pop(conn)
-                    task, worker.task = worker.task, None
+            for worker in list(self._workers):
+                if worker.inflight and worker.deadline <= now:
+                    task = give_back(worker)
                     self._replace(worker)
                     yield task[0], _timeout_outcome(float(limit)), float(limit)
 
@@ -273,9 +290,9 @@ class ProcessExecutor(Executor):
 class _RayWorker:
     """A Ray actor holding one backend + stack."""
 
-    def __init__(self, config_data: dict) -> None:
+    def __init__(self, config_data: dict, worker_index: int) -> None:
         self.config = CampaignConfig(**config_data)
-        self.backend = build_backend(self.config)
+        self.backend = build_backend(self.config, worker_index=worker_index)
         self.stack = build_stack(self.config)
 
     def ready(self) -> bool:
@@ -313,10 +330,10 @@ class RayExecutor(Executor):
                 ray.init(num_cpus=config.workers, **kwargs)
         self._actor_cls = ray.remote(num_cpus=1)(_RayWorker)
         self._data = config.model_dump(mode="json")
-        self._actors = [self._new_actor() for _ in range(config.workers)]
+        self._actors = [self._new_actor(k) for k in range(config.workers)]
 
-    def _new_actor(self) -> Any:
-        actor = self._actor_cls.remote(self._data)
+    def _new_actor(self, worker_index: int) -> Any:
+        actor = self._actor_cls.remote(self._data, worker_index)
         try:
             self._ray.get(actor.ready.remote(), timeout=_STARTUP_TIMEOUT)
         except Exception as exc:
@@ -345,14 +362,14 @@ class RayExecutor(Executor):
                 try:
                     yield ray.get(ref)
                 except Exception as exc:  # the actor died
-                    self._actors[slot] = self._new_actor()
+                    self._actors[slot] = self._new_actor(slot)
                     yield task[0], Outcome.errored(f"the Ray worker died: {exc}"), 0.0
             now = time.monotonic()
             for ref, (slot, task, deadline) in list(busy.items()):
                 if deadline <= now:
                     busy.pop(ref)
                     ray.kill(self._actors[slot])
-                    self._actors[slot] = self._new_actor()
+                    self._actors[slot] = self._new_actor(slot)
                     idle.append(slot)
                     yield task[0], _timeout_outcome(float(limit)), float(limit)
 

@@ -157,6 +157,7 @@ def run_fault_experiment(
     backend_options: Mapping[str, Any] | None = None,
     executor: str = "processes",
     workers: int | None = None,
+    batch_size: int | None = None,
     progress: Callable[[str, int], None] | None = None,
 ) -> dict[str, Any]:
     """Run (or complete) the Table 2 protocol into ``store``; return :func:`fault_table`.
@@ -176,6 +177,8 @@ def run_fault_experiment(
         hyperspace, av, av_params, backend, backend_options: as for ``sitcov run``.
         executor: ``serial`` | ``processes`` | ``ray``.
         workers: parallel workers (default: CPU count).
+        batch_size: asks per batch of the no-fault campaigns, i.e. how often a learning
+            generator is told outcomes (default: the campaign default).
         progress: called with (campaign name, runs) after each campaign completes.
 
     Returns:
@@ -197,6 +200,8 @@ def run_fault_experiment(
         "executor": "serial" if parallel or executor == "processes" and workers == 1 else executor,
         "workers": 1 if parallel else workers,
     }
+    if batch_size is not None:
+        settings["batch_size"] = batch_size
     bases = [
         _base_config(gen, s, n, seed, settings)
         for gen in generators

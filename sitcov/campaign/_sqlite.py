@@ -116,6 +116,8 @@ class SQLiteStore(Store):
         self.location = str(self.path)
         if self.path.is_dir():
             raise StoreError(f"{self.location}: is a directory, expected a database file")
+        if not self.path.parent.is_dir():
+            raise StoreError(f"{self.location}: directory {str(self.path.parent)!r} does not exist")
         try:
             self._db = sqlite3.connect(str(self.path), isolation_level=None, timeout=30.0)
             self._db.execute("PRAGMA journal_mode=WAL")

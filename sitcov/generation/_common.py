@@ -153,6 +153,14 @@ class ComboCounts:
             for e in sub:
                 n *= sizes[e]
             self.table[sub] = [0] * n
+        #: per subset, element -> stride of its bin index in the flat table
+        self.strides: dict[tuple[int, ...], dict[int, int]] = {}
+        for sub in self.subsets:
+            stride, st = 1, {}
+            for e in reversed(sub):
+                st[e] = stride
+                stride *= sizes[e]
+            self.strides[sub] = st
         #: for each element, the subsets it belongs to
         self.by_element: list[list[tuple[int, ...]]] = [
             [s for s in self.subsets if e in s] for e in range(len(sizes))

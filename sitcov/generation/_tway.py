@@ -191,12 +191,18 @@ class TWayGenerator(IndexedGenerator):
         constrained = bool(self.hs._constraints)
         for e in order:
             best, best_score = None, None
-            subs = [s for s in combos.by_element[e] if all(idx[f] >= 0 for f in s if f != e)]
+            # each completed combination: (its table, offset of the other bins, stride of e)
+            parts = []
+            for s in combos.by_element[e]:
+                if all(idx[f] >= 0 for f in s if f != e):
+                    st = combos.strides[s]
+                    base = sum(idx[f] * st[f] for f in s if f != e)
+                    parts.append((combos.table[s], base, st[e]))
             for b in range(self.sizes[e]):
                 idx[e] = b
                 if constrained and not self._allowed(idx):
                     continue
-                used = sum(combos.table[s][combos.flat(s, idx)] for s in subs)
+                used = sum(table[base + b * k] for table, base, k in parts)
                 score = (used, keys[e][b])
                 if best_score is None or score < best_score:
                     best, best_score = b, score

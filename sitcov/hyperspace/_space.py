@@ -48,6 +48,13 @@ class Bin:
         lo, hi = self.range
         return lo + (hi - lo) * float(rng.random())
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # MappingProxyType (a frozen category value) cannot be pickled: rebuild from plain data.
+        return (
+            _bin_from_plain,
+            (self.label, self.kind, _thaw(self.value), self.range, self.description),
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """The file form of the bin (label always explicit)."""
         out: dict[str, Any] = {"label": self.label}
@@ -351,12 +358,22 @@ class Hyperspace:
     def __eq__(self, other: object) -> bool:
         return isinstance(other, Hyperspace) and self.to_dict() == other.to_dict()
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # picklable (process and Ray executors): rebuilt from the file form
+        return (Hyperspace.from_dict, (self.to_dict(),))
+
     def __hash__(self) -> int:
         return hash(canonical_json(self.to_dict()))
 
     def __repr__(self) -> str:
         sizes = "x".join(str(n) for n in self.sizes)
         return f"Hyperspace({self.name!r}, {len(self.elements)} elements, bins {sizes})"
+
+
+def _bin_from_plain(
+    label: str, kind: str, value: Any, range_: tuple[float, float] | None, description: str
+) -> Bin:
+    return Bin(label, kind, _freeze(value), range_, description)
 
 
 def _make_bin(spec: Any) -> Bin:

@@ -26,6 +26,9 @@ DEFAULTS: dict[str, float] = {
     "friction": 1.0,
 }
 
+#: The environment elements that are weather parameters (carla.WeatherParameters names).
+WEATHER_ELEMENTS: tuple[str, ...] = tuple(name for name in DEFAULTS if name != "friction")
+
 #: Friction loss on a fully wet surface (wetness 100) [-]: wet asphalt keeps ~0.7 of dry.
 WET_LOSS = 0.30
 #: Extra loss from heavy rain (precipitation 100): a thicker water film [-].

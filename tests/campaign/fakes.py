@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from types import SimpleNamespace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -60,6 +61,7 @@ class FakeBackend(Backend):
             time.sleep(3600)
         if self.sleep:
             time.sleep(self.sleep)
+        av_stack.reset(SimpleNamespace(seed=seed))  # type: ignore[arg-type]
         av_stack.step(None)  # type: ignore[arg-type]
         outcome = fake_outcome(situation, seed)
         if record:
@@ -73,12 +75,18 @@ class FakeBackend(Backend):
 
 
 class FakeStack(AVStack):
-    """Does nothing (the fake backend decides everything)."""
+    """Does nothing (the fake backend decides everything); ``params={"raise_rate": r}``
+    makes ``reset`` raise for about a fraction r of the seeds (the same ones as
+    :func:`raises`)."""
 
     name: ClassVar[str] = "fake-stack"
 
+    def __init__(self, params: dict | None = None) -> None:
+        self.raise_rate = float((params or {}).get("raise_rate", 0.0))
+
     def reset(self, info: Any) -> None:
-        pass
+        if raises(info.seed, self.raise_rate):
+            raise ValueError(f"fake stack refused seed {info.seed}")
 
     def step(self, observation: Any) -> Control:
         return Control()

@@ -55,10 +55,15 @@ def test_processes_and_serial_store_identical_rows(tmp_path):
     assert rows["serial"] == rows["p2"]
 
 
-@pytest.mark.parametrize("executor", ["serial", "processes"])
-def test_raising_runs_are_errors_and_the_rest_complete(executor):
+@pytest.mark.parametrize(
+    ("executor", "source"), [("serial", "stack"), ("processes", "stack"), ("serial", "backend")]
+)
+def test_raising_runs_are_errors_and_the_rest_complete(executor, source):
     store = open_store(None)
-    cfg = fake_config(runs=60, executor=executor, workers=2, backend_options={"raise_rate": 0.1})
+    where = {"av_params": {"raise_rate": 0.1}}
+    if source == "backend":
+        where = {"backend_options": {"raise_rate": 0.1}}
+    cfg = fake_config(runs=60, executor=executor, workers=2, **where)
     result = run_campaign(cfg, store)
     runs = store.runs(cfg.name)
     expected_errors = [r.index for r in runs if raises(r.seed, 0.1)]
@@ -66,7 +71,11 @@ def test_raising_runs_are_errors_and_the_rest_complete(executor):
     assert [r.index for r in runs if r.status == "error"] == expected_errors
     for r in runs:
         if r.status == "error":
-            assert r.outcome.message == f"RuntimeError: fake backend exploded on seed {r.seed}"
+            assert r.outcome.message == (
+                f"ValueError: fake stack refused seed {r.seed}"
+                if source == "stack"
+                else f"RuntimeError: fake backend exploded on seed {r.seed}"
+            )
         else:
             assert r.outcome == fake_outcome(r.situation, r.seed)
     assert result.errors == len(expected_errors) and result.counts["pending"] == 0

@@ -212,3 +212,40 @@ def test_full_protocol_triggers_every_fault_and_is_fast(tmp_path, capsys):
         for fault in FAULTS[1:]:
             assert row[fault] > row["NF"], (fault, row)
     assert elapsed < 120.0
+
+
+def test_replays_keep_a_learning_generator_s_sequence(tmp_path):
+    """failure-guided learns from outcomes after each batch: the fault campaigns must still
+    see exactly the no-fault situations (generating them again would not)."""
+    from sitcov.campaign import CampaignConfig
+
+    store = open_store(tmp_path / "fg.db")
+    try:
+        run_fault_experiment(
+            store,
+            generators=["failure-guided"],
+            runs=24,
+            seeds=1,
+            executor="serial",
+            batch_size=4,
+        )
+        nf = [r.situation.id for r in store.runs(campaign="faults/failure-guided/s0/NF")]
+        f1 = [r.situation.id for r in store.runs(campaign="faults/failure-guided/s0/F1")]
+        assert f1 == nf
+        # the same config generated afresh with the fault diverges once outcomes differ
+        # (from run 12 on, when failure-guided's coverage floor is met and it starts learning)
+        fresh = CampaignConfig(
+            name="fresh",
+            generator="failure-guided",
+            runs=24,
+            seed=0,
+            batch_size=4,
+            fault="f1",
+            executor="serial",
+            workers=1,
+        )
+        run_campaign(fresh, store)
+        regenerated = [r.situation.id for r in store.runs(campaign="fresh")]
+        assert regenerated != nf
+    finally:
+        store.close()

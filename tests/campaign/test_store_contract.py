@@ -211,6 +211,8 @@ def test_not_a_database_names_the_file(tmp_path: Path):
         db.execute("CREATE TABLE t (x)")
     with pytest.raises(StoreError, match="other.db: not a sitcov database"):
         open_store(other)
+    with pytest.raises(StoreError, match="nodir/x.db: directory .* does not exist"):
+        open_store(tmp_path / "nodir" / "x.db")
 
 
 def test_wal_and_persistence(tmp_path: Path):

@@ -170,3 +170,13 @@ def test_element_lookup_errors_name_the_choices():
     hs = load_hyperspace()
     with pytest.raises(ConfigError, match="friction"):
         hs.element("frction")
+
+
+def test_hyperspace_and_elements_pickle():
+    import pickle
+
+    hs = load_hyperspace()
+    again = pickle.loads(pickle.dumps(hs))
+    assert again == hs and again.n_situations == hs.n_situations
+    intsit = pickle.loads(pickle.dumps(hs.element("intsit")))
+    assert intsit == hs.element("intsit") and intsit.bins[0].value["conflict"] == "c4"

@@ -71,3 +71,21 @@ def test_fog_100_is_detected_clearly_less_often(ssd_detector, tjunction_geometry
     fog = np.mean([_rate(ssd_detector, geometry, ego, v, {"fog_density": 100}, **kw)[0]
                    for v in VIEWS])  # fmt: skip
     assert fog <= clear - 0.25, f"clear {clear:.0%}, fog 100 {fog:.0%}"
+
+
+@pytest.mark.slow
+def test_camera_mode_runs_end_to_end_and_is_deterministic(ssd_model) -> None:
+    """The embedded backend in camera mode drives the reference stack from real detections."""
+    from sitcov.av import ReferenceStack
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+    from sitcov.perception import SSDDetector
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    sit = make_generator("random", load_hyperspace()).ask(np.random.default_rng(3))
+    backend = EmbeddedBackend(perception="camera", sensor_rate_hz=5.0)
+    stack = ReferenceStack(detector=SSDDetector(ssd_model))
+    first = backend.run(sit, stack, 11)
+    assert first.status in ("pass", "fail")
+    assert first.aeb_fired  # the OV crosses the ego's path in every IntSit
+    assert backend.run(sit, stack, 11) == first

@@ -29,7 +29,8 @@ from sitcov.perception._models import (
 
 
 def _loader(entries: list[dict]) -> str:
-    return "var x = 1;\nloadPackage(" + json.dumps({"files": entries, "remote_package_size": 9}) + ");"
+    table = json.dumps({"files": entries, "remote_package_size": 9})
+    return "var x = 1;\nloadPackage(" + table + ");"
 
 
 def _tarball(tmp_path: Path, members: dict[str, bytes]) -> Path:

@@ -127,3 +127,24 @@ def test_render_speed(tjunction_geometry) -> None:
         _render(geometry, ego, car, values, seed=i)
     per_frame = (time.process_time() - t) / 10
     assert per_frame < 0.04, f"{per_frame * 1000:.1f} ms per frame"
+
+
+def test_cli_render_writes_the_frame_at_time_t(tmp_path, capsys) -> None:
+    import json
+
+    from PIL import Image
+
+    from sitcov.cli import main
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+
+    sit = make_generator("random", load_hyperspace()).ask(np.random.default_rng(1))
+    out = tmp_path / "frame.png"
+    main(["render", "--situation", json.dumps(sit.to_dict()), "--time", "3", "--out", str(out)])
+    img = np.asarray(Image.open(out))
+    assert img.shape == (450, 800, 3)
+    assert "t = 3.00 s" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        main(["render", "--situation", "{not json", "--time", "1"])
+    assert exc.value.code == 2
+    assert "situation JSON" in capsys.readouterr().err

@@ -201,3 +201,11 @@ def test_early_end_never_changes_a_verdict() -> None:
             checked += 1
             assert full.run(situation, stack, run_seed(11, i)).status == "pass"
     assert checked >= 20
+
+
+def test_another_map_runs_unchanged(tmp_path) -> None:
+    backend = EmbeddedBackend(map="skewed-cross")
+    outcome = backend.run(make_situation(5), NoPerceptionStack(), 0, record=True)
+    assert outcome.collision  # the adversary works on any geometry
+    assert outcome.trace.meta["map"] == "skewed-cross"
+    assert render_topdown(outcome, tmp_path / "cross.png").stat().st_size > 10_000

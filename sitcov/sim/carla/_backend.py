@@ -22,11 +22,11 @@ import numpy as np
 from sitcov.av._base import EgoState, Observation, RunInfo
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
 from sitcov.sim._base import Backend, Outcome
+from sitcov.sim._conditions import WEATHER_ELEMENTS
 from sitcov.sim.carla._geometry import plan_route, to_sitcov
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
 from sitcov.sim.carla._metrics import MetricTracker, VehicleState
 from sitcov.sim.carla._ovdriver import OVDriver
-from sitcov.sim.carla._surface import WEATHER_ELEMENTS
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack

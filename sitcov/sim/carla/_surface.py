@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from sitcov.sim._conditions import WEATHER_ELEMENTS
+
 
 @dataclass(frozen=True)
 class Use:
@@ -30,16 +32,6 @@ class Use:
 GET = Use("get")
 SET = Use("set")
 
-#: Weather parameter names set from the situation (CARLA names = hyperspace element names).
-WEATHER_ELEMENTS = (
-    "cloudiness",
-    "precipitation",
-    "precipitation_deposits",
-    "wind_intensity",
-    "fog_density",
-    "fog_distance",
-    "wetness",
-)
 
 #: ``"Class"`` = constructor, ``"Class.member"`` = method or property.
 SURFACE: dict[str, Use] = {

@@ -30,8 +30,8 @@ from pathlib import Path
 from typing import Any
 
 from sitcov.errors import ConfigError, MissingExtraError
+from sitcov.sim._conditions import WEATHER_ELEMENTS
 from sitcov.sim.carla._mapfile import CarlaMap, load_carla_map
-from sitcov.sim.carla._surface import WEATHER_ELEMENTS
 
 #: The ego's cruise speed assumed for the OV's timing [m/s] (25 km/h).
 EGO_SPEED = 25.0 / 3.6

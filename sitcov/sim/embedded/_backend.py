@@ -29,7 +29,7 @@ from sitcov.sim.embedded._collision import (
     time_to_collision,
 )
 from sitcov.sim.embedded._dynamics import G, Vehicle, default_params
-from sitcov.sim.embedded._map import JunctionMap, load_map
+from sitcov.sim.embedded._map import MAPS_DIR, JunctionMap, load_map
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
@@ -165,6 +165,11 @@ class EmbeddedBackend(Backend):
         from sitcov.perception._renderer import vehicles_in_view
 
         return vehicles_in_view(camera, pose, actors)
+
+    def _map_ref(self) -> str:
+        """The map's name if it is built in (portable across machines), else its file."""
+        builtin = MAPS_DIR / f"{self.map.name}.yaml"
+        return self.map.name if str(builtin) == self.map.source else self.map.source
 
     def _intsit(self, situation: Situation) -> dict[str, str]:
         value = situation.value("intsit", None)
@@ -416,7 +421,7 @@ class EmbeddedBackend(Backend):
                 ego=ego_rows,
                 ov=ov_rows,
                 meta={
-                    "map": self.map.source,
+                    "map": self._map_ref(),
                     "ego_route": [list(p) for p in er.points],
                     "ov_route": [list(p) for p in orr.points],
                     "conflict_point": list(conflict.point) if conflict else None,
