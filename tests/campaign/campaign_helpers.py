@@ -7,7 +7,7 @@ import sqlite3
 from pathlib import Path
 from typing import Any
 
-from fakes import BACKEND, GENERATOR, STACK
+from campaign_fakes import BACKEND, GENERATOR, STACK
 
 from sitcov.campaign import CampaignConfig
 

@@ -1,4 +1,4 @@
-"""Campaign tests: put this folder first on the path so ``fakes:FakeBackend`` resolves.
+"""Campaign tests: put this folder first on the path so ``campaign_fakes:FakeBackend`` resolves.
 
 Helpers shared by the test modules live in ``campaign_helpers.py``.
 """

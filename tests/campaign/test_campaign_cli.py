@@ -9,7 +9,7 @@ import sqlite3
 import xml.etree.ElementTree as ET
 
 import pytest
-from fakes import BACKEND, GENERATOR, STACK
+from campaign_fakes import BACKEND, GENERATOR, STACK
 
 from sitcov.cli import main
 

@@ -1,6 +1,6 @@
 """Tiny deterministic stand-ins for a backend, an AV stack and a learning generator.
 
-They are loaded by ``module:Class`` path (``fakes:FakeBackend`` with this folder on the
+They are loaded by ``module:Class`` path (``campaign_fakes:FakeBackend`` with this folder on the
 path), so worker processes and Ray actors build them exactly like real plugins.
 """
 
@@ -17,9 +17,9 @@ from sitcov.av import AVStack, Control
 from sitcov.generation import Generator
 from sitcov.sim import Backend, Outcome, Trace
 
-BACKEND = "fakes:FakeBackend"
-STACK = "fakes:FakeStack"
-GENERATOR = "fakes:FakeGenerator"
+BACKEND = "campaign_fakes:FakeBackend"
+STACK = "campaign_fakes:FakeStack"
+GENERATOR = "campaign_fakes:FakeGenerator"
 
 
 def fake_outcome(situation: Any, seed: int) -> Outcome:
