@@ -5,13 +5,16 @@ Usage::
     python benchmarks/bench_camera_agreement.py                     # 200 runs (slow: camera)
     python benchmarks/bench_camera_agreement.py --runs 40 --out agreement.json
     python benchmarks/bench_camera_agreement.py --pem-params other_pem.yaml
+    python benchmarks/bench_camera_agreement.py --workers 2 --log cam.jsonl   # camera in 2 procs
+    python benchmarks/bench_camera_agreement.py --reuse-camera cam.jsonl      # PEM side only
 
 For runs 0..N-1 of a random-generator campaign (``--seed``; situations from
 ``ask_rng(seed, i)``, simulation seeds ``run_seed(seed, i)``) the reference stack (no fault)
 drives the embedded backend three times: with the shipped PEM, optionally with another PEM
 parameter file, and in camera mode (renderer + SSD detector). Prints, as one JSON object:
 
-- agreement on failure / no failure between camera mode and each PEM,
+- agreement on failure / no failure between camera mode and each PEM, and each PEM's
+  agreement with itself under a second simulation seed (its own repeatability),
 - failure rates and, per element, the largest per-bin difference of the failure rate,
 - camera-mode CPU time per run and frames rendered per run (wall time too, which depends on
   the other load of the machine).
@@ -57,12 +60,89 @@ def _compare(rows: list[dict[str, Any]], key: str) -> dict[str, Any]:
     }
 
 
+def _camera_rows(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """Camera-mode outcomes of runs 0..N-1 (from ``--reuse-camera`` or computed now)."""
+    if args.reuse_camera:
+        rows = [json.loads(line) for line in args.reuse_camera.read_text().splitlines() if line]
+        rows = sorted(rows, key=lambda r: r["index"])[: args.runs]
+        if len(rows) < args.runs:
+            raise SystemExit(f"{args.reuse_camera} holds only {len(rows)} camera runs")
+        return rows
+    indices = list(range(args.runs))
+    rows: list[dict[str, Any]] = []
+    with open(args.log, "w") as log:
+        if args.workers > 1:
+            import multiprocessing as mp
+
+            with mp.get_context("spawn").Pool(args.workers) as pool:
+                results = pool.imap_unordered(_camera_run, [(args.seed, i) for i in indices])
+                for row in results:
+                    rows.append(row)
+                    log.write(json.dumps(row) + "\n")
+                    log.flush()
+                    print(f"camera {len(rows)}/{args.runs}", file=sys.stderr)
+        else:
+            for i in indices:
+                rows.append(_camera_run((args.seed, i)))
+                log.write(json.dumps(rows[-1]) + "\n")
+                log.flush()
+                print(f"camera {len(rows)}/{args.runs}", file=sys.stderr)
+    return sorted(rows, key=lambda r: r["index"])
+
+
+_CAM: dict[str, Any] = {}
+
+
+def _camera_run(job: tuple[int, int]) -> dict[str, Any]:
+    """One camera-mode run (a worker keeps its backend, stack and detector)."""
+    from sitcov._seeding import ask_rng, run_seed
+
+    seed, i = job
+    if not _CAM:
+        from sitcov.av import ReferenceStack
+        from sitcov.generation import make_generator
+        from sitcov.hyperspace import load_hyperspace
+        from sitcov.perception import SSDDetector
+        from sitcov.sim.embedded import EmbeddedBackend
+
+        cam = EmbeddedBackend(perception="camera")
+        frames = {"n": 0}
+        original = cam._frame
+
+        def counting(*a: Any, **k: Any) -> Any:
+            frames["n"] += 1
+            return original(*a, **k)
+
+        cam._frame = counting  # type: ignore[method-assign]
+        gen = make_generator("random", load_hyperspace())
+        _CAM.update(cam=cam, frames=frames, gen=gen, stack=ReferenceStack(detector=SSDDetector()))
+    sit = _CAM["gen"].ask(ask_rng(seed, i))
+    before = _CAM["frames"]["n"]
+    c0, w0 = time.process_time(), time.perf_counter()
+    out = _CAM["cam"].run(sit, _CAM["stack"], run_seed(seed, i))
+    return {
+        "index": i,
+        "bins": dict(sit.bins),
+        "seed": run_seed(seed, i),
+        "camera": out.failed,
+        "camera_status": out.status,
+        "camera_sim_time": out.sim_time,
+        "cpu_s": time.process_time() - c0,
+        "wall_s": time.perf_counter() - w0,
+        "frames": _CAM["frames"]["n"] - before,
+    }
+
+
 def main(argv: list[str] | None = None) -> dict[str, Any]:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=200)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--pem-params", type=Path, default=None, help="A second PEM to compare.")
     parser.add_argument("--log", type=Path, default=Path("camera_agreement.jsonl"))
+    parser.add_argument("--workers", type=int, default=1, help="Processes for camera runs.")
+    parser.add_argument(
+        "--reuse-camera", type=Path, default=None, help="Camera results from an earlier --log."
+    )
     parser.add_argument("--out", type=Path, default=None)
     args = parser.parse_args(argv)
 
@@ -70,61 +150,53 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     from sitcov.av import ReferenceStack
     from sitcov.generation import make_generator
     from sitcov.hyperspace import load_hyperspace
-    from sitcov.perception import PEMSensor, SSDDetector
+    from sitcov.perception import PEMSensor
     from sitcov.sim.embedded import EmbeddedBackend
 
-    hs = load_hyperspace()
-    gen = make_generator("random", hs)
+    start = time.perf_counter()
+    rows = _camera_rows(args)
+    wall_total = time.perf_counter() - start
+    gen = make_generator("random", load_hyperspace())
     pem = EmbeddedBackend(perception="pem", sensor=PEMSensor())
     other = (
         EmbeddedBackend(perception="pem", sensor=PEMSensor(args.pem_params))
         if args.pem_params
         else None
     )
-    cam = EmbeddedBackend(perception="camera")
-    frames = {"n": 0}
-    original = cam._frame
-
-    def counting(*a: Any, **k: Any) -> Any:
-        frames["n"] += 1
-        return original(*a, **k)
-
-    cam._frame = counting  # type: ignore[method-assign]
     stack = ReferenceStack()
-    cam_stack = ReferenceStack(detector=SSDDetector())
-    rows: list[dict[str, Any]] = []
-    cpu = wall = 0.0
-    with open(args.log, "w") as log:
-        for i in range(args.runs):
-            sit = gen.ask(ask_rng(args.seed, i))
-            seed = run_seed(args.seed, i)
-            row: dict[str, Any] = {"index": i, "bins": dict(sit.bins), "seed": seed}
-            row["pem"] = pem.run(sit, stack, seed).failed
-            if other is not None:
-                row["pem_other"] = other.run(sit, stack, seed).failed
-            c0, w0 = time.process_time(), time.perf_counter()
-            out = cam.run(sit, cam_stack, seed)
-            cpu += time.process_time() - c0
-            wall += time.perf_counter() - w0
-            row["camera"] = out.failed
-            row["camera_status"] = out.status
-            row["camera_sim_time"] = out.sim_time
-            rows.append(row)
-            log.write(json.dumps(row) + "\n")
-            log.flush()
-            print(f"{i + 1}/{args.runs} agree so far "
-                  f"{sum(r['pem'] == r['camera'] for r in rows) / len(rows):.2f}",
-                  file=sys.stderr)  # fmt: skip
+    for row in rows:
+        i = row["index"]
+        sit = gen.ask(ask_rng(args.seed, i))
+        seed = run_seed(args.seed, i)
+        row["pem"] = pem.run(sit, stack, seed).failed
+        # the same situation with another simulation seed: the PEM's own repeatability
+        row["pem_seed2"] = pem.run(sit, stack, run_seed(args.seed + 7919, i)).failed
+        if other is not None:
+            row["pem_other"] = other.run(sit, stack, seed).failed
+            row["pem_other_seed2"] = other.run(sit, stack, run_seed(args.seed + 7919, i)).failed
+    n = len(rows)
     result: dict[str, Any] = {
-        "runs": len(rows),
+        "runs": n,
         "seed": args.seed,
         "shipped_pem": _compare(rows, "pem"),
-        "camera_cpu_s_per_run": round(cpu / len(rows), 3),
-        "camera_wall_s_per_run": round(wall / len(rows), 3),
-        "camera_frames_rendered_per_run": round(frames["n"] / len(rows), 1),
+        "shipped_pem_self_agreement_across_seeds": round(
+            sum(r["pem"] == r["pem_seed2"] for r in rows) / n, 3
+        ),
+        "camera_cpu_s_per_run": round(sum(r.get("cpu_s", 0.0) for r in rows) / n, 3),
+        "camera_wall_s_per_run": round(sum(r.get("wall_s", 0.0) for r in rows) / n, 3),
+        "camera_frames_rendered_per_run": round(sum(r.get("frames", 0) for r in rows) / n, 1),
     }
+    if not args.reuse_camera:
+        result["camera_runs_per_s"] = round(n / wall_total, 3)
+        result["workers"] = args.workers
     if other is not None:
-        result["other_pem"] = {"file": str(args.pem_params), **_compare(rows, "pem_other")}
+        result["other_pem"] = {
+            "file": str(args.pem_params),
+            **_compare(rows, "pem_other"),
+            "self_agreement_across_seeds": round(
+                sum(r["pem_other"] == r["pem_other_seed2"] for r in rows) / n, 3
+            ),
+        }
     text = json.dumps(result, indent=2)
     print(text)
     if args.out:

@@ -515,6 +515,9 @@ def calibrate_cmd(
         None, "--out", help="Write the fitted PEM parameters (pem.yaml format) here."
     ),
     frames: int = typer.Option(1500, "--frames", min=50, help="Frames to render and detect."),
+    runs: int = typer.Option(
+        24, "--runs", min=0, help="Re-simulated runs rendered along their trajectories."
+    ),
     seed: int = typer.Option(0, "--seed", help="Seed of the sweep."),
     model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
     samples_out: Optional[Path] = typer.Option(  # noqa: UP045
@@ -531,12 +534,12 @@ def calibrate_cmd(
     from sitcov.perception._calibrate import calibrate, pem_yaml
 
     with Progress(console=err_console, transient=True) as bar:
-        task = bar.add_task("calibrating", total=frames)
+        task = bar.add_task("calibrating", total=frames + runs)
         params, summary, samples = calibrate(
-            frames, seed=seed, model=None if model is None else str(model),
+            frames, runs=runs, seed=seed, model=None if model is None else str(model),
             progress=lambda i: bar.update(task, completed=i),
         )  # fmt: skip
-    command = f"sitcov calibrate --frames {frames} --seed {seed}"
+    command = f"sitcov calibrate --frames {frames} --runs {runs} --seed {seed}"
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     text = pem_yaml(params, command, summary)

@@ -49,7 +49,15 @@ class UnknownPluginError(ConfigError):
         )
 
 
-class MissingExtraError(SitcovError, ImportError):
+class SetupError(SitcovError):
+    """The campaign cannot run at all (a model or an optional package is missing).
+
+    Unlike an error of one run, this stops a campaign at once: the executors re-raise it
+    instead of storing every run as ``error``, and the CLI prints its one-line message.
+    """
+
+
+class MissingExtraError(SetupError, ImportError):
     """An optional dependency is needed but not installed."""
 
     def __init__(self, feature: str, extra: str, module: str) -> None:

@@ -73,6 +73,9 @@ class Control:
         steer: in [-1, 1], positive turns left (counter-clockwise), scaled by the vehicle's
             maximum steering angle.
         info: optional diagnostics (e.g. ``{"aeb": True}``), stored with the run's metrics.
+            Reserved key ``"aeb"``: True means the stack's emergency brake has latched and
+            it ignores perception from now on (it brakes to the end of the run); a backend
+            may then stop producing camera frames for it.
     """
 
     throttle: float = 0.0

@@ -6,7 +6,9 @@ situation, seed and the config, so every executor stores the same results.
 
 Workers (processes or Ray actors) build the backend and the AV stack ONCE, when they
 start, and keep them for all their runs. A run that raises is returned as ``error`` with
-the exception's message and the worker keeps serving. A run that exceeds
+the exception's message and the worker keeps serving, except a
+:class:`~sitcov.errors.SetupError` (the campaign cannot run at all: a missing model or
+optional package), which stops the campaign with that error. A run that exceeds
 ``config.run_timeout`` seconds of wall time is returned as ``timeout``:
 
 - ``serial``: a ``SIGALRM`` timer interrupts the run (main thread on POSIX only; elsewhere
@@ -32,7 +34,7 @@ from typing import Any
 
 from sitcov.campaign._build import build_backend, build_stack
 from sitcov.campaign._config import CampaignConfig
-from sitcov.errors import MissingExtraError, SitcovError, StackError
+from sitcov.errors import MissingExtraError, SetupError, SitcovError, StackError
 from sitcov.hyperspace import Situation
 from sitcov.sim import STATUSES, Outcome
 
@@ -56,13 +58,20 @@ def _timeout_outcome(limit: float) -> Outcome:
 
 
 def execute(backend: Any, stack: Any, task: Task, record: bool) -> Result:
-    """Run one task, turning any exception into an ``error`` (or ``timeout``) outcome."""
+    """Run one task, turning any exception into an ``error`` (or ``timeout``) outcome.
+
+    Raises:
+        SetupError: the campaign cannot run at all (e.g. the camera model is missing);
+            re-raised instead of stored, so the campaign stops at once.
+    """
     index, situation, seed = task
     start = time.perf_counter()
     try:
         outcome = backend.run(Situation.from_dict(situation), stack, seed, record=record)
         if not isinstance(outcome, Outcome) or outcome.status not in STATUSES:
             outcome = Outcome.errored(f"backend returned an invalid outcome: {outcome!r:.200}")
+    except SetupError:
+        raise
     except StackError as exc:
         outcome = Outcome.errored(f"{type(exc).__name__}: {exc}", status=exc.status)
     except Exception as exc:
@@ -167,7 +176,11 @@ def _worker_main(conn: Any, config_data: dict, worker_index: int) -> None:
         if task is None:
             break
         try:
-            conn.send(("result", execute(backend, stack, task, config.record_traces)))
+            try:
+                message = ("result", execute(backend, stack, task, config.record_traces))
+            except SetupError as exc:
+                message = ("fatal", str(exc))  # the campaign cannot run: the parent stops
+            conn.send(message)
         except (BrokenPipeError, OSError):
             break  # the parent is gone
     stack.close()
@@ -260,6 +273,8 @@ class ProcessExecutor(Executor):
                     message = f"the worker process died (exit code {code})"
                     yield task[0], Outcome.errored(message), 0.0
                     continue
+                if _kind == "fatal":
+                    raise SetupError(payload)
                 worker.inflight.popleft()
                 # the next queued task starts now in the worker: its clock starts now
                 worker.deadline = time.monotonic() + limit if limit else float("inf")
@@ -298,8 +313,11 @@ class _RayWorker:
     def ready(self) -> bool:
         return True
 
-    def run(self, task: Task) -> Result:
-        return execute(self.backend, self.stack, task, self.config.record_traces)
+    def run(self, task: Task) -> Result | tuple[str, str]:
+        try:
+            return execute(self.backend, self.stack, task, self.config.record_traces)
+        except SetupError as exc:
+            return ("fatal", str(exc))  # the campaign cannot run: the driver raises it
 
 
 class RayExecutor(Executor):
@@ -360,10 +378,14 @@ class RayExecutor(Executor):
                 slot, task, _ = busy.pop(ref)
                 idle.append(slot)
                 try:
-                    yield ray.get(ref)
+                    result = ray.get(ref)
                 except Exception as exc:  # the actor died
                     self._actors[slot] = self._new_actor(slot)
                     yield task[0], Outcome.errored(f"the Ray worker died: {exc}"), 0.0
+                    continue
+                if result[0] == "fatal":
+                    raise SetupError(result[1])
+                yield result
             now = time.monotonic()
             for ref, (slot, task, deadline) in list(busy.items()):
                 if deadline <= now:

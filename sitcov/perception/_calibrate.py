@@ -13,13 +13,15 @@ outright with probability ``rain_miss * rain_noise``. ``size_ref_px`` is fixed (
 collinear with ``bias``); ``size_max_px`` is chosen on a grid; ``size_min_px`` is the
 smallest box height at which the detector still reports the car; ``floor`` is the
 detector's reporting threshold; box jitter comes from the matched boxes' corner errors.
+The noise's correlation in time (``noise_run_share``, ``noise_tau``) is measured along
+re-simulated trajectories by :mod:`sitcov.perception._temporal`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -55,6 +57,8 @@ MATCH_IOU = 0.3
 SWEEP_MIN_SCORE = 0.05
 #: Reporting threshold of the detector in use, which becomes the PEM's floor.
 USE_FLOOR = 0.3
+#: Re-simulated runs rendered along their trajectories for the noise's time correlation.
+DEFAULT_RUNS = 24
 
 
 @dataclass(frozen=True)
@@ -292,17 +296,37 @@ def summarize_samples(samples: Sequence[Sample], floor: float = USE_FLOOR) -> di
 def calibrate(
     frames: int = 1500,
     *,
+    runs: int = DEFAULT_RUNS,
     seed: int = 0,
     model: str | None = None,
     progress: Callable[[int], None] | None = None,
 ) -> tuple[PEMParams, dict[str, Any], list[Sample]]:
-    """Sweep with the SSD detector and fit the PEM; returns (params, summary, samples)."""
+    """Sweep with the SSD detector and fit the PEM; returns (params, summary, samples).
+
+    ``frames`` random static scenes fit the score model (:func:`fit_pem`); then ``runs``
+    re-simulated runs rendered along their trajectories fit the noise's correlation in
+    time (:func:`sitcov.perception._temporal.fit_temporal`). ``progress`` receives the
+    number of steps done out of ``frames + runs``.
+    """
     from sitcov.perception._detector import SSDDetector
+    from sitcov.perception._temporal import fit_temporal, trajectory_sweep
 
     detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
     samples = sweep(frames, detector, seed=seed, progress=progress)
     params = fit_pem(samples)
-    return params, summarize_samples(samples), samples
+    summary = summarize_samples(samples)
+    if runs > 0:
+        tracks = trajectory_sweep(
+            runs,
+            detector,
+            seed=seed,
+            match_iou=MATCH_IOU,
+            progress=None if progress is None else (lambda r: progress(frames + r)),
+        )
+        share, tau, stats = fit_temporal(tracks, params, SWEEP_MIN_SCORE)
+        params = replace(params, noise_run_share=share, noise_tau=round(tau, 3))
+        summary["temporal"] = stats
+    return params, summary, samples
 
 
 def pem_yaml(params: PEMParams, command: str, summary: dict[str, Any]) -> str:
@@ -322,5 +346,7 @@ def pem_yaml(params: PEMParams, command: str, summary: dict[str, Any]) -> str:
         "frames": summary.get("frames"),
         "clear_detection_rate_box_ge_10pct": {k: v["rate_floor"] for k, v in views.items()},
     }
+    if "temporal" in summary:
+        meta["temporal"] = summary["temporal"]
     body = yaml.safe_dump({"meta": meta, "params": asdict(params)}, sort_keys=False)
     return head + body

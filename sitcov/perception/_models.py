@@ -20,7 +20,7 @@ import tarfile
 import tempfile
 from pathlib import Path
 
-from sitcov.errors import SitcovError
+from sitcov.errors import SetupError, SitcovError
 
 #: The npm package (pinned) that carries the model.
 NPM_PACKAGE = "@mediapipe/objectron@0.4.1675468480"
@@ -42,7 +42,7 @@ class ModelFetchError(SitcovError):
     """The model could not be obtained (npm missing, network, hash or member mismatch)."""
 
 
-class ModelNotFoundError(SitcovError):
+class ModelNotFoundError(SetupError):
     """The model has not been fetched yet (or an explicit path does not exist)."""
 
 

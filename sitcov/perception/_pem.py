@@ -10,14 +10,25 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + fog_gain   * ln(transmittance(distance))                            fog contrast
         + illum_gain * ln(illumination)                                       darkness
         - rain_gain  * rain_noise                                             rain, spray
-    score = sigmoid(z + N(0, noise_sigma + rain_sigma * rain_noise))
+    score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * n_t)
 
-with ``h`` the unclipped box height [px]. A detection is reported when the score reaches
-the detector's output ``floor``; rain also drops whole frames with probability
-``rain_miss * rain_noise``, and the box corners jitter by a Gaussian whose standard
-deviation is ``jitter + rain_jitter * rain_noise`` times the box size. The parameters live
-in ``data/pem.yaml`` (documented in docs/pem.md); ``sitcov calibrate`` refits them
-against the real detector, keeping this functional form.
+with ``h`` the unclipped box height [px] and ``n_t`` a unit-variance noise that is
+correlated in time, as a real detector's errors on one object are (same appearance, nearly
+the same pose from frame to frame):
+
+    n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share) * u_t
+    a ~ N(0, 1)                 drawn once per run and actor ("this car is hard to see")
+    u_t = phi * u_{t-1} + sqrt(1 - phi^2) * N(0, 1),   phi = exp(-frame_dt / noise_tau)
+
+A detection is reported when the score reaches the detector's output ``floor``; rain also
+drops whole frames with probability ``rain_miss * rain_noise``, decided by a second
+process of the same form (so misses come in runs too), and the box corners jitter by a
+Gaussian whose standard deviation is ``jitter + rain_jitter * rain_noise`` times the box
+size (independent per frame). The noise state lives in the sensor: it is reset by
+:meth:`PEMSensor.reset` and automatically whenever ``detect`` is given a different rng
+(each run has its own), so a sensor reused across runs stays deterministic per run.
+The parameters live in ``data/pem.yaml`` (documented in docs/pem.md), the output of
+``sitcov calibrate``, which fits this functional form against the real detector.
 """
 
 from __future__ import annotations
@@ -67,6 +78,10 @@ class PEMParams:
         jitter: box-corner noise as a fraction of the box size [-].
         rain_jitter: extra box-corner noise at full rain noise [-].
         floor: the detector's output threshold: lower scores are not reported [-].
+        noise_run_share: share of the logit-noise variance that is constant over a run
+            for one actor (between-run share) [-].
+        noise_tau: correlation time of the frame-to-frame part of the noise [s]
+            (0 = independent frames).
     """
 
     bias: float = 0.5
@@ -85,6 +100,8 @@ class PEMParams:
     jitter: float = 0.03
     rain_jitter: float = 0.05
     floor: float = 0.3
+    noise_run_share: float = 0.0
+    noise_tau: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -118,7 +135,9 @@ class PEMParams:
         for name in ("noise_sigma", "rain_sigma", "jitter", "rain_jitter"):
             if getattr(self, name) < 0:
                 raise ConfigError(file=file, field=name, value=getattr(self, name), expected=">= 0")
-        for name in ("rain_miss", "floor"):
+        if self.noise_tau < 0:
+            raise ConfigError(file=file, field="noise_tau", value=self.noise_tau, expected=">= 0")
+        for name in ("rain_miss", "floor", "noise_run_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ConfigError(
                     file=file, field=name, value=getattr(self, name), expected="in [0, 1]"
@@ -218,19 +237,42 @@ def _sigmoid(z: float) -> float:
     return e / (1.0 + e)
 
 
+#: Default time between two frames of the sensor [s] (10 Hz, the embedded backend's rate).
+FRAME_DT = 0.1
+
+
+class _Track:
+    """Noise state of one actor in one run: persistent offset and two AR(1) terms."""
+
+    __slots__ = ("offset", "u", "m", "frame")
+
+    def __init__(self, offset: float, u: float, m: float, frame: int) -> None:
+        self.offset, self.u, self.m, self.frame = offset, u, m, frame
+
+
+def _normal_cdf(x: float) -> float:
+    return 0.5 * math.erfc(-x / math.sqrt(2.0))
+
+
 class PEMSensor(Sensor):
-    """A simulated SSD car detector: projection + :func:`pem_score` + noise from the run's rng.
+    """A simulated SSD car detector: projection + :func:`pem_score` + correlated noise.
+
+    All randomness comes from the rng given to :meth:`detect` (the run's rng). The noise
+    state (per actor, keyed by its position in ``actors``) is cleared by :meth:`reset`
+    and whenever ``detect`` receives a different rng object than on the previous call.
 
     Args:
         params: None (the shipped ``pem.yaml``), a :class:`PEMParams`, a mapping of
             overrides of the shipped values, or a path to a YAML file.
         camera: the dash-cam whose image the boxes are in.
+        frame_dt: time between two ``detect`` calls [s]; sets the AR(1) coefficient.
     """
 
     def __init__(
         self,
         params: PEMParams | Mapping[str, Any] | str | Path | None = None,
         camera: CameraSpec | None = None,
+        frame_dt: float = FRAME_DT,
     ) -> None:
         if params is None:
             self.params = load_pem_params()
@@ -243,6 +285,18 @@ class PEMSensor(Sensor):
         else:
             self.params = load_pem_params(params)
         self.camera = camera or CameraSpec()
+        self.frame_dt = float(frame_dt)
+        self._rng: Any = None
+        self._tracks: dict[int, _Track] = {}
+        self._frame = 0
+
+    def reset(self, frame_dt: float | None = None) -> None:
+        """Start a new run: forget every actor's noise state (optionally set ``frame_dt`` [s])."""
+        if frame_dt is not None:
+            self.frame_dt = float(frame_dt)
+        self._rng = None
+        self._tracks = {}
+        self._frame = 0
 
     def features(self, ego: Pose, actor: ActorView, conditions: Conditions) -> PEMFeatures | None:
         """The PEM features of ``actor`` seen from ``ego``, or None if it is not in the image."""
@@ -259,6 +313,28 @@ class PEMSensor(Sensor):
             conditions.rain_noise,
         )
 
+    def _phi(self) -> float:
+        tau = self.params.noise_tau
+        return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
+
+    def _noise(self, key: int, rng: np.random.Generator) -> tuple[float, float]:
+        """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1) each."""
+        p = self.params
+        track = self._tracks.get(key)
+        if track is None:
+            a, u, m = rng.standard_normal(3).tolist()
+            track = self._tracks[key] = _Track(a, u, m, self._frame)
+        else:
+            e_u, e_m = rng.standard_normal(2).tolist()
+            phi = self._phi() ** (self._frame - track.frame)
+            keep = math.sqrt(max(0.0, 1.0 - phi * phi))
+            track.u = phi * track.u + keep * e_u
+            track.m = phi * track.m + keep * e_m
+            track.frame = self._frame
+        share = p.noise_run_share
+        n = math.sqrt(share) * track.offset + math.sqrt(1.0 - share) * track.u
+        return n, track.m
+
     def detect(
         self,
         ego: Pose,
@@ -267,10 +343,14 @@ class PEMSensor(Sensor):
         rng: np.random.Generator,
     ) -> tuple[Detection, ...]:
         """Detections of the actors in view whose noisy score reaches the floor."""
+        if rng is not self._rng:
+            self.reset()
+            self._rng = rng
+        self._frame += 1
         p = self.params
         camera = self.camera
         out = []
-        for actor in actors:
+        for key, actor in enumerate(actors):
             proj = project_raw(camera, ego, actor)
             if proj is None or not proj[6]:
                 continue
@@ -278,10 +358,10 @@ class PEMSensor(Sensor):
             height = raw[3] - raw[1]
             if height < p.size_min_px:
                 continue
+            n, m = self._noise(key, rng)
             rain = conditions.rain_noise
-            if rain > 0.0 and p.rain_miss > 0.0 and rng.random() < p.rain_miss * rain:
+            if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
-            n0, n1, n2, n3, n4 = rng.standard_normal(5).tolist()
             z = _logit(
                 p,
                 height,
@@ -291,9 +371,10 @@ class PEMSensor(Sensor):
                 conditions.illumination,
                 rain,
             )
-            score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n0)
+            score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
             if score < p.floor:
                 continue
+            n1, n2, n3, n4 = rng.standard_normal(4).tolist()
             jit = p.jitter + p.rain_jitter * rain
             sx, sy = jit * (x1 - x0), jit * (y1 - y0)
             w, h = float(camera.width), float(camera.height)

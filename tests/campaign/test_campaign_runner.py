@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from campaign_helpers import db_rows, fake_config
 from campaign_fakes import FakeGenerator, fake_outcome, raises
+from campaign_helpers import db_rows, fake_config
 
 from sitcov._seeding import ask_rng, run_seed
 from sitcov.campaign import open_store, run_campaign

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from campaign_helpers import db_rows, fake_config
 from campaign_fakes import raises
+from campaign_helpers import db_rows, fake_config
 
 from sitcov.campaign import open_store, run_campaign
 from sitcov.campaign._summary import summarize_store

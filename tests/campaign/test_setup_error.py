@@ -38,8 +38,8 @@ def test_cli_camera_campaign_without_model_prints_one_line(tmp_path, workers: st
     env = dict(os.environ, SITCOV_MODEL_DIR=str(tmp_path / "empty"))
     db = tmp_path / "cam.db"
     proc = subprocess.run(
-        [sys.executable, "-c", "from sitcov.cli import main; main()", "run", "--perception", "camera", "--runs", "4",
-         "--workers", workers, "--db", str(db)],
+        [sys.executable, "-c", "from sitcov.cli import main; main()", "run",
+         "--perception", "camera", "--runs", "4", "--workers", workers, "--db", str(db)],
         env=env, capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert proc.returncode == 2

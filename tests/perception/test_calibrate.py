@@ -86,3 +86,35 @@ def test_sweep_with_the_real_detector(ssd_detector) -> None:
     assert all(1.0 <= s.distance <= 81.0 for s in samples)
     # Reproducible: the same seed gives the same samples.
     assert sweep(6, ssd_detector, seed=5) == samples
+
+
+def test_trajectory_sweep_with_the_real_detector(ssd_detector) -> None:
+    from sitcov.perception._temporal import trajectory_sweep
+
+    tracks = trajectory_sweep(1, ssd_detector, seed=3)
+    assert tracks and all(t.run == 0 and 0.0 <= t.score <= 1.0 for t in tracks)
+    frames = [t.frame for t in tracks]
+    assert frames == sorted(set(frames))  # one sample per 10 Hz frame, in time order
+    assert any(t.score >= 0.3 for t in tracks)  # the OV is found along its approach
+
+
+def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
+    from sitcov.perception import PEM_PARAMS_FILE
+
+    text = PEM_PARAMS_FILE.read_text()
+    data = yaml.safe_load(text)
+    command = data["meta"]["command"]
+    assert command.startswith("sitcov calibrate ") and "--runs" in command
+    assert command.endswith("--out sitcov/perception/data/pem.yaml")
+    assert f"#   {command}" in text.splitlines()
+    params = load_pem_params()
+    # re-emitting the loaded parameters with the same header gives the same file body
+    assert (
+        pem_yaml(params, command, {"frames": data["meta"]["frames"]}).splitlines()[:4]
+        == (text.splitlines()[:4])
+    )
+    # the temporal measurement is stored, and the fitted values are what it implies
+    temporal = data["meta"]["temporal"]
+    assert temporal["frames"] >= 500 and temporal["runs"] >= 10
+    lag1 = params.noise_run_share + (1 - params.noise_run_share) * math.exp(-0.1 / params.noise_tau)
+    assert lag1 == pytest.approx(temporal["lag1_autocorrelation"], abs=0.1)

@@ -122,3 +122,32 @@ def test_detector_reports_no_confident_car_on_an_empty_road(
     geometry, ego = tjunction_geometry
     img = render_frame(CameraSpec(), ego, (), None, geometry, np.random.default_rng(0))
     assert all(d.score < 0.3 for d in ssd_detector(img))
+
+
+def test_camera_mode_skips_only_frames_without_a_vehicle_in_view() -> None:
+    """Frame skipping changes nothing for a stack that sees no car in car-free frames."""
+    from sitcov.av import ReferenceStack
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    class Counting(Detector):
+        def __init__(self) -> None:
+            self.calls = 0
+
+        def __call__(self, image):
+            assert image.shape == (450, 800, 3) and image.dtype == np.uint8
+            self.calls += 1
+            return ()
+
+    sit = make_generator("random", load_hyperspace()).ask(np.random.default_rng(8))
+    outcomes, calls = [], []
+    for skip in (True, False):
+        backend = EmbeddedBackend(perception="camera", sensor_rate_hz=2.0)
+        backend.skip_empty_frames = skip
+        det = Counting()
+        outcomes.append(backend.run(sit, ReferenceStack(detector=det), 4))
+        calls.append(det.calls)
+    assert outcomes[0].collision == outcomes[1].collision
+    assert outcomes[0].sim_time == outcomes[1].sim_time
+    assert 0 < calls[0] <= calls[1]

@@ -45,21 +45,25 @@ def feats(sensor, actor, conditions=CLEAR):
     return f
 
 
-def test_score_drops_with_distance():
+def test_score_drops_with_distance_and_saturates_below_one():
     s = PEMSensor()
     scores = [pem_score(feats(s, car(d)), s.params) for d in (8, 15, 30, 60, 90)]
-    assert all(a > b for a, b in zip(scores, scores[1:], strict=False))
-    assert scores[0] > 0.9 and scores[-1] < 0.6
+    assert all(a >= b for a, b in zip(scores, scores[1:], strict=False))
+    assert scores[0] > scores[2] + 0.2
+    # Calibration: even a close, clear rear view is not scored near 1 by the real detector
+    # (its scores for cars saturate well below 0.9 on our renders).
+    assert 0.4 < scores[0] < 0.9
+    assert pem_score(PEMFeatures(400.0, 0.0, 0.0), s.params) < 0.9
 
 
-def test_side_view_scores_lower_than_rear_view():
+def test_side_views_score_at_least_as_high_as_rear_views():
+    # Measured by calibration: the detector scores crossing (side-on) cars a little
+    # HIGHER than rear views of the same box height on our renders.
     s = PEMSensor()
-    rear = pem_score(feats(s, car(25.0, 0.0, 0.0)), s.params)
-    side = pem_score(feats(s, car(25.0, 0.0, math.pi / 2)), s.params)
-    assert side < rear
-    # The feature itself, at a fixed box height: sin(view) enters with -view_gain.
     f = PEMFeatures(40.0, 0.0, 0.0)
-    assert pem_score(f._replace(view_angle=math.pi / 2), s.params) < pem_score(f, s.params)
+    side = pem_score(f._replace(view_angle=math.pi / 2), s.params)
+    rear = pem_score(f, s.params)
+    assert rear <= side < rear + 0.2
 
 
 def test_truncation_lowers_the_score():
@@ -73,16 +77,22 @@ def test_truncation_lowers_the_score():
     assert centred.truncation == 0.0 and edge.truncation > 0.2
 
 
-@pytest.mark.parametrize(
-    "element,lo,hi",
-    [("fog_density", 0, 100), ("cloudiness", 0, 100), ("precipitation", 0, 100)],
-)
-def test_weather_lowers_the_mean_score(element, lo, hi):
+@pytest.mark.parametrize("element", ["fog_density", "precipitation"])
+def test_fog_and_rain_lower_the_mean_score(element):
+    s = PEMSensor()
+    actor = car(12.0, 1.0, math.pi / 2)
+    good = mean_score(s, actor, conditions_from_values({element: 0}))[0]
+    bad = mean_score(s, actor, conditions_from_values({element: 100}))[0]
+    assert bad < good - 0.05
+
+
+def test_cloudiness_barely_matters():
+    # Measured by calibration: the detector normalises the darker, flatter overcast light.
     s = PEMSensor()
     actor = car(25.0, 3.0, math.pi / 2)
-    good = mean_score(s, actor, conditions_from_values({element: lo}))[0]
-    bad = mean_score(s, actor, conditions_from_values({element: hi}))[0]
-    assert bad < good - 0.05
+    clear = pem_score(feats(s, actor), s.params)
+    overcast = pem_score(feats(s, actor, conditions_from_values({"cloudiness": 100})), s.params)
+    assert overcast <= clear < overcast + 0.05
 
 
 def test_fog_hurts_more_when_it_starts_closer():
@@ -92,21 +102,24 @@ def test_fog_hurts_more_when_it_starts_closer():
     assert pem_score(near, s.params) < pem_score(far, s.params)
 
 
-def test_rain_adds_noise_and_misses():
-    s = PEMSensor()
+def test_rain_noise_and_misses_when_the_model_has_them():
+    # The calibrated detector shows no extra noise or misses in rain (rain_sigma and
+    # rain_miss fit to ~0); the model form still supports them, which this checks.
+    s = PEMSensor({"bias": 2.0, "noise_sigma": 0.3, "rain_sigma": 1.5, "rain_miss": 0.3,
+                   "rain_gain": 0.0, "noise_tau": 0.0, "noise_run_share": 0.0})  # fmt: skip
     actor = car(12.0, 2.0, math.pi / 2)  # close: almost always detected when dry
     _, dry_hits, dry_sd = mean_score(s, actor, CLEAR, n=600)
     wet = conditions_from_values(
         {"precipitation": 100, "precipitation_deposits": 100, "wetness": 100}
     )
     _, wet_hits, wet_sd = mean_score(s, actor, wet, n=600)
-    assert dry_hits > 0.97
+    assert dry_hits > 0.9
     assert wet_hits < dry_hits - 0.1
-    assert wet_sd > 2 * dry_sd
+    assert wet_sd > 1.5 * dry_sd
 
 
 def test_box_jitter_grows_with_rain():
-    s = PEMSensor(params={"rain_miss": 0.0, "floor": 0.0})
+    s = PEMSensor(params={"rain_miss": 0.0, "floor": 0.0, "jitter": 0.03, "rain_jitter": 0.05})
     actor = car(15.0, 0.0, 0.0)
 
     def width_sd(cond):

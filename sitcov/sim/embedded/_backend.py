@@ -239,6 +239,9 @@ class EmbeddedBackend(Backend):
         )
         av_stack.reset(info)
         sensor = self._get_sensor() if self.perception == "pem" else None
+        if sensor is not None and hasattr(sensor, "reset"):
+            sensor.reset(frame_dt=self.sensor_every * dt)  # per-run noise state (PEM)
+        latched = False  # the stack's AEB has latched: it ignores perception from now on
         half_l, half_w = 0.5 * vp.length, 0.5 * vp.width
         disc = 2.0 * math.sqrt(vp.length * vp.width / math.pi)
         diag2 = 2.0 * math.hypot(half_l, half_w)
@@ -270,7 +273,7 @@ class EmbeddedBackend(Backend):
                     ov_rows.append((t, ov.x, ov.y, ov.yaw, ov.speed))
             # --- ego stack ------------------------------------------------------------
             detections = image = None
-            if k % self.sensor_every == 0:
+            if k % self.sensor_every == 0 and not latched:
                 actors = (
                     (ActorView(Pose(ov.x, ov.y, ov.yaw), vp.length, vp.width, vp.height, ov.speed),)
                     if ov_active
@@ -285,8 +288,12 @@ class EmbeddedBackend(Backend):
                     detections = ()  # camera mode, no vehicle in view (see _needs_frame)
             obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, ego_speed, t), detections, image)
             ctrl = av_stack.step(obs)
-            if aeb_time is None and ctrl.info and ctrl.info.get("aeb"):
-                aeb_time = t
+            if ctrl.info and ctrl.info.get("aeb"):
+                if aeb_time is None:
+                    aeb_time = t
+                # camera mode: no more frames are rendered once the brake has latched
+                # (Control.info["aeb"] promises the stack ignores perception from now on)
+                latched = self.perception == "camera"
             # --- wind -----------------------------------------------------------------
             if wind_mean > 0.0:
                 gust = phi * gust + gust_scale * gust_noise[k + 1]

@@ -1,0 +1,39 @@
+"""Camera mode stops rendering once the stack's emergency brake has latched."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sitcov.av import ReferenceStack
+from sitcov.hyperspace import Situation
+from sitcov.perception import Detection
+from sitcov.sim.embedded import EmbeddedBackend
+
+
+def _counting_backend() -> tuple[EmbeddedBackend, dict[str, int]]:
+    backend = EmbeddedBackend(perception="camera")
+    count = {"frames": 0}
+    original = backend._frame
+
+    def frame(*args: Any, **kwargs: Any) -> Any:
+        count["frames"] += 1
+        return original(*args, **kwargs)
+
+    backend._frame = frame  # type: ignore[method-assign]
+    return backend, count
+
+
+SIT = Situation({"intsit": "IntSit-1"}, {"intsit": {"ego": "L-B", "ov": "R-B", "conflict": "c4"}})
+
+
+def test_no_frame_is_rendered_after_the_brake_latched() -> None:
+    backend, count = _counting_backend()
+    # a detector that sees a close, centred car in every frame: the AEB fires at once
+    brake_now = ReferenceStack(detector=lambda image: (Detection((200, 100, 600, 400), 0.99),))
+    out = backend.run(SIT, brake_now, 3)
+    assert out.aeb_fired and count["frames"] == 1
+
+    backend, count = _counting_backend()
+    blind = ReferenceStack(detector=lambda image: ())  # never brakes: frames all along
+    out = backend.run(SIT, blind, 3)
+    assert not out.aeb_fired and count["frames"] > 20

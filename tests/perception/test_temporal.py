@@ -1,0 +1,132 @@
+"""The PEM's noise is correlated in time as specified, the fit recovers that correlation from
+synthetic data, and the noise state never leaks from one run into the next."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sitcov.perception import ActorView, PEMSensor, Pose, pem_logit
+from sitcov.perception._temporal import autocorrelation, fit_correlation
+from sitcov.sim import conditions_from_values
+
+EGO = Pose(0.0, 0.0, 0.0)
+CLEAR = conditions_from_values({})
+CAR = ActorView(Pose(15.0, 0.5, 0.3), 4.7, 1.85, 1.5)
+
+
+def _noise_series(sensor: PEMSensor, runs: int, frames: int) -> np.ndarray:
+    """(runs, frames) of the standardised logit noise the sensor added (floor 0: all reported)."""
+    z = pem_logit(sensor.features(EGO, CAR, CLEAR), sensor.params)
+    sigma = sensor.params.noise_sigma
+    out = np.empty((runs, frames))
+    for r in range(runs):
+        rng = np.random.default_rng([11, r])
+        for f in range(frames):
+            (det,) = sensor.detect(EGO, (CAR,), CLEAR, rng)
+            s = det.score
+            out[r, f] = (math.log(s / (1 - s)) - z) / sigma
+    return out
+
+
+def _pooled_corr(x: np.ndarray, lag: int) -> float:
+    c = x - x.mean()
+    return float((c[:, :-lag] * c[:, lag:]).mean() / c.var())
+
+
+def test_sensor_noise_has_the_specified_run_share_and_correlation_time() -> None:
+    share, tau = 0.3, 0.5
+    sensor = PEMSensor({"noise_run_share": share, "noise_tau": tau, "floor": 0.0, "bias": 0.0,
+                        "noise_sigma": 0.5, "rain_miss": 0.0})  # fmt: skip
+    x = _noise_series(sensor, runs=300, frames=40)
+    assert x.std() == pytest.approx(1.0, abs=0.08)
+    for lag in (1, 5, 20):
+        expected = share + (1 - share) * math.exp(-lag * 0.1 / tau)
+        assert _pooled_corr(x, lag) == pytest.approx(expected, abs=0.07), lag
+    # the per-run offset: run means vary far more than independent frames would allow
+    assert x.mean(axis=1).var() > 0.2
+
+
+def test_independent_frames_when_the_correlation_is_off() -> None:
+    sensor = PEMSensor({"noise_run_share": 0.0, "noise_tau": 0.0, "floor": 0.0, "bias": 0.0,
+                        "noise_sigma": 0.5, "rain_miss": 0.0})  # fmt: skip
+    x = _noise_series(sensor, runs=100, frames=30)
+    assert abs(_pooled_corr(x, 1)) < 0.06
+    assert x.mean(axis=1).var() < 0.08  # ~1/30 for independent frames
+
+
+def test_rain_misses_come_in_runs() -> None:
+    sensor = PEMSensor({"noise_tau": 1.0, "rain_miss": 0.5, "floor": 0.0})
+    wet = conditions_from_values({"precipitation": 100, "precipitation_deposits": 100,
+                                  "wetness": 100})  # fmt: skip
+    hits = np.array(
+        [
+            [bool(sensor.detect(EGO, (CAR,), wet, rng)) for _ in range(60)]
+            for rng in (np.random.default_rng([3, r]) for r in range(80))
+        ],
+        dtype=float,
+    )
+    p = 1 - hits.mean()
+    assert p == pytest.approx(0.5 * wet.rain_noise, abs=0.06)  # the marginal miss rate is kept
+    # a miss is followed by a miss much more often than the marginal rate
+    after_miss = hits[:, 1:][hits[:, :-1] == 0]
+    assert 1 - after_miss.mean() > p + 0.3
+
+
+def _synthetic_residuals(share: float, tau: float, rng: np.random.Generator):
+    """AR(1) + per-run offset series, written independently of the sensor, with random gaps."""
+    phi = math.exp(-0.1 / tau)
+    res = {}
+    for r in range(400):
+        a = rng.normal()
+        u = rng.normal()
+        run = {}
+        for f in range(50):
+            if f:
+                u = phi * u + math.sqrt(1 - phi * phi) * rng.normal()
+            if rng.random() < 0.8:  # some frames have no residual (censored / not in view)
+                run[f] = math.sqrt(share) * a + math.sqrt(1 - share) * u
+        res[r] = run
+    return res
+
+
+@pytest.mark.parametrize("share,tau", [(0.0, 0.2), (0.3, 0.5), (0.6, 1.5)])
+def test_fit_recovers_run_share_and_tau_from_synthetic_series(share: float, tau: float) -> None:
+    res = _synthetic_residuals(share, tau, np.random.default_rng(5))
+    r, counts = autocorrelation(res)
+    fit_share, fit_tau = fit_correlation(r, counts)
+    assert fit_share == pytest.approx(share, abs=0.08)
+    assert fit_tau == pytest.approx(tau, rel=0.3)
+
+
+def test_a_reused_sensor_gives_each_run_its_own_noise() -> None:
+    sensor = PEMSensor({"noise_run_share": 0.5, "noise_tau": 1.0})
+
+    def run(s: PEMSensor, seed: int) -> list:
+        rng = np.random.default_rng(seed)
+        return [s.detect(EGO, (CAR,), CLEAR, rng) for _ in range(20)]
+
+    fresh = run(PEMSensor({"noise_run_share": 0.5, "noise_tau": 1.0}), 5)
+    run(sensor, 4)  # another run first: its state must not leak
+    assert run(sensor, 5) == fresh
+    rng = np.random.default_rng(5)
+    sensor.detect(EGO, (CAR,), CLEAR, rng)
+    sensor.reset()  # an explicit reset restarts the state even with the same rng object
+    assert sensor._tracks == {} and sensor._frame == 0
+
+
+def test_backend_reusing_its_sensor_is_deterministic_per_run() -> None:
+    from sitcov.av import ReferenceStack
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    gen = make_generator("random", load_hyperspace())
+    sits = [gen.ask(np.random.default_rng([1, i])) for i in range(3)]
+    backend = EmbeddedBackend(perception="pem")
+    stack = ReferenceStack()
+    first = [backend.run(s, stack, 17 + i) for i, s in enumerate(sits)]
+    again = [backend.run(s, stack, 17 + i) for i, s in reversed(list(enumerate(sits)))][::-1]
+    assert first == again
