@@ -18,6 +18,7 @@ import mmap
 import os
 import select
 import shlex
+import shutil
 import signal
 import subprocess
 import sys
@@ -44,6 +45,21 @@ CLOSE_GRACE = 1.0
 _STDERR_TAIL = 20
 _CHUNK = 1 << 16  # bytes read from the stack's stdout at a time
 _PR_SET_PDEATHSIG = 1  # prctl option, linux/prctl.h
+
+
+def _require_executable(program: str, cwd: str | Path | None) -> None:
+    """Refuse a command whose program cannot be found, before any run is stored."""
+    if os.sep in program:
+        path = Path(cwd or ".") / program
+        found = path.is_file() and os.access(path, os.X_OK)
+    else:
+        found = shutil.which(program) is not None
+    if not found:
+        raise ConfigError(
+            field="av_cmd",
+            value=program,
+            expected="an executable program (not found or not executable)",
+        )
 
 
 def _kill_group(proc: subprocess.Popen) -> None:
@@ -174,6 +190,7 @@ class ExternalProcessStack(AVStack):
                 raise ConfigError(
                     field=f"av_params.{key}", value=value, expected="a positive number of seconds"
                 )
+        _require_executable(args[0], cwd)
         self.args = args
         self.step_timeout = float(step_timeout)
         self.start_timeout = float(start_timeout)

@@ -27,6 +27,7 @@ from typing import Any
 from sitcov._seeding import ask_rng, run_seed
 from sitcov.campaign._build import (
     build_backend,
+    build_stack,
     make_generator,
     resolve_hyperspace,
     restore_generator,
@@ -198,6 +199,7 @@ def run_campaign(
     start = time.perf_counter()
     hyperspace = resolve_hyperspace(config.hyperspace)
     backend = build_backend(config)
+    build_stack(config).close()  # a bad stack or fault must fail before anything is stored
     no_effect = no_effect_elements(hyperspace, backend)
     generator, resumed, replayed = _open_campaign(config, store, hyperspace)
     name = config.name

@@ -11,6 +11,8 @@ least-seen t-way combinations (random order and ties from the ask's rng).
 
 from __future__ import annotations
 
+import itertools
+import math
 from typing import Any
 
 import numpy as np
@@ -107,6 +109,11 @@ def rebalance(hyperspace: Hyperspace, rows: list[list[int]], passes: int = 4) ->
             break
 
 
+#: Most t-way bin combinations a covering array is built for (t=3 on the default
+#: hyperspace has 24,192 and takes ~7 s; t=4 has 235,872 and takes minutes).
+MAX_COMBINATIONS = 50_000
+
+
 class TWayGenerator(IndexedGenerator):
     """t-way combinatorial coverage (default pairwise).
 
@@ -124,6 +131,13 @@ class TWayGenerator(IndexedGenerator):
                 field="generator 'tway' option t",
                 value=t,
                 expected=f"an integer in 1..{len(hyperspace.sizes)}",
+            )
+        n_combinations = sum(math.prod(c) for c in itertools.combinations(hyperspace.sizes, t))
+        if n_combinations > MAX_COMBINATIONS:
+            raise ConfigError(
+                f"generator 'tway' option t={t}: the hyperspace has {n_combinations:,} {t}-way bin"
+                f" combinations, more than the {MAX_COMBINATIONS:,} a covering array can be built"
+                " for in reasonable time; use a smaller t or fewer/smaller elements"
             )
         super().__init__(hyperspace, t=t, seed=seed)
         self.t = t

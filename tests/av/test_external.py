@@ -297,8 +297,17 @@ def test_hello_and_close_time_outs(script: Path) -> None:
     assert time.monotonic() - start < 3.0 and not alive(pid)
 
 
-def test_missing_command_is_a_stack_error(tmp_path: Path) -> None:
-    stack = ExternalProcessStack(str(tmp_path / "no-such-stack"))
+def test_missing_command_is_refused_before_any_run(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="av_cmd: expected an executable program"):
+        ExternalProcessStack(str(tmp_path / "no-such-stack"))
+
+
+def test_command_that_vanishes_later_is_a_stack_error(tmp_path: Path) -> None:
+    program = tmp_path / "stack.sh"
+    program.write_text("#!/bin/sh\nexit 1\n")
+    program.chmod(0o755)
+    stack = ExternalProcessStack(str(program))
+    program.unlink()
     with pytest.raises(StackError, match="cannot be started"):
         stack.reset(info())
 

@@ -85,3 +85,13 @@ def test_failure_guided_rejects_bad_options(default_hs, bad):
 
     with pytest.raises(ConfigError):
         make_generator("failure-guided", default_hs, **bad)
+
+
+@pytest.mark.parametrize("t", [4, 9])
+def test_tway_refuses_a_strength_it_cannot_build_in_reasonable_time(t):
+    from sitcov.errors import ConfigError
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+
+    with pytest.raises(ConfigError, match=rf"t={t}: the hyperspace has [\d,]+ {t}-way"):
+        make_generator("tway", load_hyperspace(), t=t)
