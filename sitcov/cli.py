@@ -613,21 +613,21 @@ def carla_check_cmd(
 
 
 def main(argv: Optional[list[str]] = None) -> None:  # noqa: UP045
-    """Entry point: run the app, turning SitcovError into one clear line and exit code 2."""
+    """Entry point: run the app; a SitcovError or a usage error becomes one clear line."""
     try:
         code = app(args=argv, standalone_mode=False)
     except SitcovError as exc:
         err_console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
         sys.exit(2)
-    except typer.Abort:
+    except (typer.Abort, KeyboardInterrupt):
         err_console.print("aborted")
         sys.exit(130)
-    except Exception as exc:  # click usage errors
-        import click
-
-        if isinstance(exc, click.exceptions.Exit):
-            sys.exit(exc.exit_code)
-        if isinstance(exc, click.ClickException):
+    except typer.Exit as exc:
+        sys.exit(exc.exit_code)
+    except Exception as exc:
+        # Usage errors: click's or typer's own (typer >= 0.20 vendors click) show themselves.
+        shows_itself = callable(getattr(exc, "show", None))
+        if shows_itself and isinstance(getattr(exc, "exit_code", None), int):
             exc.show()
             sys.exit(exc.exit_code)
         raise
