@@ -13,8 +13,11 @@ outright with probability ``rain_miss * rain_noise``. ``size_ref_px`` is fixed (
 collinear with ``bias``); ``size_max_px`` is chosen on a grid; ``size_min_px`` is the
 smallest box height at which the detector still reports the car; ``floor`` is the
 detector's reporting threshold; box jitter comes from the matched boxes' corner errors.
-The noise's correlation in time (``noise_run_share``, ``noise_tau``) is measured along
-re-simulated trajectories by :mod:`sitcov.perception._temporal`.
+Frames rendered along re-simulated runs (:mod:`sitcov.perception._temporal`) join the fit,
+so the geometries and weather combinations that campaigns meet are represented; their
+residuals give the noise's correlation time ``noise_tau``. The between-run share of the
+residual variance is treated as systematic (the detector is deterministic on a frame) and
+removed from ``noise_sigma``, leaving ``noise_run_share`` at 0.
 """
 
 from __future__ import annotations
@@ -159,9 +162,14 @@ def sweep(
     return out
 
 
-def _design(samples: Sequence[Sample], size_min: float, size_max: float, ref: float):
-    f = np.asarray([s.features for s in samples], dtype=np.float64)
+def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, ref: float):
+    f = np.asarray(features, dtype=np.float64)
     h = np.clip(f[:, 0], size_min, size_max)
+    shape = np.where(
+        (f[:, 6] > 0) & (f[:, 0] > 0),
+        np.log(np.clip(f[:, 6] / np.maximum(f[:, 0], 1e-9), 0.25, 4.0)),
+        0.0,
+    )
     cols = [
         np.ones(len(f)),
         np.log(h / ref),
@@ -170,11 +178,25 @@ def _design(samples: Sequence[Sample], size_min: float, size_max: float, ref: fl
         np.log(np.maximum(f[:, 3], 1e-9)),
         np.log(np.maximum(f[:, 4], 1e-9)),
         -f[:, 5],
+        shape,
+        np.sin(2.0 * f[:, 1]),
+        -f[:, 7],
     ]
     return np.stack(cols, axis=1), f[:, 5]
 
 
-_LINEAR = ("bias", "size_gain", "view_gain", "trunc_gain", "fog_gain", "illum_gain", "rain_gain")
+_LINEAR = (
+    "bias",
+    "size_gain",
+    "view_gain",
+    "trunc_gain",
+    "fog_gain",
+    "illum_gain",
+    "rain_gain",
+    "aspect_gain",
+    "view2_gain",
+    "edge_gain",
+)
 
 
 def _nll(theta: np.ndarray, x: np.ndarray, rain: np.ndarray, y: np.ndarray, cens: np.ndarray,
@@ -197,29 +219,38 @@ def _nll(theta: np.ndarray, x: np.ndarray, rain: np.ndarray, y: np.ndarray, cens
 def fit_pem(
     samples: Sequence[Sample],
     *,
+    tracks: Sequence[Any] = (),
     floor: float = USE_FLOOR,
     censor: float = SWEEP_MIN_SCORE,
     base: PEMParams | None = None,
 ) -> PEMParams:
-    """Fit the PEM parameters to calibration samples (see the module docstring)."""
+    """Fit the PEM parameters to calibration samples (see the module docstring).
+
+    ``tracks`` (:class:`sitcov.perception._temporal.TrackSample`, frames along re-simulated
+    runs) join the static sweep in the score fit: they hold the geometries and weather
+    combinations the campaigns actually meet. Box jitter comes from the sweep only.
+    """
     from scipy.optimize import minimize
 
     base = base or PEMParams()
     usable = [s for s in samples if s.features.height_px >= 1.0]
-    if len(usable) < 20:
+    pairs = [(s.features, s.score) for s in usable]
+    pairs += [(t.features, t.score) for t in tracks if t.features.height_px >= 1.0]
+    if len(pairs) < 20:
         from sitcov.errors import SitcovError
 
-        raise SitcovError(f"too few calibration frames with the OV in view ({len(usable)})")
-    scores = np.asarray([s.score for s in usable])
+        raise SitcovError(f"too few calibration frames with the OV in view ({len(pairs)})")
+    feats = [f for f, _ in pairs]
+    scores = np.asarray([sc for _, sc in pairs])
     cut = math.log(censor / (1 - censor))
     cens = scores < censor
     y = np.log(np.clip(scores, 1e-4, 1 - 1e-4) / (1 - np.clip(scores, 1e-4, 1 - 1e-4)))
-    heights = np.asarray([s.features.height_px for s in usable])
+    heights = np.asarray([f.height_px for f in feats])
     seen = heights[scores >= floor]
     size_min = float(np.percentile(seen, 2)) if seen.size else base.size_min_px
     best: tuple[float, np.ndarray, float] | None = None
     for size_max in (60.0, 100.0, 150.0, 200.0, 300.0, 450.0):
-        x, rain = _design(usable, 1.0, size_max, base.size_ref_px)
+        x, rain = _design(feats, 1.0, size_max, base.size_ref_px)
         theta0 = np.concatenate([np.zeros(x.shape[1]), [0.8, 0.5, 0.1]])
         bounds = [(None, None)] * x.shape[1] + [(0.05, 5.0), (0.0, 5.0), (0.0, 1.0)]
         res = minimize(_nll, theta0, args=(x, rain, y, cens, cut), method="L-BFGS-B",
@@ -303,9 +334,13 @@ def calibrate(
 ) -> tuple[PEMParams, dict[str, Any], list[Sample]]:
     """Sweep with the SSD detector and fit the PEM; returns (params, summary, samples).
 
-    ``frames`` random static scenes fit the score model (:func:`fit_pem`); then ``runs``
-    re-simulated runs rendered along their trajectories fit the noise's correlation in
-    time (:func:`sitcov.perception._temporal.fit_temporal`). ``progress`` receives the
+    ``frames`` random static scenes and the frames of ``runs`` re-simulated runs rendered
+    along their trajectories fit the score model (:func:`fit_pem`); the runs' residuals
+    then fit the noise's correlation in time (:func:`sitcov.perception._temporal.fit_temporal`).
+    The share of the residual variance that is constant over a run is not kept as noise
+    (``noise_run_share`` = 0, ``noise_sigma`` scaled by ``sqrt(1 - share)``): the detector
+    is deterministic, so that share is systematic error of the features; it is recorded
+    in the summary's ``temporal.between_run_share``. ``progress`` receives the
     number of steps done out of ``frames + runs``.
     """
     from sitcov.perception._detector import SSDDetector
@@ -313,19 +348,29 @@ def calibrate(
 
     detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
     samples = sweep(frames, detector, seed=seed, progress=progress)
-    params = fit_pem(samples)
     summary = summarize_samples(samples)
-    if runs > 0:
-        tracks = trajectory_sweep(
-            runs,
-            detector,
-            seed=seed,
-            match_iou=MATCH_IOU,
-            progress=None if progress is None else (lambda r: progress(frames + r)),
-        )
-        share, tau, stats = fit_temporal(tracks, params, SWEEP_MIN_SCORE)
-        params = replace(params, noise_run_share=share, noise_tau=round(tau, 3))
-        summary["temporal"] = stats
+    if runs <= 0:
+        return fit_pem(samples), summary, samples
+    tracks = trajectory_sweep(
+        runs,
+        detector,
+        seed=seed,
+        match_iou=MATCH_IOU,
+        progress=None if progress is None else (lambda r: progress(frames + r)),
+    )
+    params = fit_pem(samples, tracks=tracks)
+    share, tau, stats = fit_temporal(tracks, params, SWEEP_MIN_SCORE)
+    # The detector is deterministic on a frame: a residual offset that persists over a
+    # run is geometry or weather the features do not explain, not chance. Only the
+    # within-run part of the residual variance becomes random noise.
+    stats["between_run_share"] = share
+    params = replace(
+        params,
+        noise_sigma=round(params.noise_sigma * math.sqrt(1.0 - share), 4),
+        noise_run_share=0.0,
+        noise_tau=round(tau, 3),
+    )
+    summary["temporal"] = stats
     return params, summary, samples
 
 

@@ -10,11 +10,15 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + fog_gain   * ln(transmittance(distance))                            fog contrast
         + illum_gain * ln(illumination)                                       darkness
         - rain_gain  * rain_noise                                             rain, spray
+        + aspect_gain * ln(clamp(w / h, 0.25, 4))                             box shape
+        + view2_gain * sin(2 * view_angle)                                    oblique view
+        - edge_gain  * offset                                                 off-centre
     score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * n_t)
 
-with ``h`` the unclipped box height [px] and ``n_t`` a unit-variance noise that is
-correlated in time, as a real detector's errors on one object are (same appearance, nearly
-the same pose from frame to frame):
+with ``h`` and ``w`` the unclipped box height and width [px], ``offset`` the distance of the
+box centre from the image centre as a fraction of half the image width (clamped to [0, 1]),
+and ``n_t`` a unit-variance noise that is correlated in time, as a real detector's errors on
+one object are (same appearance, nearly the same pose from frame to frame):
 
     n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share) * u_t
     a ~ N(0, 1)                 drawn once per run and actor ("this car is hard to see")
@@ -78,6 +82,9 @@ class PEMParams:
         jitter: box-corner noise as a fraction of the box size [-].
         rain_jitter: extra box-corner noise at full rain noise [-].
         floor: the detector's output threshold: lower scores are not reported [-].
+        aspect_gain: logit per e-fold of the box's width/height ratio [-].
+        view2_gain: logit gained at a 45 degree (oblique) view, beyond the side-view term [-].
+        edge_gain: logit lost with the box centre at the image's left or right edge [-].
         noise_run_share: share of the logit-noise variance that is constant over a run
             for one actor (between-run share) [-].
         noise_tau: correlation time of the frame-to-frame part of the noise [s]
@@ -102,6 +109,9 @@ class PEMParams:
     floor: float = 0.3
     noise_run_share: float = 0.0
     noise_tau: float = 0.0
+    aspect_gain: float = 0.0
+    view2_gain: float = 0.0
+    edge_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -186,6 +196,9 @@ class PEMFeatures(NamedTuple):
         transmittance: fog contrast transmittance over the distance, in [0, 1] [-].
         illumination: relative scene illumination in (0, 1] [-].
         rain_noise: rain/spray/glare noise intensity in [0, 1] [-].
+        width_px: unclipped box width [px] (0 = unknown: no shape term).
+        offset: box centre's distance from the image centre over half the image width,
+            clamped to [0, 1] [-].
     """
 
     height_px: float
@@ -194,6 +207,8 @@ class PEMFeatures(NamedTuple):
     transmittance: float = 1.0
     illumination: float = 1.0
     rain_noise: float = 0.0
+    width_px: float = 0.0
+    offset: float = 0.0
 
 
 _TINY = 1e-9  # floor inside logarithms [-]
@@ -212,8 +227,13 @@ def _logit(
     transmittance: float,
     illumination: float,
     rain_noise: float,
+    width_px: float = 0.0,
+    offset: float = 0.0,
 ) -> float:
     h = min(max(height_px, p.size_min_px), p.size_max_px)
+    shape = 0.0
+    if width_px > 0.0 and height_px > 0.0:
+        shape = math.log(min(max(width_px / height_px, 0.25), 4.0))
     return (
         p.bias
         + p.size_gain * math.log(h / p.size_ref_px)
@@ -222,6 +242,9 @@ def _logit(
         + p.fog_gain * math.log(max(transmittance, _TINY))
         + p.illum_gain * math.log(max(illumination, _TINY))
         - p.rain_gain * rain_noise
+        + p.aspect_gain * shape
+        + p.view2_gain * math.sin(2.0 * view_angle)
+        - p.edge_gain * offset
     )
 
 
@@ -248,6 +271,12 @@ class _Track:
 
     def __init__(self, offset: float, u: float, m: float, frame: int) -> None:
         self.offset, self.u, self.m, self.frame = offset, u, m, frame
+
+
+def _offset(camera: CameraSpec, raw: tuple[float, float, float, float]) -> float:
+    """Box centre's distance from the image centre over half the image width, in [0, 1]."""
+    half = 0.5 * camera.width
+    return min(abs(0.5 * (raw[0] + raw[2]) - half) / half, 1.0)
 
 
 def _normal_cdf(x: float) -> float:
@@ -311,6 +340,8 @@ class PEMSensor(Sensor):
             conditions.transmittance(proj[3]),
             conditions.illumination,
             conditions.rain_noise,
+            raw[2] - raw[0],
+            _offset(self.camera, raw),
         )
 
     def _phi(self) -> float:
@@ -370,6 +401,8 @@ class PEMSensor(Sensor):
                 conditions.transmittance(distance),
                 conditions.illumination,
                 rain,
+                raw[2] - raw[0],
+                _offset(camera, raw),
             )
             score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
             if score < p.floor:
