@@ -34,17 +34,8 @@ from sitcov.perception._camera import project_box
 from sitcov.perception._nms import iou
 from sitcov.perception._pem import PEMFeatures, PEMParams, PEMSensor
 from sitcov.perception._renderer import render_frame
+from sitcov.sim._conditions import WEATHER_ELEMENTS  # swept one at a time (CARLA units, 0..100)
 
-#: Weather elements swept one at a time (CARLA units, 0..100).
-WEATHER_ELEMENTS = (
-    "cloudiness",
-    "precipitation",
-    "precipitation_deposits",
-    "wind_intensity",
-    "fog_density",
-    "fog_distance",
-    "wetness",
-)
 #: Bin values a swept element takes.
 WEATHER_VALUES = (20.0, 40.0, 60.0, 80.0, 100.0)
 #: Fraction of frames in clear weather.
