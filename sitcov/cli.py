@@ -516,9 +516,10 @@ def calibrate_cmd(
     ),
     frames: int = typer.Option(1500, "--frames", min=50, help="Frames to render and detect."),
     runs: int = typer.Option(
-        24, "--runs", min=0, help="Re-simulated runs rendered along their trajectories."
+        200, "--runs", min=0, help="Camera-mode runs recorded frame by frame (random situations)."
     ),
-    seed: int = typer.Option(0, "--seed", help="Seed of the sweep."),
+    seed: int = typer.Option(1, "--seed", help="Seed of the sweep and of the runs' situations."),
+    workers: int = typer.Option(1, "--workers", min=1, help="Processes for the camera runs."),
     model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
     samples_out: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--samples", help="Also write the per-frame samples as JSON lines."
@@ -537,9 +538,11 @@ def calibrate_cmd(
         task = bar.add_task("calibrating", total=frames + runs)
         params, summary, samples = calibrate(
             frames, runs=runs, seed=seed, model=None if model is None else str(model),
-            progress=lambda i: bar.update(task, completed=i),
+            workers=workers, progress=lambda i: bar.update(task, completed=i),
         )  # fmt: skip
     command = f"sitcov calibrate --frames {frames} --runs {runs} --seed {seed}"
+    if workers > 1:
+        command += f" --workers {workers}"
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     text = pem_yaml(params, command, summary)
@@ -557,6 +560,12 @@ def calibrate_cmd(
         err_console.print(
             f"clear, box >= 10% width, {name}: n={v['n']} detected {v['rate_floor']:.0%} "
             f"(score >= 0.5: {v['rate_0.5']:.0%})",
+            highlight=False,
+        )
+    for tau, row in summary.get("camera_runs", {}).get("pem_agreement_by_noise_tau", {}).items():
+        err_console.print(
+            f"noise_tau {tau} s: PEM agrees with camera mode on {row['agreement']:.1%} of the "
+            f"runs (PEM failures {row['failure_rate']:.1%})",
             highlight=False,
         )
 

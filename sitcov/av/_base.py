@@ -97,6 +97,12 @@ class AVStack(abc.ABC):
     name: ClassVar[str] = "custom"
     #: The dash-cam the stack expects; backends simulate or render this camera.
     camera: CameraSpec = CameraSpec()
+    #: The narrowest box, as a fraction of the image width, that the stack ever acts on
+    #: (0 = any). A camera-mode backend may skip rendering and detecting frames in which
+    #: no vehicle's true box comes near this width (see docs/camera.md, frame gating);
+    #: a stack that declares it promises detections narrower than this never change its
+    #: control.
+    min_box_width: float = 0.0
 
     @abc.abstractmethod
     def reset(self, info: RunInfo) -> None:

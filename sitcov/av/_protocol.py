@@ -72,7 +72,8 @@ def hello(*, step_timeout: float, grey_box: bool, version: str) -> dict[str, Any
 
 
 def parse_hello(message: dict[str, Any], *, who: str) -> dict[str, Any]:
-    """Validate the stack's hello; returns ``{"name", "wants", "image_transport"}``."""
+    """Validate the stack's hello; returns ``{"name", "wants", "image_transport"}`` and,
+    if the stack declared it, ``"min_box_width"``."""
     expect(message, "hello", who=who)
     version = message.get("protocol")
     if version != PROTOCOL_VERSION:
@@ -90,7 +91,16 @@ def parse_hello(message: dict[str, Any], *, who: str) -> dict[str, Any]:
             f"got {transport!r}"
         )
     name = str(message.get("name", "external"))
-    return {"name": name, "wants": wants, "image_transport": transport}
+    peer = {"name": name, "wants": wants, "image_transport": transport}
+    if "min_box_width" in message:
+        width = message["min_box_width"]
+        if isinstance(width, bool) or not isinstance(width, int | float) or not 0 <= width <= 1:
+            raise StackError(
+                f"{who}: hello field 'min_box_width' must be a number in [0, 1] (a fraction "
+                f"of the image width), got {width!r}"
+            )
+        peer["min_box_width"] = float(width)
+    return peer
 
 
 def camera_dict(camera: CameraSpec) -> dict[str, Any]:

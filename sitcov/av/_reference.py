@@ -49,6 +49,16 @@ def aeb_test(
     return round((1.0 - ratio) ** 4, 1) <= distance
 
 
+def aeb_min_box_width(distance: float) -> float:
+    """The narrowest box (fraction of the image width) that can pass the distance test.
+
+    ``round((1 - r) ** 4, 1) <= distance`` needs ``(1 - r) ** 4 < q + 0.05`` with ``q``
+    the distance rounded down to a tenth.
+    """
+    tenth = math.floor(distance * 10.0) / 10.0
+    return max(0.0, 1.0 - min(tenth + 0.05, 1.0) ** 0.25)
+
+
 class ReferenceStack(AVStack):
     """The paper's ego stack, with faults and every parameter configurable.
 
@@ -81,6 +91,7 @@ class ReferenceStack(AVStack):
         self._threshold = p["threshold"]
         self._centering = p["centering"]
         self._distance = p["distance"]
+        self.min_box_width = aeb_min_box_width(self._distance) if self.aeb else math.inf
         self._label = p["label"]
         self._target = p["target_speed_kmh"]
         self._la_base = p["lookahead_base"]

@@ -1,23 +1,25 @@
 """Calibrate the perception error model (PEM) against the renderer and the SSD detector.
 
-``sweep`` renders frames with the OV at random distance, bearing and view angle, under clear
-weather or one weather element at a time, runs the detector and records the score of the
-detection matching the OV's projected box (IoU >= 0.3), next to the PEM's features of the
-same geometry (:meth:`sitcov.perception.PEMSensor.features`).
+Two kinds of frames go through the renderer and the detector:
 
-``fit_pem`` fits the PEM's functional form (``sitcov.perception._pem``) by maximum
-likelihood: the logit of the detector's score is modelled as ``z(features) + e`` with
-``e ~ N(0, (noise_sigma + rain_sigma * rain_noise)^2)``. Scores below the calibration
-detector's reporting threshold are censored (a Tobit likelihood), and a frame may be lost
-outright with probability ``rain_miss * rain_noise``. ``size_ref_px`` is fixed (it is
-collinear with ``bias``); ``size_max_px`` is chosen on a grid; ``size_min_px`` is the
-smallest box height at which the detector still reports the car; ``floor`` is the
-detector's reporting threshold; box jitter comes from the matched boxes' corner errors.
-Frames rendered along re-simulated runs (:mod:`sitcov.perception._temporal`) join the fit,
-so the geometries and weather combinations that campaigns meet are represented; their
-residuals give the noise's correlation time ``noise_tau``. The between-run share of the
-residual variance is treated as systematic (the detector is deterministic on a frame) and
-removed from ``noise_sigma``, leaving ``noise_run_share`` at 0.
+- ``sweep``: static scenes with the OV at random distance (4-80 m), bearing and heading,
+  under clear weather or one weather element at a time. They cover every size and
+  weather value, and give the detection-rate checks.
+- :func:`sitcov.perception._camera_runs.camera_runs`: camera-mode runs of the reference
+  stack through random situations, recorded frame by frame. They hold the geometries and
+  weather combinations campaigns meet, in the frames where the AEB decides, and each
+  run's verdict.
+
+``fit_pem`` fits the PEM at the decision threshold, on the runs' frames and the sweep's frames
+with boxes narrower than any the runs rendered: a probit model of the event "the
+detector reports the OV with a score >= threshold" (0.5, the reference AEB's) gives the
+logit's shape ``z / noise_sigma``; ``noise_sigma`` then sets how scores spread around the
+threshold, fitted to how often they fall below the reporting floor (0.3) and above 0.95
+(fault f1). The probability that a frame passes the AEB's score test is thus matched
+directly, not inferred from a normal law of the score, whose tails the detector does not
+follow. Box jitter comes from the matched boxes' horizontal errors in frames where the
+box is at least 60 px wide. ``choose_tau`` picks the noise's correlation time by
+agreement of PEM-mode verdicts with the camera-mode verdicts of the same runs.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ import numpy as np
 
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 from sitcov.perception._camera import project_box
-from sitcov.perception._nms import iou
+from sitcov.perception._camera_runs import CameraRun, camera_runs, match
 from sitcov.perception._pem import PEMFeatures, PEMParams, PEMSensor
 from sitcov.perception._renderer import render_frame
 from sitcov.sim._conditions import WEATHER_ELEMENTS  # swept one at a time (CARLA units, 0..100)
@@ -45,14 +47,20 @@ DISTANCE_RANGE = (4.0, 80.0)
 BEARING_DEG = 45.0
 #: Body colours the OV is drawn in (one per frame, at random).
 PALETTE = ((150, 30, 35), (200, 200, 205), (30, 30, 35), (40, 70, 140), (120, 120, 125))
-#: A detection matches the OV when its IoU with the projected box reaches this.
-MATCH_IOU = 0.3
 #: Detector threshold while calibrating (lower than in use, to see the censored tail).
 SWEEP_MIN_SCORE = 0.05
 #: Reporting threshold of the detector in use, which becomes the PEM's floor.
 USE_FLOOR = 0.3
-#: Re-simulated runs rendered along their trajectories for the noise's time correlation.
-DEFAULT_RUNS = 24
+#: Camera-mode runs recorded for the fit and the choice of the noise's correlation time.
+DEFAULT_RUNS = 200
+#: The reference AEB's score threshold: the event the PEM is fitted to reproduce.
+THRESHOLD = 0.5
+#: Score cut-offs whose frequencies fit the noise scale (reporting floor, fault f1).
+SIGMA_CUTS = (USE_FLOOR, THRESHOLD, 0.95)
+#: Correlation times [s] tried for the PEM's noise.
+TAU_GRID = (0.0, 0.1, 0.2, 0.4, 0.8)
+#: Boxes at least this wide [px] give the box jitter.
+JITTER_MIN_WIDTH = 60.0
 
 
 @dataclass(frozen=True)
@@ -137,142 +145,208 @@ def sweep(
         proj = project_box(camera, ego, actor)
         if feats is None or proj is None or not proj.visible:
             continue
-        dets = detector(image)
-        truth = np.asarray(proj.box, dtype=np.float64)
-        score, err = 0.0, None
-        if dets:
-            boxes = np.asarray([d.box for d in dets], dtype=np.float64)
-            overlaps = iou(truth, boxes)
-            best = int(np.argmax(overlaps))
-            if overlaps[best] >= MATCH_IOU:
-                score = float(dets[best].score)
-                bw, bh = max(proj.width, 1.0), max(proj.height, 1.0)
-                d = boxes[best] - truth
-                err = (d[0] / bw, d[1] / bh, d[2] / bw, d[3] / bh)
+        score, err = match(proj.box, detector(image))
         out.append(Sample(element, value, dist, bearing, view, proj.width, feats, score, err))
     return out
 
 
 def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, ref: float):
+    """Columns of the PEM's logit, in the order of ``_LINEAR`` (see ``_pem._logit``)."""
     f = np.asarray(features, dtype=np.float64)
-    h = np.clip(f[:, 0], size_min, size_max)
+    size = np.log(np.clip(f[:, 0], size_min, size_max) / ref)
+    side = np.sin(f[:, 1])
     shape = np.where(
         (f[:, 6] > 0) & (f[:, 0] > 0),
         np.log(np.clip(f[:, 6] / np.maximum(f[:, 0], 1e-9), 0.25, 4.0)),
         0.0,
     )
+    facing = f[:, 8]
     cols = [
         np.ones(len(f)),
-        np.log(h / ref),
-        -np.sin(f[:, 1]),
+        size,
+        size * size,
+        side * size,
+        -side,
+        np.sin(2.0 * f[:, 1]),
+        facing,
+        2.0 * facing * facing - 1.0,
         -f[:, 2],
         np.log(np.maximum(f[:, 3], 1e-9)),
         np.log(np.maximum(f[:, 4], 1e-9)),
         -f[:, 5],
         shape,
-        np.sin(2.0 * f[:, 1]),
         -f[:, 7],
     ]
-    return np.stack(cols, axis=1), f[:, 5]
+    return np.stack(cols, axis=1)
 
 
 _LINEAR = (
     "bias",
     "size_gain",
+    "size2_gain",
+    "side_size_gain",
     "view_gain",
+    "view2_gain",
+    "facing_gain",
+    "facing2_gain",
     "trunc_gain",
     "fog_gain",
     "illum_gain",
     "rain_gain",
     "aspect_gain",
-    "view2_gain",
     "edge_gain",
 )
+#: Ridge penalty on the probit coefficients (not the intercept).
+_RIDGE = 1.0
 
 
-def _nll(theta: np.ndarray, x: np.ndarray, rain: np.ndarray, y: np.ndarray, cens: np.ndarray,
-         cut: float) -> float:  # fmt: skip
-    from scipy.special import log_ndtr
+def _probit(x: np.ndarray, event: np.ndarray) -> tuple[np.ndarray, float]:
+    """Ridge-penalised probit fit of ``P(event) = Phi(x @ g)``: (g, penalised NLL)."""
+    from scipy.optimize import minimize
+    from scipy.special import log_ndtr, ndtr
 
-    beta = theta[: x.shape[1]]
-    sig0, sig_r, miss = theta[x.shape[1] :]
-    sigma = np.maximum(sig0 + sig_r * rain, 1e-3)
-    m = np.clip(miss * rain, 0.0, 0.999)
-    z = x @ beta
-    ll_obs = (
-        np.log1p(-m) - 0.5 * ((y - z) / sigma) ** 2 - np.log(sigma) - 0.5 * math.log(2 * math.pi)
-    )
-    p_cens = np.exp(log_ndtr((cut - z) / sigma))
-    ll_cens = np.log(m + (1 - m) * p_cens + 1e-300)
-    return float(-np.sum(np.where(cens, ll_cens, ll_obs)))
+    def nll(g: np.ndarray) -> tuple[float, np.ndarray]:
+        z = x @ g
+        lp, lq = log_ndtr(z), log_ndtr(-z)
+        value = -float(np.sum(np.where(event, lp, lq))) + _RIDGE * float(np.sum(g[1:] ** 2))
+        pdf = np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
+        p = np.clip(ndtr(z), 1e-12, 1 - 1e-12)
+        dz = np.where(event, -pdf / p, pdf / (1.0 - p))
+        grad = x.T @ dz + 2.0 * _RIDGE * np.r_[0.0, g[1:]]
+        return value, grad
+
+    res = minimize(nll, np.zeros(x.shape[1]), jac=True, method="L-BFGS-B")
+    return res.x, float(res.fun)
+
+
+def _fit_sigma(zg: np.ndarray, scores: np.ndarray, threshold: float) -> float:
+    """Noise scale s of ``logit(score) = s * zg + logit(threshold) + s * N(0, 1)``.
+
+    Fitted to the frequencies of the score intervals cut at ``SIGMA_CUTS``; any s keeps
+    ``P(score >= threshold) = Phi(zg)``.
+    """
+    from scipy.optimize import minimize_scalar
+    from scipy.special import ndtr
+
+    cuts = np.asarray(SIGMA_CUTS)
+    edges = np.r_[-np.inf, np.log(cuts / (1 - cuts)) - math.log(threshold / (1 - threshold)),
+                  np.inf]  # fmt: skip
+    idx = np.searchsorted(cuts, scores, side="right")
+    lo, hi = edges[idx], edges[idx + 1]
+
+    def nll(s: float) -> float:
+        p = ndtr(hi / s - zg) - ndtr(lo / s - zg)
+        return -float(np.sum(np.log(np.maximum(p, 1e-300))))
+
+    return float(minimize_scalar(nll, bounds=(0.05, 5.0), method="bounded").x)
+
+
+def _jitter(frames: Sequence[Any]) -> float | None:
+    """Box-corner noise over the box width, from the horizontal errors of matched boxes."""
+    usable = [
+        f.box_error
+        for f in frames
+        if f.box_error is not None and f.width_px >= JITTER_MIN_WIDTH
+        and f.features.truncation < 0.05
+    ]  # fmt: skip
+    errs = [abs(e) for err in usable for e in (err[0], err[2])]
+    if len(errs) < 20:
+        return None
+    return float(np.median(errs)) / 0.6745  # median |N(0, s)| = 0.6745 s
 
 
 def fit_pem(
     samples: Sequence[Sample],
     *,
-    tracks: Sequence[Any] = (),
+    runs: Sequence[CameraRun] = (),
+    threshold: float = THRESHOLD,
     floor: float = USE_FLOOR,
-    censor: float = SWEEP_MIN_SCORE,
     base: PEMParams | None = None,
 ) -> PEMParams:
-    """Fit the PEM parameters to calibration samples (see the module docstring).
+    """Fit the PEM parameters to sweep samples and recorded camera runs (module docstring).
 
-    ``tracks`` (:class:`sitcov.perception._temporal.TrackSample`, frames along re-simulated
-    runs) join the static sweep in the score fit: they hold the geometries and weather
-    combinations the campaigns actually meet. Box jitter comes from the sweep only.
+    With ``runs``, sweep samples count only below the narrowest box the runs rendered: above
+    it the runs' frames are the ones campaigns meet (the sweep's colours, poses and
+    one-element weather are not). The correlation time is not fitted here (``noise_tau``
+    = 0): see :func:`choose_tau`.
     """
-    from scipy.optimize import minimize
-
     base = base or PEMParams()
-    usable = [s for s in samples if s.features.height_px >= 1.0]
-    pairs = [(s.features, s.score) for s in usable]
-    pairs += [(t.features, t.score) for t in tracks if t.features.height_px >= 1.0]
-    if len(pairs) < 20:
+    run_frames = [f for run in runs for f in run.frames if f.features.height_px >= 1.0]
+    # Where camera runs render frames (boxes at least as wide as the frame gate) they are
+    # the frames campaigns meet; the static sweep fills in only the narrower boxes.
+    narrowest = min((f.width_px for f in run_frames), default=math.inf)
+    frames: list[Any] = [
+        s for s in samples if s.features.height_px >= 1.0 and s.width_px < narrowest
+    ]
+    frames += run_frames
+    if len(frames) < 20:
         from sitcov.errors import SitcovError
 
-        raise SitcovError(f"too few calibration frames with the OV in view ({len(pairs)})")
-    feats = [f for f, _ in pairs]
-    scores = np.asarray([sc for _, sc in pairs])
-    cut = math.log(censor / (1 - censor))
-    cens = scores < censor
-    y = np.log(np.clip(scores, 1e-4, 1 - 1e-4) / (1 - np.clip(scores, 1e-4, 1 - 1e-4)))
+        raise SitcovError(f"too few calibration frames with the OV in view ({len(frames)})")
+    feats = [f.features for f in frames]
+    scores = np.asarray([f.score for f in frames])
+    event = scores >= threshold
     heights = np.asarray([f.height_px for f in feats])
     seen = heights[scores >= floor]
     size_min = float(np.percentile(seen, 2)) if seen.size else base.size_min_px
     best: tuple[float, np.ndarray, float] | None = None
     for size_max in (60.0, 100.0, 150.0, 200.0, 300.0, 450.0):
-        x, rain = _design(feats, 1.0, size_max, base.size_ref_px)
-        theta0 = np.concatenate([np.zeros(x.shape[1]), [0.8, 0.5, 0.1]])
-        bounds = [(None, None)] * x.shape[1] + [(0.05, 5.0), (0.0, 5.0), (0.0, 1.0)]
-        res = minimize(_nll, theta0, args=(x, rain, y, cens, cut), method="L-BFGS-B",
-                       bounds=bounds)  # fmt: skip
-        if best is None or res.fun < best[0]:
-            best = (float(res.fun), res.x, size_max)
+        g, value = _probit(_design(feats, 1.0, size_max, base.size_ref_px), event)
+        if best is None or value < best[0]:
+            best = (value, g, size_max)
     assert best is not None
-    _, theta, size_max = best
-    fitted = dict(zip(_LINEAR, (float(v) for v in theta[: len(_LINEAR)]), strict=True))
-    errs = np.asarray([s.box_error for s in usable if s.box_error is not None])
-    rains = np.asarray([s.features.rain_noise for s in usable if s.box_error is not None])
-    jitter, rain_jitter = base.jitter, base.rain_jitter
-    if len(errs) >= 10:
-        mag = np.abs(errs).mean(axis=1) * math.sqrt(math.pi / 2)  # mean |N(0,s)| -> s
-        clear = rains < 0.05
-        jitter = float(np.median(mag[clear])) if clear.any() else float(np.median(mag))
-        if (rains > 0.05).sum() >= 5:
-            slope = np.polyfit(rains, mag, 1)[0]
-            rain_jitter = float(max(0.0, slope))
+    _, g, size_max = best
+    zg = _design(feats, 1.0, size_max, base.size_ref_px) @ g
+    sigma = _fit_sigma(zg, scores, threshold)
+    fitted = {name: sigma * float(v) for name, v in zip(_LINEAR, g, strict=True)}
+    fitted["bias"] += math.log(threshold / (1 - threshold))
+    jitter = _jitter(frames)
     return PEMParams(
         **{k: round(v, 4) for k, v in fitted.items()},
         size_ref_px=base.size_ref_px,
         size_min_px=round(max(1.0, size_min), 2),
         size_max_px=size_max,
-        noise_sigma=round(float(theta[-3]), 4),
-        rain_sigma=round(float(theta[-2]), 4),
-        rain_miss=round(float(theta[-1]), 4),
-        jitter=round(jitter, 4),
-        rain_jitter=round(rain_jitter, 4),
+        noise_sigma=round(sigma, 4),
+        rain_sigma=0.0,
+        rain_miss=0.0,
+        jitter=round(jitter if jitter is not None else base.jitter, 4),
+        rain_jitter=0.0,
         floor=floor,
+        noise_tau=0.0,
     )
+
+
+def pem_agreement(params: PEMParams, runs: Sequence[CameraRun]) -> tuple[float, float]:
+    """(agreement with the camera verdicts, PEM failure rate) on the same situations/seeds."""
+    from sitcov.av import ReferenceStack
+    from sitcov.hyperspace import Situation
+    from sitcov.perception._pem import PEMSensor
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    backend = EmbeddedBackend(perception="pem", sensor=PEMSensor(params))
+    stack = ReferenceStack()
+    agree = fails = 0
+    for run in runs:
+        failed = backend.run(Situation.from_dict(run.situation), stack, run.seed).failed
+        agree += failed == run.failed
+        fails += failed
+    n = max(1, len(runs))
+    return agree / n, fails / n
+
+
+def choose_tau(params: PEMParams, runs: Sequence[CameraRun]) -> tuple[float, dict[str, Any]]:
+    """The noise correlation time in ``TAU_GRID`` whose PEM verdicts agree best with ``runs``.
+
+    Ties go to the shorter time. Returns it and the agreement of every candidate.
+    """
+    table: dict[str, Any] = {}
+    best_tau, best = 0.0, -1.0
+    for tau in TAU_GRID:
+        agree, fail_rate = pem_agreement(replace(params, noise_tau=tau), runs)
+        table[f"{tau:g}"] = {"agreement": round(agree, 3), "failure_rate": round(fail_rate, 3)}
+        if agree > best + 1e-12:
+            best_tau, best = tau, agree
+    return best_tau, table
 
 
 def _view_class(view: float) -> str:
@@ -321,47 +395,44 @@ def calibrate(
     runs: int = DEFAULT_RUNS,
     seed: int = 0,
     model: str | None = None,
+    workers: int = 1,
     progress: Callable[[int], None] | None = None,
 ) -> tuple[PEMParams, dict[str, Any], list[Sample]]:
-    """Sweep with the SSD detector and fit the PEM; returns (params, summary, samples).
+    """Sweep, record camera runs and fit the PEM; returns (params, summary, samples).
 
-    ``frames`` random static scenes and the frames of ``runs`` re-simulated runs rendered
-    along their trajectories fit the score model (:func:`fit_pem`); the runs' residuals
-    then fit the noise's correlation in time (:func:`sitcov.perception._temporal.fit_temporal`).
-    The share of the residual variance that is constant over a run is not kept as noise
-    (``noise_run_share`` = 0, ``noise_sigma`` scaled by ``sqrt(1 - share)``): the detector
-    is deterministic, so that share is systematic error of the features; it is recorded
-    in the summary's ``temporal.between_run_share``. ``progress`` receives the
-    number of steps done out of ``frames + runs``.
+    ``frames`` static scenes (:func:`sweep`) and ``runs`` recorded camera-mode runs of
+    seed ``seed`` (:func:`sitcov.perception._camera_runs.camera_runs`, over ``workers``
+    processes) fit the score model (:func:`fit_pem`); the runs' verdicts choose the
+    noise's correlation time (:func:`choose_tau`). ``progress`` receives the number of
+    steps done out of ``frames + runs``.
     """
     from sitcov.perception._detector import SSDDetector
-    from sitcov.perception._temporal import fit_temporal, trajectory_sweep
 
     detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
     samples = sweep(frames, detector, seed=seed, progress=progress)
     summary = summarize_samples(samples)
     if runs <= 0:
         return fit_pem(samples), summary, samples
-    tracks = trajectory_sweep(
+    recorded = camera_runs(
         runs,
-        detector,
         seed=seed,
-        match_iou=MATCH_IOU,
+        model=model,
+        workers=workers,
         progress=None if progress is None else (lambda r: progress(frames + r)),
     )
-    params = fit_pem(samples, tracks=tracks)
-    share, tau, stats = fit_temporal(tracks, params, SWEEP_MIN_SCORE)
-    # The detector is deterministic on a frame: a residual offset that persists over a
-    # run is geometry or weather the features do not explain, not chance. Only the
-    # within-run part of the residual variance becomes random noise.
-    stats["between_run_share"] = share
-    params = replace(
-        params,
-        noise_sigma=round(params.noise_sigma * math.sqrt(1.0 - share), 4),
-        noise_run_share=0.0,
-        noise_tau=round(tau, 3),
-    )
-    summary["temporal"] = stats
+    params = fit_pem(samples, runs=recorded)
+    tau, table = choose_tau(params, recorded)
+    params = replace(params, noise_tau=tau)
+    run_frames = [f for r in recorded for f in r.frames]
+    summary["camera_runs"] = {
+        "runs": len(recorded),
+        "seed": seed,
+        "frames": len(run_frames),
+        "frames_per_run": round(len(run_frames) / max(1, len(recorded)), 1),
+        "events_score_ge_0.5": sum(f.score >= THRESHOLD for f in run_frames),
+        "failure_rate_camera": round(sum(r.failed for r in recorded) / len(recorded), 3),
+        "pem_agreement_by_noise_tau": table,
+    }
     return params, summary, samples
 
 
@@ -382,7 +453,7 @@ def pem_yaml(params: PEMParams, command: str, summary: dict[str, Any]) -> str:
         "frames": summary.get("frames"),
         "clear_detection_rate_box_ge_10pct": {k: v["rate_floor"] for k, v in views.items()},
     }
-    if "temporal" in summary:
-        meta["temporal"] = summary["temporal"]
+    if "camera_runs" in summary:
+        meta["camera_runs"] = summary["camera_runs"]
     body = yaml.safe_dump({"meta": meta, "params": asdict(params)}, sort_keys=False)
     return head + body

@@ -36,6 +36,8 @@ class Projection:
         view_angle: angle between the actor's heading and the line of sight, folded to
             [0, pi/2]: 0 = seen from the rear or front, pi/2 = seen side-on [rad].
         visible: whether any part of the box lies inside the image.
+        facing: cosine of the actor's heading relative to the line of sight: +1 seen from
+            the rear (driving away), -1 seen from the front (coming closer), 0 side-on [-].
     """
 
     box: tuple[float, float, float, float]
@@ -45,6 +47,7 @@ class Projection:
     bearing: float
     view_angle: float
     visible: bool
+    facing: float = 0.0
 
     @property
     def width(self) -> float:
@@ -135,6 +138,7 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     raw_area = (u1 - u0) * (v1 - v0)
     truncation = 1.0 - (bx1 - bx0) * (by1 - by0) / raw_area if raw_area > 0.0 else 1.0
     los = math.atan2(dy, dx)
+    facing = math.cos(ap.yaw - los)
     view = abs(math.remainder(ap.yaw - los, math.tau))
     if view > 0.5 * math.pi:
         view = math.pi - view
@@ -146,4 +150,5 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
         math.atan2(-r_c, d_c),
         view,
         visible,
+        facing,
     )

@@ -3,22 +3,23 @@
 For each actor the camera geometry (:func:`sitcov.perception.project_box`) gives the box a
 detector would draw; the PEM turns what makes that box hard to detect into a score:
 
+    L = ln(clamp(h, size_min_px, size_max_px) / size_ref_px)                   apparent size
     z = bias
-        + size_gain  * ln(clamp(h, size_min_px, size_max_px) / size_ref_px)   apparent size
-        - view_gain  * sin(view_angle)                                        side view
+        + size_gain * L + size2_gain * L^2 + side_size_gain * sin(view) * L    size
+        - view_gain  * sin(view_angle) + view2_gain * sin(2 * view_angle)      side, oblique
+        + facing_gain * facing + facing2_gain * (2 * facing^2 - 1)             rear/front
         - trunc_gain * truncation                                             image edge
         + fog_gain   * ln(transmittance(distance))                            fog contrast
         + illum_gain * ln(illumination)                                       darkness
         - rain_gain  * rain_noise                                             rain, spray
         + aspect_gain * ln(clamp(w / h, 0.25, 4))                             box shape
-        + view2_gain * sin(2 * view_angle)                                    oblique view
         - edge_gain  * offset                                                 off-centre
     score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * n_t)
 
-with ``h`` and ``w`` the unclipped box height and width [px], ``offset`` the distance of the
-box centre from the image centre as a fraction of half the image width (clamped to [0, 1]),
-and ``n_t`` a unit-variance noise that is correlated in time, as a real detector's errors on
-one object are (same appearance, nearly the same pose from frame to frame):
+with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
+actor's heading relative to the line of sight (+1 rear view, -1 front view), ``offset`` the
+distance of the box centre from the image centre as a fraction of half the image width
+(clamped to [0, 1]), and ``n_t`` a unit-variance noise, optionally correlated in time:
 
     n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share) * u_t
     a ~ N(0, 1)                 drawn once per run and actor ("this car is hard to see")
@@ -85,6 +86,11 @@ class PEMParams:
         aspect_gain: logit per e-fold of the box's width/height ratio [-].
         view2_gain: logit gained at a 45 degree (oblique) view, beyond the side-view term [-].
         edge_gain: logit lost with the box centre at the image's left or right edge [-].
+        size2_gain: logit per squared e-fold of box height (curvature of the size term) [-].
+        side_size_gain: extra logit per e-fold of box height when seen side-on [-].
+        facing_gain: logit gained when seen from the rear rather than the front [-].
+        facing2_gain: logit gained when seen end-on (rear or front) rather than side-on,
+            as a cosine of twice the relative heading [-].
         noise_run_share: share of the logit-noise variance that is constant over a run
             for one actor (between-run share) [-].
         noise_tau: correlation time of the frame-to-frame part of the noise [s]
@@ -112,6 +118,10 @@ class PEMParams:
     aspect_gain: float = 0.0
     view2_gain: float = 0.0
     edge_gain: float = 0.0
+    size2_gain: float = 0.0
+    side_size_gain: float = 0.0
+    facing_gain: float = 0.0
+    facing2_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -199,6 +209,8 @@ class PEMFeatures(NamedTuple):
         width_px: unclipped box width [px] (0 = unknown: no shape term).
         offset: box centre's distance from the image centre over half the image width,
             clamped to [0, 1] [-].
+        facing: cosine of the actor's heading relative to the line of sight (+1 rear
+            view, -1 front view) [-].
     """
 
     height_px: float
@@ -209,6 +221,7 @@ class PEMFeatures(NamedTuple):
     rain_noise: float = 0.0
     width_px: float = 0.0
     offset: float = 0.0
+    facing: float = 0.0
 
 
 _TINY = 1e-9  # floor inside logarithms [-]
@@ -229,21 +242,26 @@ def _logit(
     rain_noise: float,
     width_px: float = 0.0,
     offset: float = 0.0,
+    facing: float = 0.0,
 ) -> float:
     h = min(max(height_px, p.size_min_px), p.size_max_px)
+    size = math.log(h / p.size_ref_px)
     shape = 0.0
     if width_px > 0.0 and height_px > 0.0:
         shape = math.log(min(max(width_px / height_px, 0.25), 4.0))
+    side = math.sin(view_angle)
     return (
         p.bias
-        + p.size_gain * math.log(h / p.size_ref_px)
-        - p.view_gain * math.sin(view_angle)
+        + (p.size_gain + p.size2_gain * size + p.side_size_gain * side) * size
+        - p.view_gain * side
+        + p.view2_gain * math.sin(2.0 * view_angle)
+        + p.facing_gain * facing
+        + p.facing2_gain * (2.0 * facing * facing - 1.0)
         - p.trunc_gain * truncation
         + p.fog_gain * math.log(max(transmittance, _TINY))
         + p.illum_gain * math.log(max(illumination, _TINY))
         - p.rain_gain * rain_noise
         + p.aspect_gain * shape
-        + p.view2_gain * math.sin(2.0 * view_angle)
         - p.edge_gain * offset
     )
 
@@ -342,6 +360,7 @@ class PEMSensor(Sensor):
             conditions.rain_noise,
             raw[2] - raw[0],
             _offset(self.camera, raw),
+            proj[7],
         )
 
     def _phi(self) -> float:
@@ -385,7 +404,7 @@ class PEMSensor(Sensor):
             proj = project_raw(camera, ego, actor)
             if proj is None or not proj[6]:
                 continue
-            (x0, y0, x1, y1), raw, truncation, distance, _, view, _ = proj
+            (x0, y0, x1, y1), raw, truncation, distance, _, view, _, facing = proj
             height = raw[3] - raw[1]
             if height < p.size_min_px:
                 continue
@@ -403,6 +422,7 @@ class PEMSensor(Sensor):
                 rain,
                 raw[2] - raw[0],
                 _offset(camera, raw),
+                facing,
             )
             score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
             if score < p.floor:

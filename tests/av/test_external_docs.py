@@ -6,6 +6,8 @@ import json
 import re
 from pathlib import Path
 
+import pytest
+
 from sitcov.av import EgoState, Observation, RunInfo
 from sitcov.av import _protocol as proto
 from sitcov.perception import CameraSpec, Detection
@@ -56,3 +58,13 @@ def test_documented_stack_messages_are_accepted() -> None:
     }
     control = proto.parse_control(docs["control"][0], who="doc")
     assert (control.throttle, control.brake, control.steer) == (0.4, 0.0, -0.05)
+
+
+def test_hello_may_declare_the_narrowest_box_the_stack_acts_on() -> None:
+    from sitcov.errors import StackError
+
+    hello = {"type": "hello", "protocol": 1, "wants": "image", "min_box_width": 0.1}
+    assert proto.parse_hello(hello, who="s")["min_box_width"] == 0.1
+    for bad in (1.5, -0.1, "wide", True):
+        with pytest.raises(StackError, match="min_box_width"):
+            proto.parse_hello({**hello, "min_box_width": bad}, who="s")

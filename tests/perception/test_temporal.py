@@ -1,5 +1,5 @@
-"""The PEM's noise is correlated in time as specified, the fit recovers that correlation from
-synthetic data, and the noise state never leaks from one run into the next."""
+"""The PEM's noise is correlated in time as specified, and the noise state never leaks from
+one run into the next."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from sitcov.perception import ActorView, PEMSensor, Pose, pem_logit
-from sitcov.perception._temporal import autocorrelation, fit_correlation
 from sitcov.sim import conditions_from_values
 
 EGO = Pose(0.0, 0.0, 0.0)
@@ -73,32 +72,6 @@ def test_rain_misses_come_in_runs() -> None:
     # a miss is followed by a miss much more often than the marginal rate
     after_miss = hits[:, 1:][hits[:, :-1] == 0]
     assert 1 - after_miss.mean() > p + 0.3
-
-
-def _synthetic_residuals(share: float, tau: float, rng: np.random.Generator):
-    """AR(1) + per-run offset series, written independently of the sensor, with random gaps."""
-    phi = math.exp(-0.1 / tau)
-    res = {}
-    for r in range(400):
-        a = rng.normal()
-        u = rng.normal()
-        run = {}
-        for f in range(50):
-            if f:
-                u = phi * u + math.sqrt(1 - phi * phi) * rng.normal()
-            if rng.random() < 0.8:  # some frames have no residual (censored / not in view)
-                run[f] = math.sqrt(share) * a + math.sqrt(1 - share) * u
-        res[r] = run
-    return res
-
-
-@pytest.mark.parametrize("share,tau", [(0.0, 0.2), (0.3, 0.5), (0.6, 1.5)])
-def test_fit_recovers_run_share_and_tau_from_synthetic_series(share: float, tau: float) -> None:
-    res = _synthetic_residuals(share, tau, np.random.default_rng(5))
-    r, counts = autocorrelation(res)
-    fit_share, fit_tau = fit_correlation(r, counts)
-    assert fit_share == pytest.approx(share, abs=0.08)
-    assert fit_tau == pytest.approx(tau, rel=0.3)
 
 
 def test_a_reused_sensor_gives_each_run_its_own_noise() -> None:

@@ -1,0 +1,162 @@
+"""Camera-mode runs recorded frame by frame: the ground truth the PEM is calibrated against.
+
+``camera_runs`` drives the reference stack through random situations in camera mode (the
+renderer and the SSD detector, exactly as ``sitcov run --perception camera`` does, with
+the same frame gating) and records, for every frame the detector saw, the PEM's features
+of the OV, the score of the detection matching it and that detection's box error; and,
+per run, the verdict. Run ``i`` of seed ``s`` is situation ``ask_rng(s, i)`` of the
+random generator simulated with seed ``run_seed(s, i)``: the convention of
+``sitcov run --generator random --seed s``, so a PEM can be run on exactly the same
+situations and seeds and its verdicts compared (:func:`sitcov.perception._calibrate.choose_tau`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from sitcov.perception._camera import project_box
+from sitcov.perception._nms import iou
+from sitcov.perception._pem import PEMFeatures, PEMSensor
+
+#: A detection matches the OV when its IoU with the projected box reaches this.
+MATCH_IOU = 0.3
+#: Reporting threshold of the detector while recording (low: the scores below the
+#: stack's own floor are seen too; the AEB's decisions are unchanged by it).
+RECORD_MIN_SCORE = 0.05
+
+
+@dataclass(frozen=True)
+class RunFrame:
+    """One frame the detector saw in a camera-mode run.
+
+    Attributes:
+        features: the PEM's features of the OV.
+        score: the matched detection's score, 0 if none matched.
+        box_error: (dx0, dy0, dx1, dy1) of the matched box over the true box size, or None.
+        width_px: width of the OV's true (clipped) box [px].
+    """
+
+    features: PEMFeatures
+    score: float
+    box_error: tuple[float, float, float, float] | None
+    width_px: float
+
+
+@dataclass(frozen=True)
+class CameraRun:
+    """One camera-mode run: which one, its verdict and its frames."""
+
+    index: int
+    seed: int
+    situation: dict[str, Any]
+    failed: bool
+    aeb_time: float | None
+    frames: tuple[RunFrame, ...]
+
+
+def match(truth: Sequence[float], detections: Sequence[Any]) -> tuple[float, Any]:
+    """Score and box error of the detection best overlapping ``truth`` (IoU >= MATCH_IOU)."""
+    if not detections:
+        return 0.0, None
+    t = np.asarray(truth, dtype=np.float64)
+    boxes = np.asarray([d.box for d in detections], dtype=np.float64)
+    overlaps = iou(t, boxes)
+    best = int(np.argmax(overlaps))
+    if overlaps[best] < MATCH_IOU:
+        return 0.0, None
+    bw, bh = max(t[2] - t[0], 1.0), max(t[3] - t[1], 1.0)
+    d = boxes[best] - t
+    return float(detections[best].score), (d[0] / bw, d[1] / bh, d[2] / bw, d[3] / bh)
+
+
+class _Recorder:
+    """A backend + stack whose detector records what it saw in each frame."""
+
+    def __init__(self, model: str | None) -> None:
+        from sitcov.av import ReferenceStack
+        from sitcov.generation import make_generator
+        from sitcov.hyperspace import load_hyperspace
+        from sitcov.perception._detector import SSDDetector
+        from sitcov.sim.embedded import EmbeddedBackend
+
+        self.detector = SSDDetector(model, min_score=RECORD_MIN_SCORE)
+        self.backend = EmbeddedBackend(perception="camera")
+        self.backend.frame_observer = self._observe
+        self.stack = ReferenceStack(detector=self._detect)
+        self.generator = make_generator("random", load_hyperspace())
+        self.sensor = PEMSensor()
+        self._truth: tuple[Any, ...] = ()
+        self.frames: list[RunFrame] = []
+
+    def _observe(self, camera: Any, pose: Any, actors: Any, conditions: Any) -> None:
+        self._truth = (camera, pose, actors, conditions)
+
+    def _detect(self, image: np.ndarray) -> tuple[Any, ...]:
+        detections = self.detector(image)
+        camera, pose, actors, conditions = self._truth
+        for actor in actors:
+            feats = self.sensor.features(pose, actor, conditions)
+            proj = project_box(camera, pose, actor)
+            if feats is None or proj is None:
+                continue
+            score, err = match(proj.box, detections)
+            self.frames.append(RunFrame(feats, score, err, proj.width))
+        return detections
+
+    def run(self, seed: int, index: int) -> CameraRun:
+        from sitcov._seeding import ask_rng, run_seed
+
+        situation = self.generator.ask(ask_rng(seed, index))
+        sim_seed = run_seed(seed, index)
+        self.frames = []
+        outcome = self.backend.run(situation, self.stack, sim_seed)
+        return CameraRun(index, sim_seed, situation.to_dict(), outcome.failed,
+                         outcome.aeb_time, tuple(self.frames))  # fmt: skip
+
+
+_WORKER: dict[str, _Recorder] = {}
+
+
+def _run_in_worker(job: tuple[str | None, int, int]) -> CameraRun:
+    model, seed, index = job
+    if "recorder" not in _WORKER:
+        _WORKER["recorder"] = _Recorder(model)
+    return _WORKER["recorder"].run(seed, index)
+
+
+def camera_runs(
+    runs: int,
+    *,
+    seed: int = 0,
+    model: str | os.PathLike[str] | None = None,
+    workers: int = 1,
+    progress: Callable[[int], None] | None = None,
+) -> list[CameraRun]:
+    """Runs ``0..runs-1`` of seed ``seed`` in camera mode, recorded (in index order).
+
+    ``workers > 1`` spreads the runs over that many processes; the result is the same.
+    ``progress`` receives the number of runs done.
+    """
+    model_arg = None if model is None else str(model)
+    jobs = [(model_arg, seed, i) for i in range(runs)]
+    out: list[CameraRun] = []
+    if workers <= 1:
+        recorder = _Recorder(model_arg)
+        for _, s, i in jobs:
+            out.append(recorder.run(s, i))
+            if progress is not None:
+                progress(len(out))
+        return out
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(workers) as pool:
+        for run in pool.imap_unordered(_run_in_worker, jobs):
+            out.append(run)
+            if progress is not None:
+                progress(len(out))
+    return sorted(out, key=lambda r: r.index)
