@@ -89,3 +89,35 @@ def test_camera_mode_runs_end_to_end_and_is_deterministic(ssd_model) -> None:
     assert first.status in ("pass", "fail")
     assert first.aeb_fired  # the OV crosses the ego's path in every IntSit
     assert backend.run(sit, stack, 11) == first
+
+
+@pytest.mark.slow
+def test_pem_and_camera_mode_mostly_reach_the_same_verdict(ssd_model) -> None:
+    """The shipped PEM stands in for the camera: same situations and seeds, same verdicts.
+
+    Runs 0..29 of seed 2, a seed neither the calibration (seed 1) nor its design (seed 0)
+    used. Deterministic; docs/camera.md has the 200-run figures (83.5 % on this seed,
+    85.5 % over seeds 2 and 4).
+    """
+    from sitcov._seeding import ask_rng, run_seed
+    from sitcov.av import ReferenceStack
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+    from sitcov.perception import SSDDetector
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    gen = make_generator("random", load_hyperspace())
+    camera = EmbeddedBackend(perception="camera")
+    pem = EmbeddedBackend(perception="pem")
+    cam_stack, pem_stack = ReferenceStack(detector=SSDDetector(ssd_model)), ReferenceStack()
+    verdicts = []
+    for i in range(30):
+        sit, seed = gen.ask(ask_rng(2, i)), run_seed(2, i)
+        verdicts.append(
+            (camera.run(sit, cam_stack, seed).failed, pem.run(sit, pem_stack, seed).failed)
+        )
+    agree = sum(c == p for c, p in verdicts) / len(verdicts)
+    cam_rate = sum(c for c, _ in verdicts) / len(verdicts)
+    pem_rate = sum(p for _, p in verdicts) / len(verdicts)
+    assert agree >= 0.75, (agree, cam_rate, pem_rate)
+    assert abs(cam_rate - pem_rate) <= 0.15, (cam_rate, pem_rate)
