@@ -70,68 +70,29 @@ def _camera_rows(args: argparse.Namespace) -> list[dict[str, Any]]:
         if len(rows) < args.runs:
             raise SystemExit(f"{args.reuse_camera} holds only {len(rows)} camera runs")
         return rows
-    indices = list(range(args.runs))
+    from sitcov.perception._camera_runs import iter_camera_runs
+
     rows: list[dict[str, Any]] = []
     with open(args.log, "w") as log:
-        if args.workers > 1:
-            import multiprocessing as mp
-
-            with mp.get_context("spawn").Pool(args.workers) as pool:
-                results = pool.imap_unordered(_camera_run, [(args.seed, i) for i in indices])
-                for row in results:
-                    rows.append(row)
-                    log.write(json.dumps(row) + "\n")
-                    log.flush()
-                    print(f"camera {len(rows)}/{args.runs}", file=sys.stderr)
-        else:
-            for i in indices:
-                rows.append(_camera_run((args.seed, i)))
-                log.write(json.dumps(rows[-1]) + "\n")
-                log.flush()
-                print(f"camera {len(rows)}/{args.runs}", file=sys.stderr)
+        for run in iter_camera_runs(args.runs, seed=args.seed, workers=args.workers):
+            rows.append(_row(run))
+            log.write(json.dumps(rows[-1]) + "\n")
+            log.flush()
+            print(f"camera {len(rows)}/{args.runs}", file=sys.stderr)
     return sorted(rows, key=lambda r: r["index"])
 
 
-_CAM: dict[str, Any] = {}
-
-
-def _camera_run(job: tuple[int, int]) -> dict[str, Any]:
-    """One camera-mode run (a worker keeps its backend, stack and detector)."""
-    from sitcov._seeding import ask_rng, run_seed
-
-    seed, i = job
-    if not _CAM:
-        from sitcov.av import ReferenceStack
-        from sitcov.generation import make_generator
-        from sitcov.hyperspace import load_hyperspace
-        from sitcov.perception import SSDDetector
-        from sitcov.sim.embedded import EmbeddedBackend
-
-        cam = EmbeddedBackend(perception="camera")
-        frames = {"n": 0}
-        original = cam._frame
-
-        def counting(*a: Any, **k: Any) -> Any:
-            frames["n"] += 1
-            return original(*a, **k)
-
-        cam._frame = counting  # type: ignore[method-assign]
-        gen = make_generator("random", load_hyperspace())
-        _CAM.update(cam=cam, frames=frames, gen=gen, stack=ReferenceStack(detector=SSDDetector()))
-    sit = _CAM["gen"].ask(ask_rng(seed, i))
-    before = _CAM["frames"]["n"]
-    c0, w0 = time.process_time(), time.perf_counter()
-    out = _CAM["cam"].run(sit, _CAM["stack"], run_seed(seed, i))
+def _row(run: Any) -> dict[str, Any]:
+    """One recorded camera-mode run as a log line."""
     return {
-        "index": i,
-        "bins": dict(sit.bins),
-        "seed": run_seed(seed, i),
-        "camera": out.failed,
-        "camera_status": out.status,
-        "camera_sim_time": out.sim_time,
-        "cpu_s": time.process_time() - c0,
-        "wall_s": time.perf_counter() - w0,
-        "frames": _CAM["frames"]["n"] - before,
+        "index": run.index,
+        "bins": dict(run.situation["bins"]),
+        "seed": run.seed,
+        "camera": run.failed,
+        "camera_aeb_time": run.aeb_time,
+        "cpu_s": run.cpu_s,
+        "wall_s": run.wall_s,
+        "frames": len(run.frames),
     }
 
 

@@ -289,15 +289,15 @@ def fit_pem(
     heights = np.asarray([f.height_px for f in feats])
     seen = heights[scores >= floor]
     size_min = float(np.percentile(seen, 2)) if seen.size else base.size_min_px
-    best: tuple[float, np.ndarray, float] | None = None
+    best: tuple[float, np.ndarray, float, np.ndarray] | None = None
     for size_max in (60.0, 100.0, 150.0, 200.0, 300.0, 450.0):
-        g, value = _probit(_design(feats, 1.0, size_max, base.size_ref_px), event)
+        x = _design(feats, 1.0, size_max, base.size_ref_px)
+        g, value = _probit(x, event)
         if best is None or value < best[0]:
-            best = (value, g, size_max)
+            best = (value, g, size_max, x)
     assert best is not None
-    _, g, size_max = best
-    zg = _design(feats, 1.0, size_max, base.size_ref_px) @ g
-    sigma = _fit_sigma(zg, scores, threshold)
+    _, g, size_max, x = best
+    sigma = _fit_sigma(x @ g, scores, threshold)
     fitted = {name: sigma * float(v) for name, v in zip(_LINEAR, g, strict=True)}
     fitted["bias"] += math.log(threshold / (1 - threshold))
     jitter = _jitter(frames)

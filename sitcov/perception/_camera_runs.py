@@ -13,7 +13,8 @@ situations and seeds and its verdicts compared (:func:`sitcov.perception._calibr
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,7 +50,11 @@ class RunFrame:
 
 @dataclass(frozen=True)
 class CameraRun:
-    """One camera-mode run: which one, its verdict and its frames."""
+    """One camera-mode run: which one, its verdict, its frames and what it cost.
+
+    ``cpu_s`` and ``wall_s`` are the process CPU time and wall time of the simulation
+    (rendering and detection included) [s].
+    """
 
     index: int
     seed: int
@@ -57,6 +62,8 @@ class CameraRun:
     failed: bool
     aeb_time: float | None
     frames: tuple[RunFrame, ...]
+    cpu_s: float = 0.0
+    wall_s: float = 0.0
 
 
 def match(truth: Sequence[float], detections: Sequence[Any]) -> tuple[float, Any]:
@@ -114,9 +121,11 @@ class _Recorder:
         situation = self.generator.ask(ask_rng(seed, index))
         sim_seed = run_seed(seed, index)
         self.frames = []
+        cpu, wall = time.process_time(), time.perf_counter()
         outcome = self.backend.run(situation, self.stack, sim_seed)
+        cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
         return CameraRun(index, sim_seed, situation.to_dict(), outcome.failed,
-                         outcome.aeb_time, tuple(self.frames))  # fmt: skip
+                         outcome.aeb_time, tuple(self.frames), cpu, wall)  # fmt: skip
 
 
 _WORKER: dict[str, _Recorder] = {}
@@ -129,6 +138,30 @@ def _run_in_worker(job: tuple[str | None, int, int]) -> CameraRun:
     return _WORKER["recorder"].run(seed, index)
 
 
+def iter_camera_runs(
+    runs: int,
+    *,
+    seed: int = 0,
+    model: str | os.PathLike[str] | None = None,
+    workers: int = 1,
+) -> Iterator[CameraRun]:
+    """Runs ``0..runs-1`` of seed ``seed`` in camera mode, recorded, as each one finishes.
+
+    ``workers > 1`` spreads the runs over that many processes (then they arrive out of
+    index order); every run is the same as with one worker.
+    """
+    model_arg = None if model is None else str(model)
+    if workers <= 1:
+        recorder = _Recorder(model_arg)
+        for i in range(runs):
+            yield recorder.run(seed, i)
+        return
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(workers) as pool:
+        yield from pool.imap_unordered(_run_in_worker, [(model_arg, seed, i) for i in range(runs)])
+
+
 def camera_runs(
     runs: int,
     *,
@@ -137,26 +170,10 @@ def camera_runs(
     workers: int = 1,
     progress: Callable[[int], None] | None = None,
 ) -> list[CameraRun]:
-    """Runs ``0..runs-1`` of seed ``seed`` in camera mode, recorded (in index order).
-
-    ``workers > 1`` spreads the runs over that many processes; the result is the same.
-    ``progress`` receives the number of runs done.
-    """
-    model_arg = None if model is None else str(model)
-    jobs = [(model_arg, seed, i) for i in range(runs)]
+    """:func:`iter_camera_runs`, collected in index order; ``progress`` gets the runs done."""
     out: list[CameraRun] = []
-    if workers <= 1:
-        recorder = _Recorder(model_arg)
-        for _, s, i in jobs:
-            out.append(recorder.run(s, i))
-            if progress is not None:
-                progress(len(out))
-        return out
-    import multiprocessing as mp
-
-    with mp.get_context("spawn").Pool(workers) as pool:
-        for run in pool.imap_unordered(_run_in_worker, jobs):
-            out.append(run)
-            if progress is not None:
-                progress(len(out))
+    for run in iter_camera_runs(runs, seed=seed, model=model, workers=workers):
+        out.append(run)
+        if progress is not None:
+            progress(len(out))
     return sorted(out, key=lambda r: r.index)

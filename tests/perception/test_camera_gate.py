@@ -47,13 +47,11 @@ def _frames_seen(gate: float, situations: int = 6) -> list[float]:
     """True OV box widths [px] of every frame rendered, over a few random situations."""
     backend = EmbeddedBackend(perception="camera", frame_gate=gate)
     widths: list[float] = []
-    original = backend._frame
 
-    def frame(camera: Any, pose: Any, actors: Any, conditions: Any, rng: Any) -> Any:
+    def observe(camera: Any, pose: Any, actors: Any, conditions: Any) -> None:
         widths.append(max(p.width for a in actors if (p := project_box(camera, pose, a))))
-        return original(camera, pose, actors, conditions, rng)
 
-    backend._frame = frame  # type: ignore[method-assign]
+    backend.frame_observer = observe
     gen = make_generator("random", load_hyperspace())
     blind = ReferenceStack(detector=lambda image: ())  # never brakes: every frame is asked for
     for i in range(situations):

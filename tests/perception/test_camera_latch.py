@@ -13,13 +13,11 @@ from sitcov.sim.embedded import EmbeddedBackend
 def _counting_backend() -> tuple[EmbeddedBackend, dict[str, int]]:
     backend = EmbeddedBackend(perception="camera")
     count = {"frames": 0}
-    original = backend._frame
 
-    def frame(*args: Any, **kwargs: Any) -> Any:
+    def observe(*args: Any) -> None:
         count["frames"] += 1
-        return original(*args, **kwargs)
 
-    backend._frame = frame  # type: ignore[method-assign]
+    backend.frame_observer = observe
     return backend, count
 
 
