@@ -7,7 +7,7 @@ from typing import Any
 from sitcov import _plugins
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, arrival_time, pure_pursuit
 from sitcov.sim._base import STATUSES, Backend, Conditions, Outcome, Trace
-from sitcov.sim._conditions import conditions_from_values
+from sitcov.sim._conditions import PHYSICS_PROFILES, conditions_from_values
 
 _plugins.register_builtin("backend", "embedded", "sitcov.sim.embedded:EmbeddedBackend")
 _plugins.register_builtin("backend", "carla", "sitcov.sim.carla:CarlaBackend")
@@ -29,6 +29,7 @@ def make_backend(name: str = "embedded", **options: Any) -> Backend:
 
 
 __all__ = [
+    "PHYSICS_PROFILES",
     "STATUSES",
     "AdversaryController",
     "AdversaryParams",
