@@ -378,7 +378,8 @@ def experiment_faults_cmd(
 
     from rich.progress import Progress
 
-    from sitcov.campaign import open_store, run_fault_experiment
+    from sitcov.campaign import run_fault_experiment
+    from sitcov.campaign._console import created_store
     from sitcov.campaign._experiments import split_runs
     from sitcov.errors import ConfigError
     from sitcov.report import table2_rich
@@ -387,26 +388,23 @@ def experiment_faults_cmd(
     if executor not in ("serial", "processes", "ray"):
         raise ConfigError(field="--executor", value=executor, expected="serial | processes | ray")
     split_runs(runs, seeds)  # a clear error before the database file is created
-    store = open_store(db)
-    try:
-        with Progress(console=err_console, transient=True, disable=as_json) as bar:
-            task = bar.add_task("fault experiment", total=4 * runs * len(names))
-            table = run_fault_experiment(
-                store,
-                generators=names,
-                runs=runs,
-                seeds=seeds,
-                seed=seed,
-                hyperspace=hyperspace or "t-junction",
-                av=av,
-                backend=backend,
-                executor=executor,
-                workers=workers,
-                batch_size=batch_size,
-                progress=lambda _name, n: bar.advance(task, n),
-            )
-    finally:
-        store.close()
+    progress_bar = Progress(console=err_console, transient=True, disable=as_json)
+    with created_store(db) as store, progress_bar as bar:
+        task = bar.add_task("fault experiment", total=4 * runs * len(names))
+        table = run_fault_experiment(
+            store,
+            generators=names,
+            runs=runs,
+            seeds=seeds,
+            seed=seed,
+            hyperspace=hyperspace or "t-junction",
+            av=av,
+            backend=backend,
+            executor=executor,
+            workers=workers,
+            batch_size=batch_size,
+            progress=lambda _name, n: bar.advance(task, n),
+        )
     if as_json:
         print(json.dumps(table, sort_keys=True))
     else:

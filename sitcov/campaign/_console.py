@@ -26,6 +26,25 @@ def existing_store(path: Path) -> Iterator[Store]:
         store.close()
 
 
+@contextmanager
+def created_store(path: Path) -> Iterator[Store]:
+    """Open (or create) a store; a file this call created is removed again if an error
+    leaves it without any campaign (no empty schema-only database is left behind)."""
+    path = Path(path)
+    created = not path.exists()
+    store = open_store(path)
+    try:
+        yield store
+    except BaseException:
+        empty = created and not store.campaigns()
+        store.close()
+        if empty:
+            for suffix in ("", "-wal", "-shm"):
+                Path(f"{path}{suffix}").unlink(missing_ok=True)
+        raise
+    store.close()
+
+
 class ProgressView:
     """A rich progress bar (runs/s, failures so far, ETA) fed by ``run_campaign``."""
 

@@ -128,3 +128,15 @@ def test_runs_can_grow_but_never_shrink(tmp_path, capsys):
     assert code == 0 and "0 runs executed" in out and stored_runs(db) == 20
     code, out, _ = sitcov(capsys, *run, "--runs", "25")
     assert code == 0 and "5 runs executed" in out and stored_runs(db) == 25
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [(["--generators", "nope"], "unknown generator 'nope'"), (["--av", "nope"], "unknown av")],
+)
+def test_a_bad_fault_experiment_leaves_no_database(tmp_path, capsys, flags, message):
+    db = tmp_path / "faults.db"
+    args = ["experiment", "faults", "--db", str(db), "--runs", "4", "--seeds", "1", *flags]
+    code, out, err = sitcov(capsys, *args, "--workers", "1")
+    assert code == 2 and message in err and "Traceback" not in out + err
+    assert list(tmp_path.iterdir()) == []
