@@ -150,7 +150,9 @@ def run_cmd(
     generator: Optional[str] = typer.Option(  # noqa: UP045
         None, "--generator", help="Generator (default: sitcov)."
     ),
-    runs: Optional[int] = typer.Option(None, "--runs", help="Total runs (default: 1000)."),  # noqa: UP045
+    runs: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--runs", help="Total runs (default: 1000, or the stored campaign's; only grows)."
+    ),
     seed: Optional[int] = typer.Option(None, "--seed", help="Campaign seed (default: 0)."),  # noqa: UP045
     fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
     backend: Optional[str] = typer.Option(None, "--backend", help="Backend (default: embedded)."),  # noqa: UP045
@@ -206,8 +208,9 @@ def run_cmd(
 ) -> None:
     """Run, resume or extend a campaign and print its summary."""
     from sitcov.campaign import load_config, open_store, run_campaign
+    from sitcov.campaign._build import check_parts
     from sitcov.campaign._config import run_overrides
-    from sitcov.campaign._console import ProgressView, print_end_of_run
+    from sitcov.campaign._console import ProgressView, print_all_errored, print_end_of_run
 
     carla = {
         key: value
@@ -243,11 +246,13 @@ def run_cmd(
         replay_failures_first=replay_failures_first,
     )
     cfg = load_config(config, overrides)
+    check_parts(cfg)  # a bad part fails before the database file is created
     store = open_store(db)
     try:
         with ProgressView(err_console) as view:
             result = run_campaign(cfg, store, progress=view.update)
         print_end_of_run(console, store, db, result)
+        all_errored = print_all_errored(err_console, store, db, result)
     finally:
         store.close()
     if report is not None:
@@ -255,6 +260,8 @@ def run_cmd(
 
         index = build_report(db, report)
         console.print(f"report written to {index}")
+    if all_errored:
+        sys.exit(1)
 
 
 @app.command("summary")
@@ -371,7 +378,8 @@ def experiment_faults_cmd(
 
     from rich.progress import Progress
 
-    from sitcov.campaign import open_store, run_fault_experiment
+    from sitcov.campaign import run_fault_experiment
+    from sitcov.campaign._console import created_store
     from sitcov.campaign._experiments import split_runs
     from sitcov.errors import ConfigError
     from sitcov.report import table2_rich
@@ -380,26 +388,23 @@ def experiment_faults_cmd(
     if executor not in ("serial", "processes", "ray"):
         raise ConfigError(field="--executor", value=executor, expected="serial | processes | ray")
     split_runs(runs, seeds)  # a clear error before the database file is created
-    store = open_store(db)
-    try:
-        with Progress(console=err_console, transient=True, disable=as_json) as bar:
-            task = bar.add_task("fault experiment", total=4 * runs * len(names))
-            table = run_fault_experiment(
-                store,
-                generators=names,
-                runs=runs,
-                seeds=seeds,
-                seed=seed,
-                hyperspace=hyperspace or "t-junction",
-                av=av,
-                backend=backend,
-                executor=executor,
-                workers=workers,
-                batch_size=batch_size,
-                progress=lambda _name, n: bar.advance(task, n),
-            )
-    finally:
-        store.close()
+    progress_bar = Progress(console=err_console, transient=True, disable=as_json)
+    with created_store(db) as store, progress_bar as bar:
+        task = bar.add_task("fault experiment", total=4 * runs * len(names))
+        table = run_fault_experiment(
+            store,
+            generators=names,
+            runs=runs,
+            seeds=seeds,
+            seed=seed,
+            hyperspace=hyperspace or "t-junction",
+            av=av,
+            backend=backend,
+            executor=executor,
+            workers=workers,
+            batch_size=batch_size,
+            progress=lambda _name, n: bar.advance(task, n),
+        )
     if as_json:
         print(json.dumps(table, sort_keys=True))
     else:
@@ -642,3 +647,7 @@ def main(argv: Optional[list[str]] = None) -> None:  # noqa: UP045
         raise
     if isinstance(code, int) and code:
         sys.exit(code)  # typer.Exit(code) in non-standalone mode is returned, not raised
+
+
+if __name__ == "__main__":  # ``python -m sitcov.cli ...``
+    main()

@@ -74,3 +74,18 @@ def build_stack(config: CampaignConfig) -> AVStack:
     from sitcov.av import make_stack
 
     return make_stack(config.av, fault=config.fault, params=config.av_params)
+
+
+def check_parts(config: CampaignConfig) -> None:
+    """Build every part ``config`` names once, then close it.
+
+    ``sitcov run`` calls this before it creates the database file, so a bad hyperspace,
+    generator, backend, stack or fault is one error and leaves no file behind.
+
+    Raises:
+        ConfigError: a part cannot be built (SetupError: a model or extra is missing).
+    """
+    hyperspace = resolve_hyperspace(config.hyperspace)
+    make_generator(config, hyperspace)
+    build_backend(config).close()
+    build_stack(config).close()

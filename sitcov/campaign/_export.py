@@ -15,7 +15,7 @@ from xml.sax.saxutils import escape, quoteattr
 
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._sqlite import OUTCOME_COLUMNS
-from sitcov.campaign._store import Store
+from sitcov.campaign._store import Store, StoreError
 from sitcov.errors import ConfigError, MissingExtraError
 
 FORMATS = ("csv", "parquet", "json", "junit")
@@ -31,8 +31,14 @@ def _elements(store: Store, campaign: str | None) -> list[str]:
     for info in infos:
         for axis in info.hyperspace.get("axes", []):
             for element in axis.get("elements", []):
-                if element["name"] not in names:
-                    names.append(element["name"])
+                name = element.get("name") if isinstance(element, dict) else None
+                if not isinstance(name, str):
+                    raise StoreError(
+                        f"{store.location}: campaign {info.name!r}: the stored hyperspace has an "
+                        "element without a name (damaged database)"
+                    )
+                if name not in names:
+                    names.append(name)
     return names
 
 
@@ -182,7 +188,7 @@ def _testcase(run: RunRecord) -> str:
         )
     elif run.status in ("error", "timeout") and outcome is not None:
         body = (
-            f"      <error message={quoteattr(outcome.message or run.status)} "
+            f"      <error message={quoteattr((outcome.message or run.status).splitlines()[0])} "
             f"type={quoteattr(run.status)}>{escape(outcome.message or '')}</error>\n"
         )
     return head + body + "    </testcase>\n"

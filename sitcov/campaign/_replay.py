@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pydantic import ValidationError
+
 from sitcov.campaign._build import build_backend, build_stack
 from sitcov.campaign._config import CampaignConfig
 from sitcov.campaign._executors import execute
@@ -106,7 +108,14 @@ def replay_run(
     run = store.get_run(campaign, index, with_trace=False)
     if run.outcome is None:
         raise StoreError(f"{store.location}: run {campaign}:{index} has not run yet (pending)")
-    config = CampaignConfig(**{k: v for k, v in run.config.items() if k != "workers"})
+    try:
+        config = CampaignConfig(**{k: v for k, v in run.config.items() if k != "workers"})
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        raise StoreError(
+            f"{store.location}: campaign {campaign!r}: the stored config is not valid "
+            f"({'.'.join(map(str, first['loc']))}: {first['msg']}; damaged database?)"
+        ) from None
     options = dict(config.backend_options)
     if perception is not None:
         options["perception"] = perception

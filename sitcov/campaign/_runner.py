@@ -167,13 +167,34 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
             field="name",
             value=config.name,
         )
-    if info.config.get("runs") != config.runs:
-        store.update_config(config.name, {**info.config, "runs": config.runs})
+    _check_runs(store, info, config)
     generator = restore_generator(config, hyperspace, dict(info.generator_state or {}))
     replays = store.count_runs(config.name) and sum(
         1 for r in store.iter_runs(config.name) if r.replay_of
     )
     return generator, True, int(replays)
+
+
+def _check_runs(store: Store, info: CampaignInfo, config: CampaignConfig) -> None:
+    """Extend the stored ``runs`` if ``config`` asks for more; refuse fewer (one line)."""
+    stored = int(info.config.get("runs", 0))
+    if config.runs < stored:
+        raise ConfigError(
+            f"{store.location}: campaign {config.name!r} is stored with runs: {stored}; "
+            f"runs: {config.runs} would shrink it (a campaign can only be extended)",
+            field="runs",
+            value=config.runs,
+        )
+    if config.runs > stored:
+        store.update_config(config.name, {**info.config, "runs": config.runs})
+
+
+def _runs_as_stored(config: CampaignConfig, store: Store) -> CampaignConfig:
+    """``config`` with the stored campaign's ``runs`` if ``runs`` was not given explicitly."""
+    info = store.find_campaign(config.name)
+    if info is None or "runs" in config.model_fields_set:
+        return config
+    return config.model_copy(update={"runs": int(info.config.get("runs", config.runs))})
 
 
 def run_campaign(
@@ -185,6 +206,9 @@ def run_campaign(
 ) -> CampaignResult:
     """Run (or resume, or extend) the campaign ``config.name`` up to ``config.runs`` runs.
 
+    A stored campaign keeps its stored ``runs`` unless ``config`` sets ``runs`` explicitly;
+    more extends it, fewer is refused.
+
     Args:
         config: the campaign configuration.
         store: where the campaign lives (see :func:`open_store`).
@@ -193,10 +217,11 @@ def run_campaign(
         executor: an executor to use instead of the one ``config`` names (not closed here).
 
     Raises:
-        ConfigError: the campaign exists with a different defining config, or a part
-            (hyperspace, generator, backend, stack) cannot be built.
+        ConfigError: the campaign exists with a different defining config or with more
+            ``runs``, or a part (hyperspace, generator, backend, stack) cannot be built.
     """
     start = time.perf_counter()
+    config = _runs_as_stored(config, store)
     hyperspace = resolve_hyperspace(config.hyperspace)
     backend = build_backend(config)
     build_stack(config).close()  # a bad stack or fault must fail before anything is stored

@@ -13,8 +13,7 @@ from sitcov._seeding import ask_rng, run_seed
 from sitcov.av import ReferenceStack
 from sitcov.generation import make_generator
 from sitcov.hyperspace import Situation, load_hyperspace
-
-embedded = pytest.importorskip("sitcov.sim.embedded")
+from sitcov.sim.embedded import EmbeddedBackend
 
 N = 250  # situations per configuration
 N_FOG = 150  # situations for the paired fog comparison
@@ -27,7 +26,7 @@ def runs():
     gen = make_generator("random", hs)
     situations = [gen.ask(ask_rng(SEED, i)) for i in range(N)]
     seeds = [run_seed(SEED, i) for i in range(N)]
-    return situations, seeds, embedded.EmbeddedBackend()
+    return situations, seeds, EmbeddedBackend()
 
 
 def _rate(backend, situations, seeds, fault=None) -> float:

@@ -163,8 +163,6 @@ def test_errors_are_config_errors() -> None:
 
 
 def test_camera_mode_passes_images() -> None:
-    pytest.importorskip("sitcov.perception._renderer")
-
     class Looker(StandStill):
         def __init__(self) -> None:
             super().__init__()

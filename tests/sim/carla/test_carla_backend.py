@@ -10,6 +10,7 @@ import time
 import numpy as np
 import pytest
 from carla_testkit import WEATHER, DrivingStack, centred_car, fake_backend, situation, small_map
+from needs import need_module
 
 from sitcov.av import ReferenceStack
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
@@ -247,7 +248,7 @@ def _free_port() -> int:
 
 
 def test_no_server_is_one_clear_error_within_the_timeout() -> None:
-    pytest.importorskip("carla")
+    need_module("carla", "carla")
     port = _free_port()
     start = time.monotonic()
     with pytest.raises(BackendUnavailableError) as info:
