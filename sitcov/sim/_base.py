@@ -96,7 +96,8 @@ class Outcome:
             backend reports ``road_departure_time`` and ``lane_departure_time`` here.
         failure_kind: set by the campaign's judge: ``pass``, ``collision``,
             ``road_departure``, ``lane_departure``, ``error`` or ``timeout``; None for an
-            outcome straight from a backend (see :attr:`kind`).
+            outcome straight from a backend (see :attr:`kind`). Not part of ``==``: it is
+            derived from the facts and ``status``, which are compared.
         trace: recorded trajectories when the run was asked to record.
     """
 
@@ -113,7 +114,7 @@ class Outcome:
     aeb_time: float | None = None
     message: str | None = None
     metrics: dict[str, Any] = field(default_factory=dict)
-    failure_kind: str | None = None
+    failure_kind: str | None = field(default=None, compare=False)
     trace: Trace | None = field(default=None, compare=False)
 
     @property
