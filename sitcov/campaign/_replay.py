@@ -45,7 +45,8 @@ def parse_run_id(store: Store, text: str) -> tuple[str, int]:
 
 
 def _comparable(outcome: Outcome) -> dict[str, Any]:
-    return json.loads(json.dumps(outcome.to_dict(), sort_keys=True))
+    data = {**outcome.to_dict(), "failure_kind": outcome.kind}  # stored before kinds: derived
+    return json.loads(json.dumps(data, sort_keys=True))
 
 
 def outcome_differences(stored: Outcome, new: Outcome) -> dict[str, tuple[Any, Any]]:
