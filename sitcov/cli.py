@@ -31,6 +31,15 @@ err_console = Console(stderr=True)
 HYPERSPACE_OPT = typer.Option(
     None, "--hyperspace", help="Hyperspace YAML file (default: the built-in t-junction)."
 )
+PHYSICS_OPT = typer.Option(
+    None, "--physics", help="carla | physical: weather couplings (default: carla)."
+)
+JUDGE_OPT = typer.Option(
+    None,
+    "--judge",
+    help="What fails a run: default (collision + road departure) | paper (collision only)"
+    " | strict (+ lane departure) | kinds, comma-separated.",
+)
 
 
 # --- hyperspace & generation (owner: foundation) -------------------------------------------
@@ -159,6 +168,8 @@ def run_cmd(
     perception: Optional[str] = typer.Option(  # noqa: UP045
         None, "--perception", help="pem | camera (embedded backend)."
     ),
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
     av: Optional[str] = typer.Option(None, "--av", help="AV stack (default: reference)."),  # noqa: UP045
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
     executor: Optional[str] = typer.Option(  # noqa: UP045
@@ -235,6 +246,8 @@ def run_cmd(
         seed=seed,
         fault=fault,
         backend=backend,
+        physics=physics,
+        judge=judge,
         av=av,
         hyperspace=hyperspace,
         executor=executor,
@@ -372,6 +385,8 @@ def experiment_faults_cmd(
     batch_size: Optional[int] = typer.Option(  # noqa: UP045
         None, "--batch-size", min=1, help="Asks per batch (how often learning generators learn)."
     ),
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
 ) -> None:
     """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
     import json
@@ -388,6 +403,9 @@ def experiment_faults_cmd(
     if executor not in ("serial", "processes", "ray"):
         raise ConfigError(field="--executor", value=executor, expected="serial | processes | ray")
     split_runs(runs, seeds)  # a clear error before the database file is created
+    from sitcov.campaign import load_config
+
+    checked = load_config(overrides={"physics": physics, "judge": judge})  # before the DB too
     progress_bar = Progress(console=err_console, transient=True, disable=as_json)
     with created_store(db) as store, progress_bar as bar:
         task = bar.add_task("fault experiment", total=4 * runs * len(names))
@@ -400,6 +418,8 @@ def experiment_faults_cmd(
             hyperspace=hyperspace or "t-junction",
             av=av,
             backend=backend,
+            physics=checked.physics,
+            judge=checked.judge,
             executor=executor,
             workers=workers,
             batch_size=batch_size,

@@ -160,7 +160,7 @@ def print_replay(console: Any, result: ReplayResult) -> bool:
         console.print(f"top-down picture written to {result.render}")
     if result.same_setup:
         if result.reproduced:
-            console.print(f"{head}: [green]reproduced[/] ({result.outcome.status})")
+            console.print(f"{head}: [green]reproduced[/] ({_verdict(result.outcome)})")
             return True
         console.print(f"{head}: [bold red]DID NOT REPRODUCE[/]")
         table = Table("field", "stored", "replay")
@@ -181,3 +181,8 @@ def print_replay(console: Any, result: ReplayResult) -> bool:
             table.add_row(key, repr(a.get(key)), repr(b.get(key)))
     console.print(table)
     return True
+
+
+def _verdict(outcome: Any) -> str:
+    """``pass``, or ``fail: KIND`` for a failed run."""
+    return f"fail: {outcome.kind}" if outcome.status == "fail" else outcome.status

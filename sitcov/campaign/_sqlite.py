@@ -92,8 +92,17 @@ ALTER TABLE runs ADD COLUMN replay_of TEXT;
 CREATE INDEX runs_by_situation ON runs (situation_id);
 """
 
+# Failure kinds and world-model versions: every run failed before by collision; campaigns
+# stored before have no world version (NULL = the legacy world model).
+_V3 = """
+ALTER TABLE runs ADD COLUMN failure_kind TEXT;
+UPDATE runs SET failure_kind = CASE status WHEN 'fail' THEN 'collision'
+    WHEN 'pending' THEN NULL ELSE status END;
+ALTER TABLE campaigns ADD COLUMN world_version INTEGER;
+"""
+
 #: ``MIGRATIONS[i]`` takes a version-``i`` file to version ``i + 1``.
-MIGRATIONS: tuple[str, ...] = (_V1, _V2)
+MIGRATIONS: tuple[str, ...] = (_V1, _V2, _V3)
 #: The schema version this sitcov writes.
 SCHEMA_VERSION = len(MIGRATIONS)
 
@@ -171,7 +180,7 @@ class SQLiteStore(Store):
             return self._decode_info(row)
 
     def _decode_info(self, row: sqlite3.Row | tuple) -> CampaignInfo:
-        name, config, hyper, version, created, gen, state, batch_start, tags = row
+        name, config, hyper, version, created, gen, state, batch_start, tags, world = row
         return CampaignInfo(
             name=name,
             config=json.loads(config),
@@ -182,11 +191,12 @@ class SQLiteStore(Store):
             generator_state=json.loads(state) if state is not None else None,
             batch_start=int(batch_start),
             tags=json.loads(tags),
+            world_version=world,
         )
 
     _CAMPAIGN_COLS = (
         "name, config, hyperspace, sitcov_version, created, generator, generator_state, "
-        "batch_start, tags"
+        "batch_start, tags, world_version"
     )
 
     def campaigns(self) -> list[CampaignInfo]:
@@ -206,7 +216,7 @@ class SQLiteStore(Store):
             if self.find_campaign(info.name) is not None:
                 raise StoreError(f"{self.location}: campaign {info.name!r} already exists")
             self._db.execute(
-                f"INSERT INTO campaigns ({self._CAMPAIGN_COLS}) VALUES (?,?,?,?,?,?,?,?,?)",
+                f"INSERT INTO campaigns ({self._CAMPAIGN_COLS}) VALUES (?,?,?,?,?,?,?,?,?,?)",
                 (
                     info.name,
                     _dumps(dict(info.config)),
@@ -217,6 +227,7 @@ class SQLiteStore(Store):
                     _dumps(info.generator_state) if info.generator_state is not None else None,
                     runs[0].index if runs else info.batch_start,
                     _dumps(dict(info.tags)),
+                    info.world_version,
                 ),
             )
             self._insert_runs(info.name, runs)
@@ -278,10 +289,12 @@ class SQLiteStore(Store):
             cur = self._db.execute(
                 "UPDATE runs SET status = ?, "
                 + ", ".join(f"{c} = ?" for c in OUTCOME_COLUMNS)
-                + ", outcome = ?, wall_time = ?, trace = ? WHERE campaign = ? AND idx = ?",
+                + ", failure_kind = ?, outcome = ?, wall_time = ?, trace = ?"
+                " WHERE campaign = ? AND idx = ?",
                 (
                     outcome.status,
                     *values,
+                    outcome.kind,
                     _dumps(data),
                     float(wall_time),
                     _dumps(_trace_dict(trace)) if trace is not None else None,

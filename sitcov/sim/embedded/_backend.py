@@ -3,7 +3,10 @@
 One run: conditions from the situation's weather values, routes and conflict point from
 its intersection situation, the AV stack drives the ego from simulated perception (a
 perception error model, or rendered frames in camera mode), the adversarial OV times its
-arrival at the conflict point, and the run is judged by collision. Everything random
+arrival at the conflict point. The run ends at a collision, the goal, a standstill that
+nothing can change, or the time limit; monitors record when the ego first left its lane
+or the road. What counts as a failure is the campaign's judge (``sitcov.sim.Judge``),
+applied afterwards: the backend's own ``status`` is collision-only. Everything random
 comes from ``numpy.random.default_rng(seed)``, so a (situation, seed) pair always gives
 the same outcome.
 """
@@ -37,6 +40,11 @@ from sitcov.sim.embedded._collision import (
 )
 from sitcov.sim.embedded._dynamics import G, Vehicle, default_params
 from sitcov.sim.embedded._map import MAPS_DIR, JunctionMap, load_map
+from sitcov.sim.embedded._monitors import (
+    LANE_TOLERANCE,
+    LaneDepartureMonitor,
+    RoadDepartureMonitor,
+)
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
@@ -339,6 +347,10 @@ class EmbeddedBackend(Backend):
         enter_e = exit_e = enter_o = exit_o = None
         collision_speed: float | None = None
         max_lat = 0.0
+        lane_mon = LaneDepartureMonitor(0.5 * (self.map.lane_width - vp.width) + LANE_TOLERANCE)
+        left, right = self.map.clearance(er)
+        road_mon = RoadDepartureMonitor(self.map.drivable_area, er.hs, left, right, half_l, half_w)
+        monitors = (lane_mon, road_mon)
         switch_time: float | None = None
         prev_gap = math.inf
         clear: bool | None = None  # decided once the ego stands latched
@@ -418,6 +430,8 @@ class EmbeddedBackend(Backend):
             # --- bookkeeping ------------------------------------------------------------
             s_e, hint_e = er.track(ego.x, ego.y, hint_e)
             lat = -(ego.x - e_xs[hint_e]) * e_sin[hint_e] + (ego.y - e_ys[hint_e]) * e_cos[hint_e]
+            for mon in monitors:
+                mon.update(t, ego.x, ego.y, ego.yaw, hint_e, lat)
             lat = -lat if lat < 0.0 else lat
             if lat > max_lat:
                 max_lat = lat
@@ -515,7 +529,9 @@ class EmbeddedBackend(Backend):
             "conflict_point": list(conflict.point) if conflict else None,
             "ov_switch_time": switch_time,
             "ego_max_lateral_offset": max_lat,
-            "ego_left_lane": max_lat > 0.5 * (self.map.lane_width - vp.width) + 0.5,
+            "ego_left_lane": lane_mon.time is not None,
+            "lane_departure_time": None if lane_mon.time is None else round(lane_mon.time, 10),
+            "road_departure_time": None if road_mon.time is None else round(road_mon.time, 10),
             "ego_final_speed": ego.speed,
         }
         trace = None

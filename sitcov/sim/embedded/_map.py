@@ -19,6 +19,7 @@ import numpy as np
 import yaml
 
 from sitcov.errors import ConfigError
+from sitcov.sim.embedded._monitors import DrivableArea, route_clearance
 from sitcov.sim.embedded._path import Path, wrap_angle
 
 MAPS_DIR = FsPath(__file__).parent / "maps"
@@ -342,6 +343,18 @@ class JunctionMap:
             if frozenset((a, b)) not in mouths:
                 kerbs.append([a, b])
         return {"road_polygons": polygons, "markings": markings, "kerbs": kerbs}
+
+    @functools.cached_property
+    def drivable_area(self) -> DrivableArea:
+        """The road surface: every leg's two lanes plus the junction area (the convex hull
+        of the leg mouths), derived from the legs as the drawn road polygons are."""
+        return DrivableArea(self.render_geometry()["road_polygons"])
+
+    @functools.lru_cache(maxsize=64)  # noqa: B019 - maps live for the process
+    def clearance(self, route: Path) -> tuple[list[float], list[float]]:
+        """Left and right extent of the drivable area around each point of ``route`` [m]
+        (see ``sitcov.sim.embedded._monitors.route_clearance``)."""
+        return route_clearance(self.drivable_area, route)
 
 
 def _straight(a: tuple[float, float], b: tuple[float, float]) -> Path:
