@@ -168,3 +168,26 @@ def test_crosswind_pushes_sideways() -> None:
     # far less than the free-body 2 m over 2 s
     assert 0.05 < windy.y < 2.0
     assert windy.vy > 0.0
+
+
+def test_abs_share_is_within_commonroads_combined_slip_tyre() -> None:
+    """The braking share and the side force it leaves are no more than CommonRoad's own
+    Pacejka combined-slip tyre for this car gives while an ABS holds the wheel at the slip
+    of peak braking force (slip angle 0.05 rad): the ellipse is conservative."""
+    from vehiclemodels.parameters_vehicle2 import parameters_vehicle2
+    from vehiclemodels.utils import tire_model as mf
+
+    from sitcov.sim.embedded._dynamics import ABS_SHARE
+
+    tyre, fz, alpha = parameters_vehicle2().tire, 4000.0, 0.05
+    slips = [i / 1000 for i in range(1, 400)]
+    fx_pure = [abs(mf.formula_longitudinal(-k, 0.0, fz, tyre)) for k in slips]
+    k_abs = slips[fx_pure.index(max(fx_pure))]
+    fy_peak = max(abs(mf.formula_lateral(a / 1000, 0.0, fz, tyre)[0]) for a in range(1, 400))
+    fx0 = mf.formula_longitudinal(-k_abs, 0.0, fz, tyre)
+    fy0, mu_y = mf.formula_lateral(alpha, 0.0, fz, tyre)
+    fx = abs(mf.formula_longitudinal_comb(-k_abs, alpha, fx0, tyre)) / max(fx_pure)
+    fy = abs(mf.formula_lateral_comb(-k_abs, alpha, 0.0, mu_y, fz, fy0, tyre)) / fy_peak
+    assert 0.05 < k_abs < 0.3  # the slip window an ABS controls
+    assert fx >= ABS_SHARE
+    assert fy >= math.sqrt(1.0 - ABS_SHARE**2)
