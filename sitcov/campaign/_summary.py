@@ -33,7 +33,8 @@ def campaign_hyperspace(store: Store, campaign: str | None = None) -> Any:
 
 
 def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]:
-    """The DESIGN §6 summary object of the finished runs of ``campaign`` (or all)."""
+    """The ``sitcov summary --json`` object (:func:`sitcov.analysis.summarize`) of the finished
+    runs of ``campaign`` (or all)."""
     from sitcov.analysis import summarize
 
     hyperspace = campaign_hyperspace(store, campaign)
