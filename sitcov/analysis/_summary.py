@@ -181,7 +181,7 @@ def _json_uniformity(counts: list[int]) -> dict[str, Any]:
 
 
 def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
-    """The summary JSON of ``sitcov summary --json`` (DESIGN.md section 6, plus extras).
+    """The summary JSON of ``sitcov summary --json`` (a stable interface: the keys below).
 
     Keys: ``runs`` (non-pending), ``failures``, ``errors``, ``timeouts``, ``passes``,
     ``pending``, ``failure_rate`` and ``ci95`` overall, ``failures_by_kind`` (see

@@ -87,8 +87,9 @@ class Outcome:
         collision_time: [s] or None.
         collision_speed: relative speed at impact [m/s] or None.
         min_distance: minimum distance between the two vehicle boxes [m].
-        min_ttc: minimum time-to-collision [s] or None if they never closed in.
-        pet: post-encroachment time at the conflict point [s] or None.
+        min_ttc: minimum constant-velocity time-to-collision of the vehicles' footprint
+            discs [s], or None if they never closed in (docs/metrics.md).
+        pet: post-encroachment time at the conflict zone [s] or None (docs/metrics.md).
         aeb_fired: whether the ego's emergency brake fired.
         aeb_time: [s] or None.
         message: error text for ``error``/``timeout`` runs.

@@ -314,7 +314,8 @@ class CarlaBackend(Backend):
                 sit_conflict,
                 friction["max_steer"],
             )
-            outcome = episode.drive(driver, MetricTracker(sit_conflict), ego_goal)
+            tracker = MetricTracker(list(info.route), [(x, -y) for x, y in ov_route])
+            outcome = episode.drive(driver, tracker, ego_goal)
             outcome.metrics.update(
                 friction_scale=scale,
                 physics=self.physics,

@@ -172,7 +172,7 @@ class Episode:
             collision_speed=collision_speed,
             min_distance=None if math.isinf(metrics.min_distance) else metrics.min_distance,
             min_ttc=metrics.min_ttc,
-            pet=metrics.pet,
+            pet=metrics.pet(collided=collision_time is not None),
             aeb_fired=metrics.aeb_time is not None,
             aeb_time=metrics.aeb_time,
             metrics={"ticks": step, "other_collisions": sorted(set(other_hits))},

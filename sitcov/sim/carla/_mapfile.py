@@ -2,7 +2,8 @@
 
 A map file is YAML, in CARLA's own coordinates (x, y [m]; yaw [deg], left-handed as CARLA
 reports them), so positions can be copied from the simulator. ``maps/town03.yaml`` holds the
-paper's Town03 T-junction (DESIGN §2); another junction or town is another file::
+paper's Town03 T-junction (from the authors' released code); another junction or town is
+another file::
 
     name: town03-t-junction
     town: Town03

@@ -32,6 +32,7 @@ from sitcov.sim._conditions import (
     check_profile,
     conditions_from_values,
 )
+from sitcov.sim._metrics import PET_ZONE, post_encroachment_time
 from sitcov.sim.embedded._collision import (
     box_distance,
     corridor_gap,
@@ -57,8 +58,6 @@ GUST_INTENSITY = 0.3
 GUST_TIME = 2.0
 #: Ego speed below which it counts as stopped [m/s].
 STOPPED_SPEED = 0.05
-#: Length of the conflict zone used for PET along each route, at most [m].
-PET_ZONE = 5.0
 #: The ego has reached its goal within this arc length of the route's end [m].
 GOAL_TOLERANCE = 1.5
 #: Safety factor on the friction an OV needs to hold its lane (for the early end) [-].
@@ -507,14 +506,7 @@ class EmbeddedBackend(Backend):
             if k >= n_max:
                 break
 
-        pet = None
-        if None not in (enter_e, enter_o):
-            if enter_e <= enter_o:
-                pet = None if exit_e is None else max(0.0, enter_o - exit_e)
-            else:
-                pet = None if exit_o is None else max(0.0, enter_e - exit_o)
-            if reason == "collision":
-                pet = 0.0
+        pet = post_encroachment_time((enter_e, exit_e), (enter_o, exit_o), reason == "collision")
         metrics = {
             "steps": k,
             "mu": mu,

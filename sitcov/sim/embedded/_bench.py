@@ -23,8 +23,8 @@ def bench(
 
     Situations come from the ``random`` generator (``ask_rng(seed, i)``) and runs use
     ``run_seed(seed, i)``, as a campaign would; outcomes are judged by ``judge`` and the
-    world uses the ``physics`` profile, as in a campaign with the same settings. Time is CPU time of this process
-    (``time.process_time``), so other load on the machine does not count against us;
+    world uses the ``physics`` profile, as in a campaign with the same settings. Time is
+    CPU time of this process (``time.process_time``), so other load does not count;
     wall time is reported too.
 
     Returns:

@@ -15,7 +15,7 @@ from sitcov.sim.carla._xosc import approach_speed
 
 xosc = need_module("scenariogeneration.xosc", "xosc")
 
-#: The paper's twelve intersection situations (DESIGN §2).
+#: The paper's twelve intersection situations (its Table 1).
 INTSITS = [
     ("L-B", "R-B", "c4"), ("L-R", "R-B", "c4"), ("L-R", "B-R", "c1"), ("L-R", "B-L", "c1"),
     ("B-L", "L-R", "c1"), ("B-L", "R-L", "c2"), ("B-L", "R-B", "c2"), ("B-R", "L-R", "c1"),
