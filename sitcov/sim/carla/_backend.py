@@ -298,6 +298,7 @@ class CarlaBackend(Backend):
                 [(x, -y) for x, y in ov_route],
                 sit_conflict,
                 friction["max_steer"],
+                switch_distance=spec.switch_distance(ego_mv, ov_mv),
             )
             outcome = episode.drive(driver, MetricTracker(sit_conflict), ego_goal)
             outcome.metrics.update(
