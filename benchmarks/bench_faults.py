@@ -36,6 +36,12 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return mid - half, mid + half
 
 
+def sign_test(new: int, cured: int) -> float:
+    """One-sided exact sign test (McNemar) that the fault fails more often: P(X >= new)."""
+    n = new + cured
+    return sum(math.comb(n, k) for k in range(new, n + 1)) / 2**n if n else 1.0
+
+
 def measure(
     runs: int, seed: int, ratio: float | None = None, switch_distance: float | None = None
 ) -> dict:
@@ -71,6 +77,9 @@ def report(table: dict) -> None:
         if name != "NF":
             share = both / max(sum(nf_aeb), 1)
             line += f"  aeb in NF-aeb runs {both}/{sum(nf_aeb)} = {share:.3f}"
+            new = sum(f and not g for (f, _), (g, _) in zip(rows, table["NF"], strict=True))
+            cured = sum(g and not f for (f, _), (g, _) in zip(rows, table["NF"], strict=True))
+            line += f"  newly failing {new}, cured {cured}, sign-test p {sign_test(new, cured):.1e}"
         print(line)
 
 
