@@ -148,6 +148,12 @@ def generate_cmd(
 
 # --- campaigns, summary, exports, replay (owner: campaign) ----------------------------------
 
+_FAULT_HELP = (
+    "Seeded fault: f1 = score threshold too high, relative to our detector (computed from "
+    "the PEM; docs/reference-stack.md); f1-raw = the paper's raw 0.95 (our detector never "
+    "reaches it: no emergency brake); f2 = centering (0.3, 0.6); f3 = distance 0.35."
+)
+
 
 @app.command("run")
 def run_cmd(
@@ -163,7 +169,7 @@ def run_cmd(
         None, "--runs", help="Total runs (default: 1000, or the stored campaign's; only grows)."
     ),
     seed: Optional[int] = typer.Option(None, "--seed", help="Campaign seed (default: 0)."),  # noqa: UP045
-    fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
+    fault: Optional[str] = typer.Option(None, "--fault", help=_FAULT_HELP),  # noqa: UP045
     backend: Optional[str] = typer.Option(None, "--backend", help="Backend (default: embedded)."),  # noqa: UP045
     perception: Optional[str] = typer.Option(  # noqa: UP045
         None, "--perception", help="pem | camera (embedded backend)."
@@ -439,7 +445,7 @@ def experiment_faults_cmd(
 def bench_cmd(
     runs: int = typer.Option(200, "--runs", "-n", min=1, help="Number of runs."),
     seed: int = typer.Option(0, "--seed", help="Campaign seed (situations and run seeds)."),
-    fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
+    fault: Optional[str] = typer.Option(None, "--fault", help=_FAULT_HELP),  # noqa: UP045
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ) -> None:
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""

@@ -15,23 +15,31 @@ from sitcov.av import (
     ReferenceStack,
     make_stack,
 )
+from sitcov.av._fault_map import f1_threshold
+from sitcov.av._faults import fault_overrides
 from sitcov.errors import ConfigError, UnknownPluginError
 
 
-def test_faults_are_the_papers_values():
-    assert FAULTS == {
-        "f1": {"threshold": 0.95},
-        "f2": {"centering": (0.3, 0.6)},
-        "f3": {"distance": 0.35},
-    }
-    assert set(FAULT_DESCRIPTIONS) == set(FAULTS)
+def test_geometric_faults_and_f1_raw_are_the_papers_values():
+    assert fault_overrides("f1-raw") == {"threshold": 0.95}
+    assert fault_overrides("f2") == {"centering": (0.3, 0.6)}
+    assert fault_overrides("f3") == {"distance": 0.35}
+    assert set(FAULT_DESCRIPTIONS) == set(FAULTS) == {"f1", "f1-raw", "f2", "f3"}
+    assert "0.95" in FAULT_DESCRIPTIONS["f1-raw"] and "PEM" in FAULT_DESCRIPTIONS["f1"]
+
+
+def test_f1_is_computed_from_the_detector_model():
+    # stricter than nominal, below what our detector never reaches; see test_fault_map.py
+    assert 0.5 < fault_overrides("f1")["threshold"] == f1_threshold() < 0.95
+    assert ReferenceStack(fault="f1").params["threshold"] == f1_threshold()
+    assert ReferenceStack(fault="f1-raw").params["threshold"] == 0.95
 
 
 @pytest.mark.parametrize("fault", sorted(FAULTS))
 def test_config_reports_fault_and_effective_params(fault):
     cfg = ReferenceStack(fault=fault).config()
     assert cfg["name"] == "reference" and cfg["fault"] == fault
-    ((name, value),) = FAULTS[fault].items()
+    ((name, value),) = fault_overrides(fault).items()
     assert cfg["params"][name] == (list(value) if isinstance(value, tuple) else value)
     json.dumps(cfg)  # stored with every run
 
@@ -45,8 +53,9 @@ def test_params_override_defaults_and_faults():
 
 
 def test_unknown_fault_lists_the_allowed_ones():
-    with pytest.raises(ConfigError, match=r"'f9'.*f1, f2, f3"):
+    with pytest.raises(ConfigError, match=r"'f9'.*f1, f1-raw, f2, f3") as info:
         ReferenceStack(fault="f9")
+    assert "\n" not in str(info.value) and info.value.field == "fault"
 
 
 def test_unknown_param_lists_the_allowed_ones():

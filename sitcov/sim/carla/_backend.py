@@ -313,6 +313,7 @@ class CarlaBackend(Backend):
                 [(x, -y) for x, y in ov_route],
                 sit_conflict,
                 friction["max_steer"],
+                switch_distance=spec.switch_distance(ego_mv, ov_mv),
             )
             tracker = MetricTracker(list(info.route), [(x, -y) for x, y in ov_route])
             outcome = episode.drive(driver, tracker, ego_goal)

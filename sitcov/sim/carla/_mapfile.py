@@ -66,6 +66,9 @@ class CarlaMap(_Strict):
     ov_blueprint: str = "vehicle.audi.tt"
     goal_tolerance: float = Field(default=3.0, gt=0)
     source: str = ""
+    #: "EGO/OV" -> the ego's distance to the conflict point [m] at which the OV stops
+    #: synchronising (sitcov.sim._adversary); situations without an entry use the fallback.
+    switch_distances: dict[str, float] = Field(default_factory=dict)
 
     @model_validator(mode="after")
     def _legs_consistent(self) -> CarlaMap:
@@ -109,6 +112,10 @@ class CarlaMap(_Strict):
                 expected=f"one of {sorted(self.conflict_points)} (map {self.name!r})",
             )
         return self.conflict_points[label]
+
+    def switch_distance(self, ego_move: str, ov_move: str) -> float | None:
+        """The situation's ``switch_distances`` entry [m], or None if the file has none."""
+        return self.switch_distances.get(f"{ego_move}/{ov_move}")
 
     def _spawn(self, table: dict[str, SpawnPoint], movement: str, field: str) -> SpawnPoint:
         start, _ = _split(movement)

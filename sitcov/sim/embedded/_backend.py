@@ -23,7 +23,12 @@ import numpy as np
 from sitcov.av._base import EgoState, Observation, RunInfo
 from sitcov.errors import ConfigError
 from sitcov.perception._base import ActorView, CameraSpec, Pose, Sensor
-from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit
+from sitcov.sim._adversary import (
+    AdversaryController,
+    AdversaryParams,
+    pure_pursuit,
+    with_switch_distance,
+)
 from sitcov.sim._base import Backend, Outcome, Trace
 from sitcov.sim._conditions import (
     AIR_DENSITY,
@@ -303,7 +308,8 @@ class EmbeddedBackend(Backend):
         ego = Vehicle(vp, ex, ey, eh)
         ox, oy, oh = orr.point_at(0.0)
         ov = Vehicle(vp, ox, oy, oh)
-        adv = AdversaryController(self.adversary, has_conflict=conflict is not None)
+        adv_params = with_switch_distance(self.adversary, self.map.switch_distance(scen))
+        adv = AdversaryController(adv_params, has_conflict=conflict is not None)
         s_conf_e = conflict.s_ego if conflict else math.inf
         s_conf_o = conflict.s_ov if conflict else math.inf
         zone_e = min(conflict.s_ego_end, s_conf_e + PET_ZONE) if conflict else math.inf
@@ -351,6 +357,7 @@ class EmbeddedBackend(Backend):
         road_mon = RoadDepartureMonitor(self.map.drivable_area, er.hs, left, right, half_l, half_w)
         monitors = (lane_mon, road_mon)
         switch_time: float | None = None
+        switch_gap: float | None = None  # ego's distance to the conflict at the switch [m]
         prev_gap = math.inf
         clear: bool | None = None  # decided once the ego stands latched
         ego_rows: list[tuple[float, float, float, float, float]] = []
@@ -413,7 +420,7 @@ class EmbeddedBackend(Backend):
                 ov_speed = ov.speed
                 thr, brk = adv.command(s_conf_e - s_e, ego_speed, s_conf_o - s_o, ov_speed)
                 if switch_time is None and adv.phase == "cruise":
-                    switch_time = t
+                    switch_time, switch_gap = t, s_conf_e - s_e
                 look = adv.lookahead(ov_speed)
                 tx, ty, _ = orr.point_at(s_o + look)
                 c, s = math.cos(ov.yaw), math.sin(ov.yaw)
@@ -520,6 +527,8 @@ class EmbeddedBackend(Backend):
             "conflict_label": intsit["conflict"],
             "conflict_point": list(conflict.point) if conflict else None,
             "ov_switch_time": switch_time,
+            "ov_switch_distance": adv_params.switch_distance,
+            "ego_gap_at_switch": switch_gap,
             "ego_max_lateral_offset": max_lat,
             "ego_left_lane": lane_mon.time is not None,
             "lane_departure_time": None if lane_mon.time is None else round(lane_mon.time, 10),

@@ -108,6 +108,7 @@ class JunctionMap:
             "legs",
             "spawns",
             "goal_distance",
+            "switch_distances",
         }
         if unknown:
             raise ConfigError(
@@ -115,7 +116,7 @@ class JunctionMap:
                 field=sorted(unknown)[0],
                 value=None,
                 expected="one of format, name, description, lane_width, legs, "
-                "spawns, goal_distance",
+                "spawns, goal_distance, switch_distances",
             )
         if data.get("format", 1) != 1:
             raise ConfigError(file=source, field="format", value=data.get("format"), expected="1")
@@ -181,6 +182,31 @@ class JunctionMap:
                 self.spawns[role][str(leg_name)] = dist
         self._lanes = self._build_lanes()
         self.graph: dict[str, tuple[str, ...]] = self._build_graph()
+        self.switch_distances = self._switch_distances(data.get("switch_distances", {}))
+
+    def _switch_distances(self, table: Any) -> dict[str, float]:
+        """Validate ``switch_distances``: ``"EGO/OV"`` (movements of this map) -> metres."""
+        if not isinstance(table, dict):
+            raise ConfigError(
+                file=self.source,
+                field="switch_distances",
+                value=table,
+                expected='a mapping "EGO/OV" (e.g. "L-B/R-B") -> distance [m]',
+            )
+        out: dict[str, float] = {}
+        for key in table:
+            moves = [m.partition("-") for m in str(key).split("/")]
+            if len(moves) != 2 or any(
+                not sep or a not in self.legs or b not in self.legs or a == b for a, sep, b in moves
+            ):
+                raise ConfigError(
+                    file=self.source,
+                    field=f"switch_distances.{key}",
+                    value=key,
+                    expected=f'"EGO/OV" movements "X-Y" of legs {sorted(self.legs)}',
+                )
+            out[str(key)] = _number(table, key, self.source, "switch_distances.", 0.0)
+        return out
 
     # --- construction ---------------------------------------------------------------------
 
@@ -294,6 +320,24 @@ class JunctionMap:
         ov_route = ov_full.sub(o0, ov_full.length, ROUTE_STEP)
         conflict = find_conflict(ego_route, ov_route, 0.5 * (width_ego + width_ov))
         return Scenario(ego_move, ov_move, ego_route, ov_route, conflict)
+
+    def switch_distance(self, scenario: Scenario) -> float | None:
+        """Ego's distance to the conflict point [m] at which the OV stops synchronising.
+
+        The map's ``switch_distances`` entry for the situation if it has one (the shipped
+        maps list the paper's twelve situations, derived from its Town03 trigger boxes);
+        otherwise the ego's remaining distance when it crosses the mouth of its start leg,
+        where the paper's boxes sit (just inside the junction entrance). None without a
+        conflict.
+        """
+        key = f"{scenario.ego_move}/{scenario.ov_move}"
+        if key in self.switch_distances:
+            return self.switch_distances[key]
+        if scenario.conflict is None:
+            return None
+        leg = self._parse_move(scenario.ego_move)[0]
+        s_mouth = self.spawns["ego"][leg] - self.legs[leg].mouth
+        return max(scenario.conflict.s_ego - s_mouth, 0.0)
 
     def render_geometry(self) -> dict[str, Any]:
         """Drawable geometry for renderers: road polygons, lane markings and kerbs [m]."""
