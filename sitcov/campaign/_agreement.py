@@ -32,6 +32,7 @@ Evaluation seeds must not be calibration seeds (read from the PEM file's ``meta`
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import os
 import time
@@ -486,12 +487,14 @@ def run_agreement(
     Raises:
         ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
     """
+    from sitcov import __version__
     from sitcov.perception._pem import PEM_PARAMS_FILE, load_pem_params
 
     if situations < 1:
         raise ConfigError(field="--situations", value=situations, expected="at least 1")
     rows_format(out)
-    pem_name = str(pem_file) if pem_file is not None else str(PEM_PARAMS_FILE)
+    pem_path = Path(pem_file) if pem_file is not None else PEM_PARAMS_FILE
+    pem_name = str(pem_file) if pem_file is not None else "sitcov/perception/data/pem.yaml"
     load_pem_params(pem_file)
     calibrated = calibration_seeds(pem_file)
     check_seeds(seeds, calibrated, allow=allow_calibration_seeds, pem_file=pem_name)
@@ -523,6 +526,8 @@ def run_agreement(
         seeds=list(seeds),
         situations_per_seed=situations,
         pem_file=pem_name,
+        pem_sha256=hashlib.sha256(pem_path.read_bytes()).hexdigest(),
+        sitcov_version=__version__,
         calibration_seeds=calibrated,
         workers=workers,
         runs={
