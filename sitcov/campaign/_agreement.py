@@ -456,6 +456,43 @@ def summarise(
     return result
 
 
+def situation_bins(seeds: Sequence[int], situations: int) -> dict[tuple[int, int], dict]:
+    """(seed, index) -> the situation's bins (regenerated: the random generator is cheap)."""
+    from sitcov._seeding import ask_rng
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+
+    gen = make_generator("random", load_hyperspace())
+    return {(s, i): dict(gen.ask(ask_rng(s, i)).bins) for s in seeds for i in range(situations)}
+
+
+def bin_differences(
+    rows: Sequence[Mapping[str, Any]], pair: str, bins: Mapping[tuple[int, int], Mapping]
+) -> dict[str, dict[str, Any]]:
+    """Per element: the largest difference between the two sides' failure rates in one bin.
+
+    Only situations judged on both sides count; ``min_n`` is the smallest bin's size, which
+    says how much of the difference sampling noise alone explains.
+    """
+    (pa, sa), (pb, sb) = PAIRS[pair]
+    by_key = {(r["seed"], r["index"], r["perception"], r["stream"]): r for r in rows}
+    counts: dict[str, dict[str, list[int]]] = {}  # element -> bin -> [n, fails a, fails b]
+    for (seed, index), sit_bins in bins.items():
+        ra, rb = by_key.get((seed, index, pa, sa)), by_key.get((seed, index, pb, sb))
+        if ra is None or rb is None or {ra["status"], rb["status"]} - set(_JUDGED):
+            continue
+        for element, name in sit_bins.items():
+            cell = counts.setdefault(element, {}).setdefault(name, [0, 0, 0])
+            cell[0], cell[1], cell[2] = cell[0] + 1, cell[1] + ra["failed"], cell[2] + rb["failed"]
+    return {
+        element: {
+            "max_difference": round(max(abs(a - b) / n for n, a, b in per_bin.values()), 3),
+            "min_n": min(n for n, _, _ in per_bin.values()),
+        }
+        for element, per_bin in counts.items()
+    }
+
+
 def estimate_seconds(jobs: Sequence[Job], workers: int) -> float:
     """Expected wall time of ``jobs`` on ``workers`` free cores [s] (a rough planning figure)."""
     cpu = sum(CAMERA_CPU_S_PER_RUN if j.perception == "camera" else PEM_CPU_S_PER_RUN
@@ -521,6 +558,9 @@ def run_agreement(
     rows = sort_rows(rows)
     write_rows(out, rows)
     summary = summarise(rows, pairs, seeds)
+    bins = situation_bins(seeds, situations)
+    for pair in pairs:
+        summary["pairs"][pair]["bin_differences"] = bin_differences(rows, pair, bins)
     summary.update(
         construction=CONSTRUCTION,
         seeds=list(seeds),
@@ -610,6 +650,14 @@ def table_lines(summary: Mapping[str, Any]) -> list[str]:
         if len(result["per_seed"]) > 1:
             for seed, row in result["per_seed"].items():
                 lines.append(_line(f"  seed {seed}", row))
+    for pair in ("pem-camera", "camera-camera"):
+        diffs = summary["pairs"].get(pair, {}).get("bin_differences")
+        if diffs:
+            text = ", ".join(f"{el} {d['max_difference']:.2f}" for el, d in diffs.items())
+            low = min(d["min_n"] for d in diffs.values())
+            lines.append(
+                f"{pair}: largest per-bin failure-rate difference (smallest bin {low} runs): {text}"
+            )
     for perception, cost in summary["cost"].items():
         lines.append(
             f"{perception} run: {cost['cpu_s_per_run']:.3f} CPU-s, {cost['wall_s_per_run']:.3f} s "

@@ -99,6 +99,23 @@ def test_agreement_follows_the_construction(tmp_path: Path) -> None:
     assert abs(cam["agreement"] - pem["agreement"]) < 0.06
 
 
+def test_bin_differences_count_each_situation_in_its_bins(tmp_path: Path) -> None:
+    summary = ag.run_agreement(seeds=[3], situations=50, out=tmp_path / "r.csv", run_job=fake_run)
+    shared = summary["pairs"]["pem-camera-shared-seed"]["bin_differences"]
+    assert shared and all(d["max_difference"] == 0.0 for d in shared.values())
+    # hand-made rows: one element, two bins; side A fails everything, side B nothing in bin "y"
+    rows = []
+    bins = {}
+    for i in range(6):
+        bins[(0, i)] = {"fog": "x" if i < 2 else "y"}
+        for perception, stream in (("camera", "A"), ("camera", "B")):
+            failed = stream == "A" or i < 2
+            rows.append({"seed": 0, "index": i, "perception": perception, "stream": stream,
+                         "status": "fail" if failed else "pass", "failed": failed})  # fmt: skip
+    diffs = ag.bin_differences(rows, "camera-camera", bins)
+    assert diffs == {"fog": {"max_difference": 1.0, "min_n": 2}}
+
+
 def test_intervals_are_wilson_and_unjudged_runs_are_left_out(tmp_path: Path) -> None:
     def run(job: ag.Job) -> dict:
         row = fake_run(job)
