@@ -438,6 +438,75 @@ def experiment_faults_cmd(
         console.print(f"stored in {db}; report: sitcov report --db {db} --out report/")
 
 
+@experiment_app.command("agreement")
+def experiment_agreement_cmd(
+    seeds: str = typer.Option("2,4", "--seeds", help="Evaluation seeds, comma-separated."),
+    situations: int = typer.Option(200, "--situations", min=1, help="Situations per seed."),
+    out: Path = typer.Option(
+        Path("agreement.csv"), "--out", help="Rows file, one row per run (.csv or .jsonl)."
+    ),
+    summary_out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--summary", help="Summary JSON (default: the rows file with .summary.json)."
+    ),
+    pairs: str = typer.Option("all", "--pairs", help="all, or a comma-separated subset."),
+    pem: Optional[Path] = typer.Option(None, "--pem", help="PEM file (default: shipped)."),  # noqa: UP045
+    model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
+    workers: int = typer.Option(1, "--workers", min=1, help="Processes for the runs."),
+    allow_calibration_seeds: bool = typer.Option(
+        False, "--allow-calibration-seeds", help="Development only: evaluate on seeds the PEM saw."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+) -> None:
+    """PEM vs camera, camera vs camera, PEM vs PEM: verdict agreement on held-out seeds."""
+    import json
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from sitcov.campaign import _agreement as ag
+
+    seed_list, pair_list = ag.parse_seeds(seeds), ag.parse_pairs(pairs)
+
+    def plan(jobs: list) -> None:
+        camera = sum(j.perception == "camera" for j in jobs)
+        err_console.print(
+            f"planned: {camera} camera runs + {len(jobs) - camera} PEM runs on {workers} "
+            f"worker(s); about {ag.estimate_seconds(jobs, workers) / 60:.1f} min if the cores "
+            f"are free ({ag.CAMERA_CPU_S_PER_RUN} CPU-s per camera run)",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+    columns = (TextColumn("agreement"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+               TimeRemainingColumn())  # fmt: skip
+    with Progress(*columns, console=err_console, transient=True, disable=as_json) as bar:
+        total = len(ag.plan_jobs(seed_list, situations, pair_list))
+        task = bar.add_task("agreement", total=total)
+        summary = ag.run_agreement(
+            seeds=seed_list, situations=situations, out=out, pairs=pair_list,
+            pem_file=None if pem is None else str(pem), model=None if model is None else str(model),
+            workers=workers, allow_calibration_seeds=allow_calibration_seeds,
+            on_plan=plan, progress=lambda _row: bar.advance(task),
+        )  # fmt: skip
+    summary["command"] = ag.command_line(
+        seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
+        pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
+    )  # fmt: skip
+    summary_path = summary_out or out.with_name(out.stem + ".summary.json")
+    summary_path.write_text(json.dumps(summary, indent=2) + "\n")
+    if as_json:
+        print(json.dumps(summary, sort_keys=True))
+        return
+    for line in ag.table_lines(summary):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+    runs = summary["runs"]
+    err_console.print(
+        f"{runs['camera']} camera + {runs['pem']} PEM runs in {summary['wall_s']:.0f} s wall "
+        f"on {workers} worker(s); rows in {out}, summary in {summary_path}",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
 # --- embedded backend bench (owner: embedded world) ----------------------------------------
 
 
