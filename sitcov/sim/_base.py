@@ -36,7 +36,8 @@ class Conditions:
         illumination: relative scene illumination in (0, 1], 1 = clear noon.
         rain_noise: perception noise intensity in [0, 1] from rain, spray and glare.
         wind_speed: mean wind speed [m/s].
-        wind_lateral_accel: standard deviation of the wind's lateral acceleration [m/s^2].
+        wind_lateral_accel: RMS of the wind's lateral acceleration [m/s^2] (0 in the
+            ``carla`` physics profile: CARLA's wind moves no vehicle).
         raw: the environment values as given (CARLA units), for renderers.
     """
 

@@ -138,6 +138,14 @@ def test_physical_wind_pushes() -> None:
 # --- perception quantities (both profiles) -----------------------------------------------------
 
 
+@pytest.mark.parametrize("element", WATER)
+def test_water_adds_perception_noise(element: str) -> None:
+    levels = [conditions_from_values({element: v}).rain_noise for v in range(0, 101, 20)]
+    assert levels[0] == 0.0
+    assert all(a < b for a, b in zip(levels, levels[1:], strict=False))
+    assert levels[-1] <= 1.0
+
+
 def test_fog_density_lowers_visibility() -> None:
     low, high = _extremes("fog_density")
     assert high.fog_extinction > low.fog_extinction

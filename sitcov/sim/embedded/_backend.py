@@ -130,7 +130,7 @@ class EmbeddedBackend(Backend):
         sim_timeout: simulated time after which a run ends as a pass [s].
         grey_box: give the stack the full situation in ``RunInfo``.
         adversary: AdversaryParams, or a mapping of its fields.
-        wind: False switches the crosswind disturbance off (for tests).
+        wind: False switches the crosswind force off (it exists only in ``physical``).
         physics: ``carla`` (default: weather acts on perception only, friction is the
             friction element, as in CARLA 0.9.x) or ``physical`` (wet-road grip loss and
             crosswind force too); see ``docs/weather.md``.
