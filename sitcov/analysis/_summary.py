@@ -57,7 +57,9 @@ def _indexed(hs: Hyperspace, runs: Iterable[Any]) -> tuple[list[tuple[list[int],
 
 def _kind(run: Any) -> str:
     """The failure kind of a failed run (``collision`` when it does not say)."""
-    kind = run.get("failure_kind") if isinstance(run, Mapping) else run.failure_kind
+    kind = (
+        run.get("failure_kind") if isinstance(run, Mapping) else getattr(run, "failure_kind", None)
+    )
     return kind if kind in FAILURE_KINDS else "collision"
 
 

@@ -103,6 +103,15 @@ def route_clearance(area: DrivableArea, route: Any) -> tuple[list[float], list[f
         lo = np.searchsorted(ss, ss - WINDOW, side="left")
         hi = np.searchsorted(ss, ss + WINDOW, side="right")
         out.append([float(clear[a:b].min()) for a, b in zip(lo, hi, strict=True)])
+    # near an end of the route the box may reach beyond it: unless the road goes on
+    # there, such points get no clearance (always the exact test)
+    for end, sign, near in ((0, -1.0, ss < WINDOW), (-1, 1.0, ss > ss[-1] - WINDOW)):
+        hx = float(x[end, 0] + sign * WINDOW * np.cos(h[end, 0]))
+        hy = float(y[end, 0] + sign * WINDOW * np.sin(h[end, 0]))
+        if not area.contains(hx, hy):
+            for side in out:
+                for i in np.flatnonzero(near):
+                    side[i] = 0.0
     return out[0], out[1]
 
 
