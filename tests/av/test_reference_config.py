@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -106,3 +109,23 @@ def test_make_stack_errors():
     with pytest.raises(ConfigError, match="does not take 'fault'"):
         make_stack(f"{__name__}:_Plain", fault="f1")
     assert isinstance(make_stack(f"{__name__}:_Plain"), _Plain)
+
+
+def _sitcov(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-c", "from sitcov.cli import main; main()", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "COLUMNS": "200"},
+    )
+
+
+def test_cli_unknown_fault_is_one_line_and_help_says_which_f1_is_which():
+    result = _sitcov("bench", "--fault", "f9", "-n", "1")
+    assert result.returncode == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert lines == ["error: unknown fault 'f9'; expected one of: f1, f1-raw, f2, f3 (or none)"]
+    help_text = " ".join(_sitcov("run", "--help").stdout.replace("│", " ").split())
+    assert "f1-raw = the paper's raw 0.95" in help_text
+    assert "relative to our detector" in help_text
