@@ -137,7 +137,8 @@ class SQLiteStore(Store):
             self._migrate()
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:  # a damaged schema page
             detail = " ".join(str(exc).split())[:200]
-            raise StoreError(f"{self.location}: not a sitcov database ({detail})") from None
+            what = "cannot open the file" if "unable to open" in detail else "not a sitcov database"
+            raise StoreError(f"{self.location}: {what} ({detail})") from None
         self._db = _Guarded(self._db, self.location)  # damaged pages: one-line StoreError
 
     # -- schema ------------------------------------------------------------------------------

@@ -140,3 +140,10 @@ def test_a_bad_fault_experiment_leaves_no_database(tmp_path, capsys, flags, mess
     code, out, err = sitcov(capsys, *args, "--workers", "1")
     assert code == 2 and message in err and "Traceback" not in out + err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_database_that_cannot_be_opened_is_one_line(capsys):
+    db = "/proc/sitcov-cannot-create-this.db"  # /proc takes no new files, even for root
+    code, out, err = sitcov(capsys, "run", "--db", db, "--runs", "2", "--executor", "serial")
+    assert code == 2 and f"{db}: cannot open the file" in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in out + err
