@@ -351,7 +351,9 @@ def explain_cmd(
 def shrink_cmd(
     run: str = typer.Argument(..., help="CAMPAIGN:INDEX of a failing run (INDEX if one campaign)."),
     db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
-    repeats: int = typer.Option(10, "--repeats", min=1, help="Runs per 'still fails' decision."),
+    repeats: int = typer.Option(
+        10, "--repeats", min=1, help="Runs per stage of a 'still fails' decision (2 stages)."
+    ),
     min_rate: float = typer.Option(0.6, "--min-rate", help="Share of them that must fail."),
     confirm: int = typer.Option(20, "--confirm", min=0, help="Runs measuring the shrunk rate."),
     keep: Optional[str] = typer.Option(  # noqa: UP045

@@ -6,8 +6,10 @@ situation re-run (the stack and backend rebuilt from the stored config, as a rep
 - benign bin of an element = the bin with the lowest add-one-smoothed failure rate
   ``(failures + 1) / (judged + 2)`` among the judged runs of the run's campaign (ties: the
   earlier bin), so a bin is not called benign on no evidence;
-- "still fails" = fails in at least ``ceil(min_rate * repeats)`` of ``repeats`` runs: the
-  stored run's seed plus ``repeats - 1`` seeds derived from it;
+- "still fails" = fails in at least ``min_rate`` of ``repeats`` runs and then also of
+  ``2 * repeats`` runs (the second batch is run only when the first passes: a cheap
+  two-stage test that halves the chance of accepting a set near the threshold by luck);
+  the seeds are the stored run's seed plus seeds derived from it;
 - delta debugging (ddmin, Zeller & Hildebrandt 2002) over the set of elements not already
   in their benign bin: first halves (jointly), then smaller chunks and complements, down
   to single elements, so the result is 1-minimal: moving any one remaining element to its
@@ -104,6 +106,7 @@ class ShrinkResult:
     necessary: list[str]
     shrunk_bins: dict[str, str]
     repeats: int
+    min_rate: float
     min_failures: int
     original_failures: int
     trials: list[dict[str, Any]] = field(default_factory=list)
@@ -119,11 +122,11 @@ class _Trial:
     """Runs a situation on the decision seeds, caching results by the kept set."""
 
     def __init__(self, hs: Hyperspace, run: Any, benign: Mapping[str, str], sim: Any, stack: Any,
-                 seeds: list[int], min_failures: int) -> None:  # fmt: skip
+                 seeds: list[int], min_rate: float) -> None:  # fmt: skip
         self.hs, self.run, self.benign = hs, run, benign
         self.sim, self.stack = sim, stack
-        self.seeds, self.min_failures = seeds, min_failures
-        self.cache: dict[frozenset[str], int] = {}
+        self.seeds, self.min_rate = seeds, min_rate
+        self.cache: dict[frozenset[str], bool] = {}
         self.log: list[dict[str, Any]] = []
 
     def situation(self, kept: frozenset[str]) -> Situation | None:
@@ -150,11 +153,18 @@ class _Trial:
         )
 
     def __call__(self, kept: frozenset[str]) -> bool:
+        """Still fails: >= min_rate of the first seeds, then also of twice as many."""
         if kept not in self.cache:
-            k = self.failures(kept, self.seeds)
-            self.cache[kept] = -1 if k is None else k
-            self.log.append({"kept": sorted(kept), "failures": k, "repeats": len(self.seeds)})
-        return self.cache[kept] >= self.min_failures
+            half = len(self.seeds) // 2
+            k = self.failures(kept, self.seeds[:half])
+            runs = half
+            if k is not None and k >= math.ceil(self.min_rate * half):
+                k += self.failures(kept, self.seeds[half:]) or 0
+                runs = len(self.seeds)
+            passed = k is not None and k >= math.ceil(self.min_rate * runs)
+            self.cache[kept] = passed and runs == len(self.seeds)
+            self.log.append({"kept": sorted(kept), "failures": k, "runs": runs})
+        return self.cache[kept]
 
 
 def _rate(failures: int | None, runs: int) -> dict[str, Any]:
@@ -199,7 +209,8 @@ def shrink_run(
     Args:
         store: the campaign store holding the run.
         overrides: stack/backend settings replacing the stored ones (``sitcov run`` flags).
-        repeats: runs per "still fails" decision (the run's seed + derived seeds).
+        repeats: runs of each stage of a "still fails" decision (the run's seed + derived
+            seeds; a set that passes the first stage is run ``repeats`` more times).
         min_rate: share of ``repeats`` that must fail.
         confirm: runs of the shrunk situation on fresh seeds for its failure rate.
         keep: skip the search and only confirm: these elements keep their failing bins,
@@ -225,19 +236,18 @@ def shrink_run(
                               expected=" | ".join(hs.element_names))  # fmt: skip
     config = _stack_config(run, overrides)
     sim, stack = build_backend(config), build_stack(config)
-    min_failures = math.ceil(min_rate * repeats)
-    seeds = [run.seed, *derived_seeds(run.seed, _DECIDE_STREAM, repeats - 1)]
-    trial = _Trial(hs, run, benign, sim, stack, seeds, min_failures)
+    min_failures = math.ceil(min_rate * 2 * repeats)
+    seeds = [run.seed, *derived_seeds(run.seed, _DECIDE_STREAM, 2 * repeats - 1)]
+    trial = _Trial(hs, run, benign, sim, stack, seeds, min_rate)
     try:
         result = ShrinkResult(campaign, index, run.seed, dict(run.bins), benign, candidates,
-                              [], {}, repeats, min_failures, 0)  # fmt: skip
-        trial(frozenset(candidates))
-        result.original_failures = trial.cache[frozenset(candidates)]
+                              [], {}, repeats, min_rate, min_failures, 0)  # fmt: skip
+        result.original_failures = trial.failures(frozenset(candidates), seeds) or 0
         if keep is not None:
             kept = frozenset(e for e in keep if e in candidates)
         elif result.original_failures < min_failures:
             result.message = (
-                f"the run fails in {result.original_failures} of {repeats} seeds (needs "
+                f"the run fails in {result.original_failures} of {2 * repeats} seeds (needs "
                 f"{min_failures}): its failure depends on the seed more than on the bins"
             )
             kept = frozenset(candidates)
@@ -260,9 +270,10 @@ def shrink_run(
 def shrink_lines(result: ShrinkResult, db: Any) -> list[str]:
     """The console text of ``sitcov shrink``: conditions, evidence, rate, replay line."""
     run_id = f"{result.campaign}:{result.index}"
+    n = 2 * result.repeats
     lines = [f"run {run_id} (seed {result.seed}) fails in {result.original_failures} of "
-             f"{result.repeats} seeds; 'still fails' = >= {result.min_failures} of "
-             f"{result.repeats}"]  # fmt: skip
+             f"{n} seeds; 'still fails' = >= {result.min_failures} of {n} (stopping at "
+             f"{result.repeats} if fewer than {result.min_rate:.0%} of them fail)"]  # fmt: skip
     if result.message:
         lines.append(result.message)
     by_kept = {tuple(t["kept"]): t for t in result.trials}
@@ -271,7 +282,7 @@ def shrink_lines(result: ShrinkResult, db: Any) -> list[str]:
     for e in result.necessary:
         without = tuple(sorted(x for x in result.necessary if x != e))
         t = by_kept.get(without)
-        evidence = (f"; at benign {result.benign[e]} it fails {t['failures']}/{t['repeats']}"
+        evidence = (f"; at benign {result.benign[e]} it fails {t['failures']}/{t['runs']}"
                     if t and t["failures"] is not None else "")  # fmt: skip
         lines.append(f"  {e} = {result.original_bins[e]}{evidence}")
     if not result.necessary and not result.message:
