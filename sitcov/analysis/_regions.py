@@ -2,8 +2,9 @@
 
 The judged runs are split by a seeded permutation into a fitting part (2/3) and a held-out
 part (1/3). A shallow decision tree (scikit-learn, depth <= 3) is fitted on the fitting
-part; every leaf whose fitted failure rate is at least 50 % and above the overall rate
-becomes a rule, the conjunction of the conditions on its path. Each rule's support,
+part; subtrees whose leaves all give the same verdict are merged, and every leaf whose
+fitted failure rate is at least 50 % and at least the overall rate becomes a rule, the
+conjunction of the conditions on its path. Each rule's support,
 precision (with a Wilson interval) and recall are then counted on the held-out runs only.
 
 Encoding, so that rules read as bins: an element whose bins are numbers is ordinal (bin
@@ -68,15 +69,31 @@ def _features(codes: np.ndarray, orders: list[list[int]]) -> np.ndarray:
     return x
 
 
-def _leaf_paths(tree: Any, n_features: int) -> list[tuple[int, np.ndarray, np.ndarray]]:
-    """(leaf id, lower bounds, upper bounds) of feature positions along each leaf's path."""
+def _fail_share(tree: Any, node: int) -> float:
+    value = tree.tree_.value[node][0]
+    return float(value[1] / value.sum()) if value.shape[0] > 1 else 0.0
+
+
+def _leaf_paths(
+    tree: Any, n_features: int, threshold: float
+) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """(node, lower, upper bounds of feature positions) of each leaf, after merging every
+    subtree whose leaves are all on the same side of ``threshold`` into one leaf (a split
+    that does not change the verdict only makes the rules longer)."""
     t = tree.tree_
+
+    def sides(node: int) -> set[bool]:
+        left, right = t.children_left[node], t.children_right[node]
+        if left == right:
+            return {_fail_share(tree, node) >= threshold}
+        return sides(left) | sides(right)
+
     out = []
     stack = [(0, np.full(n_features, -np.inf), np.full(n_features, np.inf))]
     while stack:
         node, lo, hi = stack.pop()
         left, right = t.children_left[node], t.children_right[node]
-        if left == right:
+        if left == right or len(sides(node)) == 1:
             out.append((node, lo, hi))
             continue
         f, thr = t.feature[node], t.threshold[node]
@@ -185,11 +202,11 @@ def failure_regions(
         max_depth=max_depth, min_samples_leaf=max(10, len(fit) // 50), random_state=seed
     )
     tree.fit(_features(codes[fit], orders), y[fit].astype(int))
-    base = float(y[fit].mean())
-    for _, lo, hi in _leaf_paths(tree, len(orders)):
+    threshold = max(0.5, float(y[fit].mean()))
+    for _, lo, hi in _leaf_paths(tree, len(orders), threshold):
         conds = _conditions(hyperspace, orders, lo, hi)
         fitted = _measure(_matches(codes[fit], hyperspace, conds), y[fit])
-        if not fitted["support"] or fitted["precision"] < max(0.5, base):
+        if not fitted["support"] or fitted["precision"] < threshold:
             continue
         text = " and ".join(c["text"] for c in conds) or "everywhere"
         held = _measure(_matches(codes[hold], hyperspace, conds), y[hold])
