@@ -36,7 +36,9 @@ def _tree_class() -> Any:
     try:
         from sklearn.tree import DecisionTreeClassifier
     except ImportError as exc:
-        raise MissingExtraError("sitcov explain (failure regions)", "explain", "scikit-learn") from exc
+        raise MissingExtraError(
+            "sitcov explain (failure regions)", "explain", "scikit-learn"
+        ) from exc
     return DecisionTreeClassifier
 
 

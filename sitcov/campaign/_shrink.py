@@ -134,7 +134,10 @@ class _Trial:
         rng = np.random.default_rng(self.run.seed)
         for el in self.hs.elements:
             if el.name in kept or self.run.bins[el.name] == self.benign[el.name]:
-                bins[el.name], values[el.name] = self.run.bins[el.name], self.run.situation.values[el.name]
+                bins[el.name], values[el.name] = (
+                    self.run.bins[el.name],
+                    self.run.situation.values[el.name],
+                )
             else:
                 bins[el.name] = self.benign[el.name]
                 values[el.name] = el.bin(bins[el.name]).draw(rng)
@@ -260,7 +263,9 @@ def shrink_run(
         if confirm:
             fresh = derived_seeds(run.seed, _CONFIRM_STREAM, confirm)
             result.confirm = _rate(trial.failures(kept, fresh), confirm)
-            result.confirm["original"] = _rate(trial.failures(frozenset(candidates), fresh), confirm)
+            result.confirm["original"] = _rate(
+                trial.failures(frozenset(candidates), fresh), confirm
+            )
     finally:
         stack.close()
         sim.close()
