@@ -298,9 +298,11 @@ def shrink_lines(result: ShrinkResult, db: Any) -> list[str]:
     if c:
         lo, hi = c["ci95"]
         o = c["original"]
-        lines.append(f"on {c['runs']} fresh seeds the shrunk situation fails {c['failures']}/"
-                     f"{c['runs']} = {100 * c['rate']:.0f}% [{100 * lo:.0f}, {100 * hi:.0f}], "
-                     f"the original {o['failures']}/{o['runs']} = {100 * o['rate']:.0f}%")  # fmt: skip
+        lines.append(
+            f"on {c['runs']} fresh seeds the shrunk situation fails {c['failures']}/"
+            f"{c['runs']} = {100 * c['rate']:.0f}% [{100 * lo:.0f}, {100 * hi:.0f}], "
+            f"the original {o['failures']}/{o['runs']} = {100 * o['rate']:.0f}%"
+        )
     keep = ",".join(result.necessary) or '""'
     lines.append(f"replay: sitcov shrink --db {db} {run_id} --keep {keep}")
     lines.append(f"original: sitcov replay --db {db} {run_id}")
