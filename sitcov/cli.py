@@ -719,3 +719,7 @@ def main(argv: Optional[list[str]] = None) -> None:  # noqa: UP045
         raise
     if isinstance(code, int) and code:
         sys.exit(code)  # typer.Exit(code) in non-standalone mode is returned, not raised
+
+
+if __name__ == "__main__":  # `python -m sitcov.cli ...` (the brief's commands use it)
+    main()
