@@ -344,6 +344,83 @@ def replay_cmd(
         sys.exit(1)  # DID NOT REPRODUCE (typer.Exit's code is dropped by main())
 
 
+# --- explanations: explain, shrink (owner: explain) -----------------------------------------
+
+
+@app.command("explain")
+def explain_cmd(
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign."),  # noqa: UP045
+    as_json: bool = typer.Option(False, "--json", help="Print the analysis as one JSON object."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the held-out split and bootstrap."),
+    bootstrap: int = typer.Option(99, "--bootstrap", min=19, help="Replicates for pair tests."),
+) -> None:
+    """Which elements and pairs change the failure rate, and rules for where it fails."""
+    from sitcov.analysis import explain, explain_lines
+    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._summary import FINISHED, campaign_hyperspace
+
+    with existing_store(db) as store:
+        hs = campaign_hyperspace(store, campaign)
+        result = explain(hs, store.runs(campaign, FINISHED), seed=seed, bootstrap=bootstrap)
+    result["campaign"] = campaign
+    if as_json:
+        import json
+
+        print(json.dumps(result))
+        return
+    for line in explain_lines(result):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
+@app.command("shrink")
+def shrink_cmd(
+    run: str = typer.Argument(..., help="CAMPAIGN:INDEX of a failing run (INDEX if one campaign)."),
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    repeats: int = typer.Option(
+        10, "--repeats", min=1, help="Runs per stage of a 'still fails' decision (2 stages)."
+    ),
+    min_rate: float = typer.Option(0.6, "--min-rate", help="Share of them that must fail."),
+    confirm: int = typer.Option(20, "--confirm", min=0, help="Runs measuring the shrunk rate."),
+    keep: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--keep", help="E1,E2: only re-run with these failing bins (replay a shrink)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
+    av: Optional[str] = typer.Option(None, "--av", help="AV stack (default: the stored one)."),  # noqa: UP045
+    fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
+    backend: Optional[str] = typer.Option(None, "--backend", help="Backend (default: stored)."),  # noqa: UP045
+    perception: Optional[str] = typer.Option(None, "--perception", help="pem | camera."),  # noqa: UP045
+    av_cmd: Optional[str] = typer.Option(None, "--av-cmd", help="External stack process."),  # noqa: UP045
+    av_step_timeout: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--av-step-timeout", help="Seconds an external stack may take per step."
+    ),
+    grey_box: bool = typer.Option(False, "--grey-box", help="Give the stack the situation."),
+) -> None:
+    """Re-run a failing run with elements moved to benign bins: the necessary ones."""
+    from sitcov.campaign._config import run_overrides
+    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._replay import parse_run_id
+    from sitcov.campaign._shrink import shrink_lines, shrink_run
+
+    overrides = run_overrides(perception=perception, av_cmd=av_cmd, grey_box=grey_box,
+                              av_step_timeout=av_step_timeout, av=av, fault=fault,
+                              backend=backend)  # fmt: skip
+    kept = [k.strip() for k in keep.split(",") if k.strip()] if keep is not None else None
+    with existing_store(db) as store:
+        campaign, index = parse_run_id(store, run)
+        result = shrink_run(store, campaign, index, overrides=overrides, repeats=repeats,
+                            min_rate=min_rate, confirm=confirm, keep=kept)  # fmt: skip
+    if as_json:
+        import json
+
+        print(json.dumps(result.to_dict()))
+    else:
+        for line in shrink_lines(result, db):
+            console.print(line, highlight=False, markup=False, soft_wrap=True)
+    if result.message:
+        sys.exit(1)
+
+
 # --- report (owner: report) -----------------------------------------------------------------
 
 

@@ -1,5 +1,8 @@
-"""Coverage and failure statistics of campaign runs (counts, coverage, uniformity, Wilson)."""
+"""Coverage and failure statistics of campaign runs (counts, coverage, uniformity, Wilson),
+and explanations of the failures (interaction tests, failure regions)."""
 
+from sitcov.analysis._explain import interaction_analysis
+from sitcov.analysis._regions import explain, explain_lines, failure_regions
 from sitcov.analysis._stats import Z95, uniformity, wilson_interval
 from sitcov.analysis._summary import (
     bin_stats,
@@ -16,7 +19,11 @@ __all__ = [
     "bin_stats",
     "coverage",
     "coverage_growth",
+    "explain",
+    "explain_lines",
     "failures_by_kind",
+    "failure_regions",
+    "interaction_analysis",
     "summarize",
     "uniformity",
     "wilson_interval",

@@ -15,6 +15,7 @@ from pathlib import Path
 from sitcov.errors import ConfigError
 from sitcov.report import _sections as sec
 from sitcov.report._data import NO_FAULT, load_campaigns
+from sitcov.report._explain_section import explain_section
 from sitcov.report._pictures import failure_pictures
 
 #: Element pair of the default heat map (the paper's two most telling elements).
@@ -97,6 +98,7 @@ def build_report(
         page.update(sec.element_section(hs, views, fig_dir))
         page.update(sec.growth_section(hs, views, has_nf, page["bins_total"], fig_dir))
         page.update(sec.heat_section(hs, primary, pair, scope, fig_dir))
+        page.update(explain_section(hs, primary, scope))
         page.update(sec.provenance_section(str(db), str(out), views, pair, experiment_cmd))
         page["pictures"], page["picture_note"] = failure_pictures(
             store, str(db), primary, fig_dir, pictures

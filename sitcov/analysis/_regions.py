@@ -1,0 +1,278 @@
+"""Failure regions: readable rules over bins, measured on runs they were not fitted on.
+
+The judged runs are split by a seeded permutation into a fitting part (2/3) and a held-out
+part (1/3). A shallow decision tree (scikit-learn, depth <= 3) is fitted on the fitting
+part; subtrees whose leaves all give the same verdict are merged, and every leaf whose
+fitted failure rate is at least 50 % and at least the overall rate becomes a rule, the
+conjunction of the conditions on its path. Each rule's support,
+precision (with a Wilson interval) and recall are then counted on the held-out runs only.
+
+Encoding, so that rules read as bins: an element whose bins are numbers is ordinal (bin
+index in hyperspace order; a split reads ``friction <= 0.2``); any other element (e.g.
+``intsit``) is categorical, its bins ordered by their failure rate on the fitting part, so
+that one split is a set of bins (``intsit in {IntSit-2, IntSit-11}``): for a binary outcome
+this ordering contains the best subset split (Breiman et al. 1984, section 9.4).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from sitcov.analysis._explain import MIN_RUNS, _not_enough, encode_runs
+from sitcov.analysis._stats import wilson_interval
+from sitcov.errors import MissingExtraError
+from sitcov.hyperspace import Hyperspace
+
+#: share of the judged runs held out to measure the rules
+HOLDOUT = 1 / 3
+#: depth of the tree (rules have at most this many conditions)
+MAX_DEPTH = 3
+
+
+def _tree_class() -> Any:
+    try:
+        from sklearn.tree import DecisionTreeClassifier
+    except ImportError as exc:
+        raise MissingExtraError(
+            "sitcov explain (failure regions)", "explain", "scikit-learn"
+        ) from exc
+    return DecisionTreeClassifier
+
+
+def _is_ordinal(hs: Hyperspace, e: int) -> bool:
+    return all(b.kind in ("point", "range") for b in hs.elements[e].bins)
+
+
+def _orders(hs: Hyperspace, codes: np.ndarray, y: np.ndarray) -> list[list[int]]:
+    """Per element, bin indices in feature order (hyperspace order, or by failure rate)."""
+    base = float(y.mean())
+    orders = []
+    for e, size in enumerate(hs.sizes):
+        if _is_ordinal(hs, e):
+            orders.append(list(range(size)))
+            continue
+        rates = []
+        for lv in range(size):
+            mask = codes[:, e] == lv
+            rates.append(float(y[mask].mean()) if mask.any() else base)
+        orders.append(sorted(range(size), key=lambda lv: (rates[lv], lv)))
+    return orders
+
+
+def _features(codes: np.ndarray, orders: list[list[int]]) -> np.ndarray:
+    x = np.empty(codes.shape, dtype=float)
+    for e, order in enumerate(orders):
+        position = np.empty(len(order), dtype=int)
+        position[order] = np.arange(len(order))
+        x[:, e] = position[codes[:, e]]
+    return x
+
+
+def _fail_share(tree: Any, node: int) -> float:
+    value = tree.tree_.value[node][0]
+    return float(value[1] / value.sum()) if value.shape[0] > 1 else 0.0
+
+
+def _leaf_paths(
+    tree: Any, n_features: int, threshold: float
+) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """(node, lower, upper bounds of feature positions) of each leaf, after merging every
+    subtree whose leaves are all on the same side of ``threshold`` into one leaf (a split
+    that does not change the verdict only makes the rules longer)."""
+    t = tree.tree_
+
+    def sides(node: int) -> set[bool]:
+        left, right = t.children_left[node], t.children_right[node]
+        if left == right:
+            return {_fail_share(tree, node) >= threshold}
+        return sides(left) | sides(right)
+
+    out = []
+    stack = [(0, np.full(n_features, -np.inf), np.full(n_features, np.inf))]
+    while stack:
+        node, lo, hi = stack.pop()
+        left, right = t.children_left[node], t.children_right[node]
+        if left == right or len(sides(node)) == 1:
+            out.append((node, lo, hi))
+            continue
+        f, thr = t.feature[node], t.threshold[node]
+        hi_left, lo_right = hi.copy(), lo.copy()
+        hi_left[f] = min(hi[f], thr)
+        lo_right[f] = max(lo[f], thr)
+        stack.append((left, lo, hi_left))
+        stack.append((right, lo_right, hi))
+    return out
+
+
+def _conditions(
+    hs: Hyperspace, orders: list[list[int]], lo: np.ndarray, hi: np.ndarray
+) -> list[dict[str, Any]]:
+    """The path's bounds as conditions: element, the bins allowed, and a text."""
+    conds = []
+    for e, order in enumerate(orders):
+        kept = [lv for pos, lv in enumerate(order) if lo[e] < pos <= hi[e]]
+        if len(kept) == len(order):
+            continue
+        el = hs.elements[e]
+        labels = [el.labels[lv] for lv in sorted(kept)]
+        if _is_ordinal(hs, e):
+            first, last = min(kept), max(kept)
+            if first == 0:
+                text = f"{el.name} <= {el.labels[last]}"
+            elif last == len(order) - 1:
+                text = f"{el.name} >= {el.labels[first]}"
+            else:
+                text = f"{el.labels[first]} <= {el.name} <= {el.labels[last]}"
+        else:
+            text = f"{el.name} in {{{', '.join(labels)}}}"
+        conds.append({"element": el.name, "bins": labels, "text": text})
+    return conds
+
+
+def _measure(mask: np.ndarray, y: np.ndarray) -> dict[str, Any]:
+    k, n = int(y[mask].sum()), int(mask.sum())
+    ci = wilson_interval(k, n)
+    total = int(y.sum())
+    return {
+        "support": n,
+        "support_share": n / len(y) if len(y) else None,
+        "failures": k,
+        "precision": k / n if n else None,
+        "precision_ci95": list(ci) if ci else None,
+        "recall": k / total if total else None,
+    }
+
+
+def _matches(codes: np.ndarray, hs: Hyperspace, conds: list[dict[str, Any]]) -> np.ndarray:
+    mask = np.ones(len(codes), dtype=bool)
+    for c in conds:
+        e = hs.element_names.index(c["element"])
+        allowed = [hs.elements[e].labels.index(lab) for lab in c["bins"]]
+        mask &= np.isin(codes[:, e], allowed)
+    return mask
+
+
+def failure_regions(
+    hyperspace: Hyperspace,
+    runs: Iterable[Any],
+    *,
+    seed: int = 0,
+    holdout: float = HOLDOUT,
+    max_depth: int = MAX_DEPTH,
+    min_runs: int = MIN_RUNS,
+) -> dict[str, Any]:
+    """Rules describing where the stack fails, with held-out support/precision/recall.
+
+    Args:
+        hyperspace: the hyperspace the runs were generated in.
+        runs: stored runs (``.bins`` and ``.status``) or mappings with those keys.
+        seed: seed of the numpy Generator that splits fitting and held-out runs (and of
+            the tree's tie-breaking).
+        holdout: share of the judged runs held out.
+        max_depth: tree depth (most conditions per rule).
+        min_runs: fewest judged runs for any rules.
+
+    Returns:
+        JSON-ready dict: ``validation`` (how the rules were measured), ``fit_runs``,
+        ``holdout_runs``, ``message`` (None, or why there are no rules) and ``rules``
+        (ranked by failures covered on the fitting runs), each with ``text``,
+        ``conditions``, ``fit`` and ``holdout`` measures.
+    """
+    tree_cls = _tree_class()
+    codes, y, _ = encode_runs(hyperspace, runs)
+    n = len(y)
+    order = np.random.default_rng(seed).permutation(n)
+    n_hold = int(round(holdout * n))
+    hold, fit = order[:n_hold], order[n_hold:]
+    out: dict[str, Any] = {
+        "validation": (
+            f"seeded split (numpy Generator seed {seed}): rules fitted on {len(fit)} runs, "
+            f"measured on the other {n_hold} held-out runs"
+        ),
+        "fit_runs": int(len(fit)),
+        "holdout_runs": int(n_hold),
+        "message": _not_enough(n, int(y.sum()), min_runs),
+        "rules": [],
+    }
+    if out["message"]:
+        return out
+    orders = _orders(hyperspace, codes[fit], y[fit])
+    tree = tree_cls(
+        max_depth=max_depth, min_samples_leaf=max(10, len(fit) // 50), random_state=seed
+    )
+    tree.fit(_features(codes[fit], orders), y[fit].astype(int))
+    threshold = max(0.5, float(y[fit].mean()))
+    for _, lo, hi in _leaf_paths(tree, len(orders), threshold):
+        conds = _conditions(hyperspace, orders, lo, hi)
+        fitted = _measure(_matches(codes[fit], hyperspace, conds), y[fit])
+        if not fitted["support"] or fitted["precision"] < threshold:
+            continue
+        text = " and ".join(c["text"] for c in conds) or "everywhere"
+        held = _measure(_matches(codes[hold], hyperspace, conds), y[hold])
+        out["rules"].append({"text": text, "conditions": conds, "fit": fitted, "holdout": held})
+    out["rules"].sort(key=lambda r: (-r["fit"]["failures"], -r["fit"]["precision"]))
+    return out
+
+
+def rule_line(rule: dict[str, Any]) -> str:
+    """One line: the rule and its held-out support, precision [CI] and recall."""
+    h = rule["holdout"]
+    if not h["support"]:
+        return f"{rule['text']}: no held-out run matches"
+    lo, hi = h["precision_ci95"]
+    return (
+        f"{rule['text']}: held-out precision {100 * h['precision']:.0f}% "
+        f"[{100 * lo:.0f}, {100 * hi:.0f}] ({h['failures']}/{h['support']}), recall "
+        f"{100 * h['recall']:.0f}%, support {100 * h['support_share']:.0f}% of held-out runs"
+    )
+
+
+def explain(
+    hyperspace: Hyperspace,
+    runs: Iterable[Any],
+    *,
+    seed: int = 0,
+    alpha: float = 0.05,
+    bootstrap: int | None = None,
+) -> dict[str, Any]:
+    """``sitcov explain``'s object: the interaction analysis plus the failure regions.
+
+    Keys: those of :func:`~sitcov.analysis._explain.interaction_analysis` and ``regions``
+    (:func:`failure_regions`). Raises MissingExtraError without scikit-learn.
+    """
+    from sitcov.analysis._explain import BOOTSTRAP, interaction_analysis
+
+    _tree_class()  # fail first, with the one-line message, if the extra is missing
+    runs = list(runs)
+    out = interaction_analysis(
+        hyperspace, runs, alpha=alpha, seed=seed,
+        bootstrap=BOOTSTRAP if bootstrap is None else bootstrap,
+    )  # fmt: skip
+    out["regions"] = failure_regions(hyperspace, runs, seed=seed)
+    return out
+
+
+def explain_lines(result: dict[str, Any], top: int = 10) -> list[str]:
+    """The plain-language text of ``explain``: counts, ranked findings, rules."""
+    ex = result["excluded"]
+    lines = [
+        f"{result['judged']} judged runs, {result['failures']} failures; excluded: "
+        f"{ex['error']} error, {ex['timeout']} timeout, {ex['pending']} pending, "
+        f"{ex['unmatched']} not in the hyperspace"
+    ]
+    if result["message"]:
+        return [*lines, result["message"]]
+    found = result["findings"]
+    lines.append(f"findings (most important first; {result['method']}):")
+    lines += [f"{i}. {f['text']}" for i, f in enumerate(found[:top], start=1)]
+    if not found:
+        lines.append("  no element or pair changes the failure rate detectably")
+    regions = result["regions"]
+    lines.append(f"failure regions ({regions['validation']}):")
+    lines += [f"- {rule_line(r)}" for r in regions["rules"]]
+    if not regions["rules"]:
+        lines.append("  no rule reaches 50% precision on the fitting runs")
+    return lines

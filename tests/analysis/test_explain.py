@@ -1,0 +1,169 @@
+"""``sitcov explain``: interaction tests recover planted structure, rules are measured on
+held-out runs, and small or broken campaigns get a plain answer instead of statistics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sitcov.analysis import explain, explain_lines, failure_regions, interaction_analysis
+from sitcov.analysis._logit import fit_logit, holm, newcombe_difference, odds_ratio
+from sitcov.hyperspace import Hyperspace
+
+pytest.importorskip("sklearn")  # the 'explain' extra
+
+HS = Hyperspace.from_dict(
+    {
+        "name": "toy",
+        "axes": [
+            {
+                "name": "x",
+                "elements": [
+                    {"name": "a", "bins": [{"value": 0}, {"value": 1}, {"value": 2}]},
+                    {"name": "b", "bins": [{"value": 0}, {"value": 1}, {"value": 2}]},
+                    {
+                        "name": "c",
+                        "bins": [{"label": f"C{i}", "value": {"k": i}} for i in range(4)],
+                    },
+                ],
+            }
+        ],
+    }
+)
+
+
+def synthetic_runs(n: int, logit, seed: int) -> list[dict]:
+    """``n`` runs with uniform bins; fail with probability sigmoid(logit(a, b, c))."""
+    rng = np.random.default_rng(seed)
+    runs = []
+    for _ in range(n):
+        idx = [int(rng.integers(size)) for size in HS.sizes]
+        p = 1 / (1 + math.exp(-logit(*idx)))
+        bins = {el.name: el.labels[i] for el, i in zip(HS.elements, idx, strict=True)}
+        runs.append({"bins": bins, "status": "fail" if rng.random() < p else "pass"})
+    return runs
+
+
+def pair(result: dict, a: str, b: str) -> dict:
+    return next(t for t in result["pairs"] if t["elements"] == [a, b])
+
+
+# alpha = 1e-3 with B = 1999 bootstrap replicates: the smallest adjusted p is 1/2000 = 5e-4,
+# so a planted interaction can reach significance, and under no interaction the single-step
+# min-p procedure calls a pair significant with probability <= 5e-4 < 1e-3 (family-wise).
+STRICT = {"alpha": 1e-3, "bootstrap": 1999, "seed": 0}
+
+
+@pytest.mark.slow
+def test_planted_interaction_is_significant_and_others_are_not():
+    # only the cell a=2, b=2 fails often (85 % vs 15 %): an interaction without main effects
+    # beyond the cell. 600 runs put ~67 runs in the cell; the LR statistic then exceeds 60
+    # with probability > 1 - 1e-6 (binomial tail of the cell's failures), p < 1e-12, far
+    # beyond any bootstrap replicate's minimum: the miss probability is < 1e-3.
+    runs = synthetic_runs(600, lambda a, b, c: 1.7 if a == 2 and b == 2 else -1.7, seed=1)
+    result = interaction_analysis(HS, runs, **STRICT)
+    assert pair(result, "a", "b")["significant"]
+    assert not pair(result, "a", "c")["significant"]
+    assert not pair(result, "b", "c")["significant"]
+    top = result["findings"][0]
+    cell = pair(result, "a", "b")["top_cell"]
+    assert cell["cell"] == {"a": "2", "b": "2"}
+    assert cell["failures"] / cell["judged"] > 0.6  # data behind the claim: counts per cell
+    assert any(f["kind"] == "interaction" for f in result["findings"])
+    assert top["importance"] >= max(f["importance"] for f in result["findings"])
+
+
+@pytest.mark.slow
+def test_additive_effects_give_no_interaction():
+    # strong main effects of a and b, additive on the logit scale: no pair may be called
+    # significant (probability <= 5e-4, see STRICT); a and b themselves are (chi-square LR
+    # on ~200 runs per bin with a 1.2 logit effect: miss probability < 1e-6).
+    runs = synthetic_runs(600, lambda a, b, c: -1.7 + 1.2 * (a == 2) + 1.2 * (b == 2), seed=2)
+    result = interaction_analysis(HS, runs, **STRICT)
+    assert not any(t["significant"] for t in result["pairs"])
+    significant = {t["element"] for t in result["elements"] if t["significant"]}
+    assert {"a", "b"} <= significant
+    texts = [f["text"] for f in result["findings"]]
+    assert any(t.startswith("a 2 fails") for t in texts), texts
+
+
+def test_bin_effects_carry_counts_and_intervals():
+    runs = synthetic_runs(400, lambda a, b, c: 1.5 if a == 0 else -1.5, seed=3)
+    result = interaction_analysis(HS, runs, bootstrap=19)
+    a = next(t for t in result["elements"] if t["element"] == "a")
+    for row in a["bins"]:
+        assert row["bin"]["judged"] + row["rest"]["judged"] == result["judged"]
+        lo, hi = row["risk_difference_ci95"]
+        assert lo <= row["risk_difference"] <= hi
+        olo, ohi = row["odds_ratio_ci95"]
+        assert olo <= row["odds_ratio"] <= ohi
+
+
+def test_small_campaign_says_not_enough_runs():
+    runs = synthetic_runs(30, lambda a, b, c: 0.0, seed=4)
+    result = explain(HS, runs, bootstrap=19)
+    assert result["message"].startswith("not enough runs: 30 judged runs")
+    assert result["findings"] == [] and result["regions"]["rules"] == []
+    assert explain_lines(result)[-1].startswith("not enough runs")
+
+
+def test_error_runs_are_excluded_and_counted():
+    runs = synthetic_runs(200, lambda a, b, c: 0.0, seed=5)
+    for r in runs[:7]:
+        r["status"] = "error"
+    runs[7]["status"] = "timeout"
+    result = interaction_analysis(HS, runs, bootstrap=19)
+    assert result["judged"] == 192
+    assert result["excluded"] == {"error": 7, "timeout": 1, "pending": 0, "unmatched": 0}
+
+
+def test_rules_are_measured_on_runs_not_used_to_fit():
+    # flipping the outcomes of the held-out runs must leave the fitted rules unchanged
+    # and turn each rule's held-out failures into its held-out passes.
+    runs = synthetic_runs(450, lambda a, b, c: 2.0 if c in (1, 3) and a >= 1 else -2.0, seed=6)
+    first = failure_regions(HS, runs, seed=11)
+    order = np.random.default_rng(11).permutation(len(runs))
+    held = set(order[: first["holdout_runs"]].tolist())
+    flipped = [
+        {**r, "status": {"fail": "pass", "pass": "fail"}[r["status"]]} if i in held else r
+        for i, r in enumerate(runs)
+    ]
+    second = failure_regions(HS, flipped, seed=11)
+    assert [r["text"] for r in first["rules"]] == [r["text"] for r in second["rules"]]
+    assert first["rules"], "the planted region must give at least one rule"
+    for r1, r2 in zip(first["rules"], second["rules"], strict=True):
+        assert r1["fit"] == r2["fit"]
+        h1, h2 = r1["holdout"], r2["holdout"]
+        assert h1["support"] == h2["support"]
+        assert h1["failures"] + h2["failures"] == h1["support"]
+
+
+def test_planted_region_is_the_top_rule_with_high_held_out_precision():
+    # fails 88 % inside "c in {C1, C3} and a >= 1", 12 % outside; 450 runs, 150 held out
+    # (~50 inside): held-out precision below 0.7 has probability < 1e-4 (binomial tail).
+    runs = synthetic_runs(450, lambda a, b, c: 2.0 if c in (1, 3) and a >= 1 else -2.0, seed=7)
+    top = failure_regions(HS, runs, seed=0)["rules"][0]
+    conds = {c["element"]: set(c["bins"]) for c in top["conditions"]}
+    assert conds == {"a": {"1", "2"}, "c": {"C1", "C3"}}, top["text"]
+    assert top["text"] == "a >= 1 and c in {C1, C3}"
+    assert top["holdout"]["precision"] > 0.7
+
+
+def test_holm_and_intervals():
+    assert holm([0.01, 0.04, 0.03]) == pytest.approx([0.03, 0.06, 0.06])
+    assert all(a >= p for a, p in zip(holm([0.2, 0.001, 0.5]), [0.2, 0.001, 0.5], strict=True))
+    d, lo, hi = newcombe_difference(9, 10, 1, 10)
+    assert d == pytest.approx(0.8)
+    assert -1 <= lo < d < hi <= 1
+    assert newcombe_difference(0, 0, 1, 2) is None
+    ratio, olo, ohi = odds_ratio(0, 10, 5, 10)  # an empty cell still gives finite numbers
+    assert 0 < olo < ratio < ohi < math.inf and ratio == pytest.approx(0.5 * 5.5 / (10.5 * 5.5))
+
+
+def test_separated_fit_stays_finite():
+    x = np.column_stack([np.ones(40), np.r_[np.ones(20), np.zeros(20)]])
+    y = np.r_[np.ones(20), np.zeros(20)]  # the column predicts y perfectly
+    fit = fit_logit(x, y)
+    assert np.all(np.isfinite(fit.coef)) and fit.deviance < 2.0
