@@ -196,8 +196,10 @@ def test_bad_arguments(tmp_path):
 
 
 @pytest.mark.slow
-def test_full_protocol_triggers_every_fault_and_is_fast(tmp_path, capsys):
-    """The paper's 100 runs x 5 seeds for both generators (800 runs), on 2 workers."""
+def test_full_protocol_triggers_every_fault(tmp_path, capsys):
+    """The paper's 100 runs x 5 seeds for both generators (800 runs), on 2 workers.
+
+    Its wall time is printed, not asserted: speed targets live in benchmarks."""
     start = time.perf_counter()
     main(["experiment", "faults", "--db", str(tmp_path / "t2.db"), "--workers", "2", "--json"])
     elapsed = time.perf_counter() - start
@@ -211,7 +213,6 @@ def test_full_protocol_triggers_every_fault_and_is_fast(tmp_path, capsys):
         assert row["runs"] == 100
         for fault in FAULTS[1:]:
             assert row[fault] > row["NF"], (fault, row)
-    assert elapsed < 120.0
 
 
 def test_replays_keep_a_learning_generator_s_sequence(tmp_path):
