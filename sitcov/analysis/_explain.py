@@ -319,7 +319,8 @@ def interaction_analysis(
             the pair tests (bootstrap min-p).
         min_runs: fewest judged runs for any statistics.
         min_cell: fewest judged runs for a cell to get its own interaction column.
-        bootstrap: parametric-bootstrap replicates calibrating the pair tests.
+        bootstrap: parametric-bootstrap replicates calibrating the pair tests; 0 skips
+            the pair tests (the report does: they take most of the time).
         seed: seed of the bootstrap's numpy Generator.
 
     Returns:
@@ -354,7 +355,12 @@ def interaction_analysis(
         design = _Design(codes, hyperspace.sizes)
         main = fit_logit(design.matrix(), y)
         out["elements"] = _element_tests(hyperspace, design, codes, y, main, alpha)
-        out["pairs"] = _pair_tests(hyperspace, design, y, main, min_cell, bootstrap, seed, alpha)
+        if bootstrap > 0:
+            out["pairs"] = _pair_tests(
+                hyperspace, design, y, main, min_cell, bootstrap, seed, alpha
+            )
+        else:
+            out["method"] = out["method"].split("; pairs:")[0] + "; pairs not tested"
     for t in out["pairs"]:
         a, b = t.pop("ab")
         if t["significant"]:
