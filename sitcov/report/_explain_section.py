@@ -9,8 +9,6 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from sitcov.errors import MissingExtraError
-
 
 def _rule_row(rule: dict[str, Any]) -> dict[str, str]:
     h = rule["holdout"]
@@ -26,14 +24,11 @@ def _rule_row(rule: dict[str, Any]) -> dict[str, str]:
 
 
 def explain_section(hs: Any, runs: Sequence[Any], scope: str, top: int = 8) -> dict[str, Any]:
-    """``explain`` for the template: findings (text), rules (rows), notes; never raises
-    for a missing extra or a small campaign (the section then says why it is empty)."""
+    """``explain`` for the template: findings (text), rules (rows), notes; a small
+    campaign gets an empty section saying why."""
     from sitcov.analysis import explain
 
-    try:
-        result = explain(hs, runs, bootstrap=0)  # pair tests: seconds per replicate
-    except MissingExtraError as exc:
-        return {"explain": {"note": str(exc), "findings": [], "rules": [], "method": ""}}
+    result = explain(hs, runs, bootstrap=0)  # pair tests: seconds per replicate
     ex = result["excluded"]
     note = (
         f"{result['judged']} judged runs, {result['failures']} failures; excluded: "
