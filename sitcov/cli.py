@@ -31,6 +31,15 @@ err_console = Console(stderr=True)
 HYPERSPACE_OPT = typer.Option(
     None, "--hyperspace", help="Hyperspace YAML file (default: the built-in t-junction)."
 )
+PHYSICS_OPT = typer.Option(
+    None, "--physics", help="carla | physical: weather couplings (default: carla)."
+)
+JUDGE_OPT = typer.Option(
+    None,
+    "--judge",
+    help="What fails a run: default (collision + road departure) | paper (collision only)"
+    " | strict (+ lane departure) | kinds, comma-separated.",
+)
 
 
 # --- hyperspace & generation (owner: foundation) -------------------------------------------
@@ -139,6 +148,12 @@ def generate_cmd(
 
 # --- campaigns, summary, exports, replay (owner: campaign) ----------------------------------
 
+_FAULT_HELP = (
+    "Seeded fault: f1 = score threshold too high, relative to our detector (computed from "
+    "the PEM; docs/reference-stack.md); f1-raw = the paper's raw 0.95 (our detector never "
+    "reaches it: no emergency brake); f2 = centering (0.3, 0.6); f3 = distance 0.35."
+)
+
 
 @app.command("run")
 def run_cmd(
@@ -150,13 +165,17 @@ def run_cmd(
     generator: Optional[str] = typer.Option(  # noqa: UP045
         None, "--generator", help="Generator (default: sitcov)."
     ),
-    runs: Optional[int] = typer.Option(None, "--runs", help="Total runs (default: 1000)."),  # noqa: UP045
+    runs: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--runs", help="Total runs (default: 1000, or the stored campaign's; only grows)."
+    ),
     seed: Optional[int] = typer.Option(None, "--seed", help="Campaign seed (default: 0)."),  # noqa: UP045
-    fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
+    fault: Optional[str] = typer.Option(None, "--fault", help=_FAULT_HELP),  # noqa: UP045
     backend: Optional[str] = typer.Option(None, "--backend", help="Backend (default: embedded)."),  # noqa: UP045
     perception: Optional[str] = typer.Option(  # noqa: UP045
         None, "--perception", help="pem | camera (embedded backend)."
     ),
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
     av: Optional[str] = typer.Option(None, "--av", help="AV stack (default: reference)."),  # noqa: UP045
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
     executor: Optional[str] = typer.Option(  # noqa: UP045
@@ -206,8 +225,9 @@ def run_cmd(
 ) -> None:
     """Run, resume or extend a campaign and print its summary."""
     from sitcov.campaign import load_config, open_store, run_campaign
+    from sitcov.campaign._build import check_parts
     from sitcov.campaign._config import run_overrides
-    from sitcov.campaign._console import ProgressView, print_end_of_run
+    from sitcov.campaign._console import ProgressView, print_all_errored, print_end_of_run
 
     carla = {
         key: value
@@ -232,6 +252,8 @@ def run_cmd(
         seed=seed,
         fault=fault,
         backend=backend,
+        physics=physics,
+        judge=judge,
         av=av,
         hyperspace=hyperspace,
         executor=executor,
@@ -243,11 +265,13 @@ def run_cmd(
         replay_failures_first=replay_failures_first,
     )
     cfg = load_config(config, overrides)
+    check_parts(cfg)  # a bad part fails before the database file is created
     store = open_store(db)
     try:
         with ProgressView(err_console) as view:
             result = run_campaign(cfg, store, progress=view.update)
         print_end_of_run(console, store, db, result)
+        all_errored = print_all_errored(err_console, store, db, result)
     finally:
         store.close()
     if report is not None:
@@ -255,6 +279,8 @@ def run_cmd(
 
         index = build_report(db, report)
         console.print(f"report written to {index}")
+    if all_errored:
+        sys.exit(1)
 
 
 @app.command("summary")
@@ -442,13 +468,16 @@ def experiment_faults_cmd(
     batch_size: Optional[int] = typer.Option(  # noqa: UP045
         None, "--batch-size", min=1, help="Asks per batch (how often learning generators learn)."
     ),
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
 ) -> None:
     """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
     import json
 
     from rich.progress import Progress
 
-    from sitcov.campaign import open_store, run_fault_experiment
+    from sitcov.campaign import run_fault_experiment
+    from sitcov.campaign._console import created_store
     from sitcov.campaign._experiments import split_runs
     from sitcov.errors import ConfigError
     from sitcov.report import table2_rich
@@ -457,31 +486,102 @@ def experiment_faults_cmd(
     if executor not in ("serial", "processes", "ray"):
         raise ConfigError(field="--executor", value=executor, expected="serial | processes | ray")
     split_runs(runs, seeds)  # a clear error before the database file is created
-    store = open_store(db)
-    try:
-        with Progress(console=err_console, transient=True, disable=as_json) as bar:
-            task = bar.add_task("fault experiment", total=4 * runs * len(names))
-            table = run_fault_experiment(
-                store,
-                generators=names,
-                runs=runs,
-                seeds=seeds,
-                seed=seed,
-                hyperspace=hyperspace or "t-junction",
-                av=av,
-                backend=backend,
-                executor=executor,
-                workers=workers,
-                batch_size=batch_size,
-                progress=lambda _name, n: bar.advance(task, n),
-            )
-    finally:
-        store.close()
+    from sitcov.campaign import load_config
+
+    checked = load_config(overrides={"physics": physics, "judge": judge})  # before the DB too
+    progress_bar = Progress(console=err_console, transient=True, disable=as_json)
+    with created_store(db) as store, progress_bar as bar:
+        task = bar.add_task("fault experiment", total=4 * runs * len(names))
+        table = run_fault_experiment(
+            store,
+            generators=names,
+            runs=runs,
+            seeds=seeds,
+            seed=seed,
+            hyperspace=hyperspace or "t-junction",
+            av=av,
+            backend=backend,
+            physics=checked.physics,
+            judge=checked.judge,
+            executor=executor,
+            workers=workers,
+            batch_size=batch_size,
+            progress=lambda _name, n: bar.advance(task, n),
+        )
     if as_json:
         print(json.dumps(table, sort_keys=True))
     else:
         console.print(table2_rich(table))
         console.print(f"stored in {db}; report: sitcov report --db {db} --out report/")
+
+
+@experiment_app.command("agreement")
+def experiment_agreement_cmd(
+    seeds: str = typer.Option("2,4", "--seeds", help="Evaluation seeds, comma-separated."),
+    situations: int = typer.Option(200, "--situations", min=1, help="Situations per seed."),
+    out: Path = typer.Option(
+        Path("agreement.csv"), "--out", help="Rows file, one row per run (.csv or .jsonl)."
+    ),
+    summary_out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--summary", help="Summary JSON (default: the rows file with .summary.json)."
+    ),
+    pairs: str = typer.Option("all", "--pairs", help="all, or a comma-separated subset."),
+    pem: Optional[Path] = typer.Option(None, "--pem", help="PEM file (default: shipped)."),  # noqa: UP045
+    model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
+    workers: int = typer.Option(1, "--workers", min=1, help="Processes for the runs."),
+    allow_calibration_seeds: bool = typer.Option(
+        False, "--allow-calibration-seeds", help="Development only: evaluate on seeds the PEM saw."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+) -> None:
+    """PEM vs camera, camera vs camera, PEM vs PEM: verdict agreement on held-out seeds."""
+    import json
+
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from sitcov.campaign import _agreement as ag
+
+    seed_list, pair_list = ag.parse_seeds(seeds), ag.parse_pairs(pairs)
+
+    def plan(jobs: list) -> None:
+        camera = sum(j.perception == "camera" for j in jobs)
+        err_console.print(
+            f"planned: {camera} camera runs + {len(jobs) - camera} PEM runs on {workers} "
+            f"worker(s); about {ag.estimate_seconds(jobs, workers) / 60:.1f} min if the cores "
+            f"are free ({ag.CAMERA_CPU_S_PER_RUN} CPU-s per camera run)",
+            highlight=False,
+            soft_wrap=True,
+        )
+
+    columns = (TextColumn("agreement"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+               TimeRemainingColumn())  # fmt: skip
+    with Progress(*columns, console=err_console, transient=True, disable=as_json) as bar:
+        total = len(ag.plan_jobs(seed_list, situations, pair_list))
+        task = bar.add_task("agreement", total=total)
+        summary = ag.run_agreement(
+            seeds=seed_list, situations=situations, out=out, pairs=pair_list,
+            pem_file=None if pem is None else str(pem), model=None if model is None else str(model),
+            workers=workers, allow_calibration_seeds=allow_calibration_seeds,
+            on_plan=plan, progress=lambda _row: bar.advance(task),
+        )  # fmt: skip
+    summary["command"] = ag.command_line(
+        seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
+        pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
+    )  # fmt: skip
+    summary_path = summary_out or out.with_name(out.stem + ".summary.json")
+    summary_path.write_text(json.dumps(summary, indent=2) + "\n")
+    if as_json:
+        print(json.dumps(summary, sort_keys=True))
+        return
+    for line in ag.table_lines(summary):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+    runs = summary["runs"]
+    err_console.print(
+        f"{runs['camera']} camera + {runs['pem']} PEM runs in {summary['wall_s']:.0f} s wall "
+        f"on {workers} worker(s); rows in {out}, summary in {summary_path}",
+        highlight=False,
+        soft_wrap=True,
+    )
 
 
 # --- embedded backend bench (owner: embedded world) ----------------------------------------
@@ -491,7 +591,7 @@ def experiment_faults_cmd(
 def bench_cmd(
     runs: int = typer.Option(200, "--runs", "-n", min=1, help="Number of runs."),
     seed: int = typer.Option(0, "--seed", help="Campaign seed (situations and run seeds)."),
-    fault: Optional[str] = typer.Option(None, "--fault", help="Seeded fault f1|f2|f3."),  # noqa: UP045
+    fault: Optional[str] = typer.Option(None, "--fault", help=_FAULT_HELP),  # noqa: UP045
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ) -> None:
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
@@ -721,5 +821,5 @@ def main(argv: Optional[list[str]] = None) -> None:  # noqa: UP045
         sys.exit(code)  # typer.Exit(code) in non-standalone mode is returned, not raised
 
 
-if __name__ == "__main__":  # `python -m sitcov.cli ...` (the brief's commands use it)
+if __name__ == "__main__":  # ``python -m sitcov.cli ...``
     main()

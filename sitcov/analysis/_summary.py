@@ -5,6 +5,10 @@ A run is any object with ``.bins`` (element -> label) and ``.status`` (``pass``,
 with those keys work too. ``pending`` runs were planned but not run and are ignored;
 ``generated`` counts every other run; failure rates are over *judged* runs (pass + fail),
 so errors and timeouts neither count as failures nor dilute the rate.
+
+A failed run's kind (``collision``, ``road_departure``, ``lane_departure``) is its
+``failure_kind`` (a RunRecord property or a mapping key); a failed run without one is a
+collision, as every failure was before failure kinds existed.
 """
 
 from __future__ import annotations
@@ -18,6 +22,9 @@ from sitcov.analysis._stats import uniformity, wilson_interval
 from sitcov.hyperspace import Hyperspace
 
 _STATUSES = ("pass", "fail", "error", "timeout")
+#: Kinds a failed run can have (``sitcov.sim.FAILURE_KINDS``, repeated to keep analysis
+#: free of simulation imports).
+FAILURE_KINDS = ("collision", "road_departure", "lane_departure")
 
 
 def _field(run: Any, name: str) -> Any:
@@ -46,6 +53,53 @@ def _indexed(hs: Hyperspace, runs: Iterable[Any]) -> tuple[list[tuple[list[int],
             continue
         out.append((idx, status))
     return out, unmatched
+
+
+def _kind(run: Any) -> str:
+    """The failure kind of a failed run (``collision`` when it does not say)."""
+    kind = (
+        run.get("failure_kind") if isinstance(run, Mapping) else getattr(run, "failure_kind", None)
+    )
+    return kind if kind in FAILURE_KINDS else "collision"
+
+
+def failures_by_kind(runs: Iterable[Any]) -> dict[str, dict[str, Any]]:
+    """Per failure kind: failures, failure_rate (over judged runs) and ci95 (Wilson).
+
+    Every kind of :data:`FAILURE_KINDS` is present (0 failures when none); the rates add
+    up to the overall failure rate.
+    """
+    counts = dict.fromkeys(FAILURE_KINDS, 0)
+    judged = 0
+    for run in runs:
+        status = _field(run, "status")
+        judged += status in ("pass", "fail")
+        if status == "fail":
+            counts[_kind(run)] += 1
+    out = {}
+    for kind, n in counts.items():
+        rate, ci = _rate(n, judged)
+        out[kind] = {"failures": n, "failure_rate": rate, "ci95": ci}
+    return out
+
+
+def kind_counts_per_bin(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
+    """Per element and bin: failures per kind, ``{element: {label: {kind: n}}}``."""
+    names = set(hyperspace.element_names)
+    out = {
+        e.name: {label: dict.fromkeys(FAILURE_KINDS, 0) for label in e.labels}
+        for e in hyperspace.elements
+    }
+    for run in runs:
+        if _field(run, "status") != "fail":
+            continue
+        bins = _field(run, "bins")
+        if any(bins.get(e) not in out[e] for e in names):
+            continue  # does not fit the hyperspace (counted as unmatched by summarize)
+        kind = _kind(run)
+        for element in names:
+            out[element][bins[element]][kind] += 1
+    return out
 
 
 def _rate(failures: int, judged: int) -> tuple[float | None, list[float] | None]:
@@ -129,14 +183,15 @@ def _json_uniformity(counts: list[int]) -> dict[str, Any]:
 
 
 def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
-    """The summary JSON of ``sitcov summary --json`` (DESIGN.md section 6, plus extras).
+    """The summary JSON of ``sitcov summary --json`` (a stable interface: the keys below).
 
     Keys: ``runs`` (non-pending), ``failures``, ``errors``, ``timeouts``, ``passes``,
-    ``pending``, ``failure_rate`` and ``ci95`` overall, ``elements`` (see
-    :func:`bin_stats`), ``coverage`` (see :func:`coverage`), ``uniformity`` per element
-    (see :func:`~sitcov.analysis.uniformity`; an unused bin gives ``max_min_ratio: null``
-    with ``min: 0``), ``unmatched`` (runs whose bins are not in this hyperspace) and
-    ``hyperspace`` (its name).
+    ``pending``, ``failure_rate`` and ``ci95`` overall, ``failures_by_kind`` (see
+    :func:`failures_by_kind`), ``elements`` (see :func:`bin_stats`; each bin also has
+    ``failures_by_kind``, counts per kind), ``coverage`` (see :func:`coverage`),
+    ``uniformity`` per element (see :func:`~sitcov.analysis.uniformity`; an unused bin
+    gives ``max_min_ratio: null`` with ``min: 0``), ``unmatched`` (runs whose bins are not
+    in this hyperspace) and ``hyperspace`` (its name).
     """
     runs = list(runs)
     pending = sum(1 for r in runs if _field(r, "status") == "pending")
@@ -146,6 +201,9 @@ def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
     n_pass = statuses.count("pass")
     rate, ci = _rate(n_fail, n_fail + n_pass)
     elements = _bin_stats(hyperspace, indexed)
+    for name, per_bin in kind_counts_per_bin(hyperspace, runs).items():
+        for label, kinds in per_bin.items():
+            elements[name][label]["failures_by_kind"] = kinds
     return {
         "runs": len(statuses),
         "failures": n_fail,
@@ -157,6 +215,7 @@ def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
         "pending": pending,
         "failure_rate": rate,
         "ci95": ci,
+        "failures_by_kind": failures_by_kind(runs),
         "uniformity": {
             name: _json_uniformity([b["generated"] for b in per_bin.values()])
             for name, per_bin in elements.items()

@@ -63,7 +63,8 @@ class ReferenceStack(AVStack):
     """The paper's ego stack, with faults and every parameter configurable.
 
     Args:
-        fault: ``None`` or a key of :data:`sitcov.av.FAULTS` (``"f1"``, ``"f2"``, ``"f3"``).
+        fault: ``None`` or a key of :data:`sitcov.av.FAULTS` (``"f1"``, ``"f1-raw"``, ``"f2"``,
+            ``"f3"``; F1 relative to the detector, see :mod:`sitcov.av._fault_map`).
         params: overrides of :data:`sitcov.av.DEFAULT_PARAMS` (applied after the fault).
         aeb: False disables the emergency brake (the stack then ignores perception).
         detector: camera mode only: ``image -> detections``; defaults lazily to

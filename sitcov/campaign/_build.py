@@ -5,9 +5,11 @@ Workers call :func:`build_backend` and :func:`build_stack` once each, when they 
 
 from __future__ import annotations
 
+import inspect
 from typing import TYPE_CHECKING, Any
 
 from sitcov._plugins import import_path, load
+from sitcov.errors import ConfigError
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
@@ -55,7 +57,9 @@ def build_backend(
 ) -> Backend:
     """The simulation backend of ``config`` (or ``backend`` with ``options`` instead).
 
-    A backend configured with a ``servers`` list (e.g. several CARLA servers) is told its
+    The config's ``physics`` profile is given as the backend's ``physics`` option when the
+    backend has one; a backend without it runs ``carla`` only. A backend configured with a
+    ``servers`` list (e.g. several CARLA servers) is told its
     ``worker_index`` so that worker k uses server k mod len(servers).
     """
     from sitcov.sim import Backend, make_backend
@@ -64,9 +68,26 @@ def build_backend(
     opts = dict(config.backend_options if options is None else options)
     if opts.get("servers"):
         opts["worker_index"] = worker_index
+    cls = load("backend", name, Backend)
+    if _accepts(cls, "physics"):
+        opts["physics"] = config.physics
+    elif config.physics != "carla":
+        raise ConfigError(
+            field="physics",
+            value=config.physics,
+            expected=f"'carla': backend {name!r} has no physics profiles (no 'physics' option)",
+        )
     if ":" in name:
-        return load("backend", name, Backend)(**opts)
+        return cls(**opts)
     return make_backend(name, **opts)
+
+
+def _accepts(cls: type, option: str) -> bool:
+    """Whether ``cls(option=...)`` is a named parameter of the backend's constructor."""
+    try:
+        return option in inspect.signature(cls).parameters
+    except (TypeError, ValueError):  # pragma: no cover - builtins without a signature
+        return False
 
 
 def build_stack(config: CampaignConfig) -> AVStack:
@@ -74,3 +95,18 @@ def build_stack(config: CampaignConfig) -> AVStack:
     from sitcov.av import make_stack
 
     return make_stack(config.av, fault=config.fault, params=config.av_params)
+
+
+def check_parts(config: CampaignConfig) -> None:
+    """Build every part ``config`` names once, then close it.
+
+    ``sitcov run`` calls this before it creates the database file, so a bad hyperspace,
+    generator, backend, stack or fault is one error and leaves no file behind.
+
+    Raises:
+        ConfigError: a part cannot be built (SetupError: a model or extra is missing).
+    """
+    hyperspace = resolve_hyperspace(config.hyperspace)
+    make_generator(config, hyperspace)
+    build_backend(config).close()
+    build_stack(config).close()

@@ -7,6 +7,8 @@ Example ``campaign.yaml``::
     runs: 2000
     seed: 7
     backend_options: {perception: pem}
+    physics: carla          # or physical (docs/weather.md)
+    judge: default          # collision + road_departure; paper | strict | [kinds]
     fault: f2
     executor: processes
     workers: 2
@@ -20,7 +22,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from sitcov.errors import ConfigError
 
@@ -37,6 +39,12 @@ class CampaignConfig(BaseModel):
         hyperspace: ``t-junction`` (built in) or a hyperspace YAML path.
         generator: generator name (or ``module:Class``); ``generator_options`` its options.
         backend: backend name (or ``module:Class``); ``backend_options`` e.g. ``perception``.
+        physics: the backend's physics profile, ``carla`` (what CARLA does: weather acts on
+            perception only) or ``physical`` (wet-road friction, crosswind force); given to
+            the backend as its ``physics`` option. ``backend_options.physics`` is moved here.
+        judge: what counts as a failure: ``default`` (collision + road departure),
+            ``paper`` (collision only, the paper's judge), ``strict`` (also lane
+            departure) or a list of kinds (``sitcov.sim.FAILURE_KINDS``).
         av: AV stack name (or ``module:Class``); ``fault`` a seeded fault (f1|f2|f3);
             ``av_params`` parameter overrides.
         runs: total runs wanted in the campaign (running again with more extends it).
@@ -58,6 +66,8 @@ class CampaignConfig(BaseModel):
     generator_options: dict[str, Any] = Field(default_factory=dict)
     backend: str = "embedded"
     backend_options: dict[str, Any] = Field(default_factory=dict)
+    physics: Literal["carla", "physical"] = "carla"
+    judge: str | list[str] = "default"
     av: str = "reference"
     fault: str | None = None
     av_params: dict[str, Any] | None = None
@@ -71,6 +81,32 @@ class CampaignConfig(BaseModel):
     record_traces: bool = False
     replay_failures_first: bool = False
     tags: dict[str, Any] = Field(default_factory=dict)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _physics_from_backend_options(cls, data: Any) -> Any:
+        """``backend_options.physics`` and ``physics`` are one setting; keep it in ``physics``."""
+        if not isinstance(data, Mapping) or not isinstance(data.get("backend_options"), Mapping):
+            return data
+        options = dict(data["backend_options"])
+        if "physics" not in options:
+            return data
+        value = options.pop("physics")
+        if data.get("physics") not in (None, value):
+            raise ValueError(
+                f"physics {data['physics']!r} and backend_options.physics {value!r} disagree"
+            )
+        return {**data, "backend_options": options, "physics": value}
+
+    @field_validator("judge", mode="before")
+    @classmethod
+    def _canonical_judge(cls, value: Any) -> Any:
+        from sitcov.sim import normalize_judge
+
+        try:
+            return normalize_judge(value)
+        except ConfigError as exc:
+            raise ValueError(str(exc.expected)) from None
 
     def defining(self) -> dict[str, Any]:
         """The JSON form without execution-only settings (what must match on resume)."""
@@ -91,7 +127,10 @@ def _config_error(exc: ValidationError, file: str | None) -> ConfigError:
             value=value,
             expected=known,
         )
-    return ConfigError(file=file, field=loc, value=value, expected=first["msg"].lower())
+    message = first["msg"].removeprefix("Value error, ")
+    if first["type"] == "value_error" and not first["loc"]:
+        return ConfigError(f"{file + ': ' if file else ''}{message}", file=file)
+    return ConfigError(file=file, field=loc, value=value, expected=message.lower())
 
 
 def load_config(

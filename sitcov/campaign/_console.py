@@ -26,6 +26,25 @@ def existing_store(path: Path) -> Iterator[Store]:
         store.close()
 
 
+@contextmanager
+def created_store(path: Path) -> Iterator[Store]:
+    """Open (or create) a store; a file this call created is removed again if an error
+    leaves it without any campaign (no empty schema-only database is left behind)."""
+    path = Path(path)
+    created = not path.exists()
+    store = open_store(path)
+    try:
+        yield store
+    except BaseException:
+        empty = created and not store.campaigns()
+        store.close()
+        if empty:
+            for suffix in ("", "-wal", "-shm"):
+                Path(f"{path}{suffix}").unlink(missing_ok=True)
+        raise
+    store.close()
+
+
 class ProgressView:
     """A rich progress bar (runs/s, failures so far, ETA) fed by ``run_campaign``."""
 
@@ -110,6 +129,27 @@ def print_end_of_run(console: Any, store: Store, db: Path, result: CampaignResul
         console.print(more, highlight=False, soft_wrap=True, markup=False)
 
 
+def print_all_errored(console: Any, store: Store, db: Path, result: CampaignResult) -> bool:
+    """If every finished run of the campaign errored, print the first one's traceback.
+
+    Returns True in that case (``sitcov run`` then exits non-zero): a campaign in which no
+    run could execute tests nothing, typically because of a bug in a backend or stack.
+    """
+    if result.runs == 0 or result.errors < result.runs:
+        return False
+    first = next(iter(store.iter_runs(result.name, ("error", "timeout"))), None)
+    message = first.outcome.message if first is not None and first.outcome else None
+    where = f"{first.campaign}:{first.index}" if first is not None else "?"
+    console.print(
+        f"[bold red]error:[/] all {result.runs} runs of campaign {result.name!r} in {db} "
+        f"ended in error or timeout; the first ({where}) said:",
+        highlight=False,
+        soft_wrap=True,
+    )
+    console.print(message or "(no message stored)", highlight=False, markup=False, soft_wrap=True)
+    return True
+
+
 def print_replay(console: Any, result: ReplayResult) -> bool:
     """Print a replay's verdict; returns False if a same-setup replay did not reproduce."""
     from rich.table import Table
@@ -120,7 +160,7 @@ def print_replay(console: Any, result: ReplayResult) -> bool:
         console.print(f"top-down picture written to {result.render}")
     if result.same_setup:
         if result.reproduced:
-            console.print(f"{head}: [green]reproduced[/] ({result.outcome.status})")
+            console.print(f"{head}: [green]reproduced[/] ({_verdict(result.outcome)})")
             return True
         console.print(f"{head}: [bold red]DID NOT REPRODUCE[/]")
         table = Table("field", "stored", "replay")
@@ -141,3 +181,8 @@ def print_replay(console: Any, result: ReplayResult) -> bool:
             table.add_row(key, repr(a.get(key)), repr(b.get(key)))
     console.print(table)
     return True
+
+
+def _verdict(outcome: Any) -> str:
+    """``pass``, or ``fail: KIND`` for a failed run."""
+    return f"fail: {outcome.kind}" if outcome.status == "fail" else outcome.status

@@ -6,7 +6,8 @@ situation, seed and the config, so every executor stores the same results.
 
 Workers (processes or Ray actors) build the backend and the AV stack ONCE, when they
 start, and keep them for all their runs. A run that raises is returned as ``error`` with
-the exception's message and the worker keeps serving, except a
+the exception's message and traceback (see :func:`error_message`) and the worker keeps
+serving, except a
 :class:`~sitcov.errors.SetupError` (the campaign cannot run at all: a missing model or
 optional package), which stops the campaign with that error. A run that exceeds
 ``config.run_timeout`` seconds of wall time is returned as ``timeout``:
@@ -27,6 +28,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 from collections import deque
 from collections.abc import Iterable, Iterator
 from multiprocessing.connection import wait
@@ -73,10 +75,27 @@ def execute(backend: Any, stack: Any, task: Task, record: bool) -> Result:
     except SetupError:
         raise
     except StackError as exc:
-        outcome = Outcome.errored(f"{type(exc).__name__}: {exc}", status=exc.status)
+        outcome = Outcome.errored(error_message(exc), status=exc.status)
     except Exception as exc:
-        outcome = Outcome.errored(f"{type(exc).__name__}: {exc}")
+        outcome = Outcome.errored(error_message(exc))
     return index, outcome, time.perf_counter() - start
+
+
+#: Characters of a traceback kept in a stored error message (its end: where it was raised).
+TRACEBACK_CHARS = 4000
+
+
+def error_message(exc: BaseException) -> str:
+    """``Type: message`` on the first line, then the traceback (its last TRACEBACK_CHARS).
+
+    The first line is what one-line views (JUnit attribute, tables) show; the traceback is
+    what makes a bug in a backend or stack findable from the stored run alone.
+    """
+    head = " ".join(f"{type(exc).__name__}: {exc}".splitlines())[:500]
+    trace = "".join(traceback.format_exception(type(exc), exc, exc.__traceback__))
+    if len(trace) > TRACEBACK_CHARS:
+        trace = "... (traceback truncated)\n" + trace[-TRACEBACK_CHARS:]
+    return f"{head}\n{trace.rstrip()}"
 
 
 class Executor(abc.ABC):

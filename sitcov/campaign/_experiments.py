@@ -65,6 +65,7 @@ def _replay_into(store: Any, nf: Any, config: Any) -> None:
     """Create the fault campaign ``config`` planned as replays of ``nf``'s stored runs."""
     from sitcov import __version__
     from sitcov.campaign._store import CampaignInfo, PlannedRun
+    from sitcov.sim import WORLD_MODEL_VERSION
 
     planned = [PlannedRun(r.index, r.situation, r.seed) for r in store.iter_runs(nf.name)]
     if len(planned) != config.runs or any(p.index != i for i, p in enumerate(planned)):
@@ -82,6 +83,7 @@ def _replay_into(store: Any, nf: Any, config: Any) -> None:
         generator_state=nf.generator_state,
         batch_start=nf.batch_start,
         tags=dict(config.tags),
+        world_version=WORLD_MODEL_VERSION,
     )
     store.create_campaign(info, planned)
 
@@ -155,6 +157,8 @@ def run_fault_experiment(
     av_params: Mapping[str, Any] | None = None,
     backend: str = "embedded",
     backend_options: Mapping[str, Any] | None = None,
+    physics: str = "carla",
+    judge: str | Sequence[str] = "default",
     executor: str = "processes",
     workers: int | None = None,
     batch_size: int | None = None,
@@ -174,7 +178,8 @@ def run_fault_experiment(
         runs: runs per generator, split across ``seeds``.
         seeds: number of seeds; seed index ``s`` uses campaign seed ``seed + s``.
         seed: base seed.
-        hyperspace, av, av_params, backend, backend_options: as for ``sitcov run``.
+        hyperspace, av, av_params, backend, backend_options, physics, judge: as for
+            ``sitcov run`` (``judge="paper"`` counts collisions only, as the paper did).
         executor: ``serial`` | ``processes`` | ``ray``.
         workers: parallel workers (default: CPU count).
         batch_size: asks per batch of the no-fault campaigns, i.e. how often a learning
@@ -197,6 +202,8 @@ def run_fault_experiment(
         "av_params": dict(av_params) if av_params else None,
         "backend": backend,
         "backend_options": dict(backend_options or {}),
+        "physics": physics,
+        "judge": judge,
         "executor": "serial" if parallel or executor == "processes" and workers == 1 else executor,
         "workers": 1 if parallel else workers,
     }

@@ -3,6 +3,9 @@
 All formats stream the runs from the store (memory stays flat for large campaigns). One
 row / test case per run; a run's bins and concrete values become ``bin.ELEMENT`` and
 ``value.ELEMENT`` columns (mappings such as an intersection situation as JSON text).
+Every format carries each run's ``failure_kind`` (``pass``, ``collision``,
+``road_departure``, ``lane_departure``, ``error``, ``timeout``; empty while pending); the
+JSON export also gives each campaign's ``physics``, ``judge`` and ``world_model``.
 """
 
 from __future__ import annotations
@@ -15,12 +18,21 @@ from xml.sax.saxutils import escape, quoteattr
 
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._sqlite import OUTCOME_COLUMNS
-from sitcov.campaign._store import Store
+from sitcov.campaign._store import Store, StoreError
+from sitcov.campaign._summary import campaign_setup
 from sitcov.errors import ConfigError, MissingExtraError
 
 FORMATS = ("csv", "parquet", "json", "junit")
 
-_BASE_COLUMNS = ("campaign", "index", "situation_id", "seed", "status", *OUTCOME_COLUMNS)
+_BASE_COLUMNS = (
+    "campaign",
+    "index",
+    "situation_id",
+    "seed",
+    "status",
+    "failure_kind",
+    *OUTCOME_COLUMNS,
+)
 _TAIL_COLUMNS = ("wall_time", "replay_of")
 
 
@@ -31,8 +43,14 @@ def _elements(store: Store, campaign: str | None) -> list[str]:
     for info in infos:
         for axis in info.hyperspace.get("axes", []):
             for element in axis.get("elements", []):
-                if element["name"] not in names:
-                    names.append(element["name"])
+                name = element.get("name") if isinstance(element, dict) else None
+                if not isinstance(name, str):
+                    raise StoreError(
+                        f"{store.location}: campaign {info.name!r}: the stored hyperspace has an "
+                        "element without a name (damaged database)"
+                    )
+                if name not in names:
+                    names.append(name)
     return names
 
 
@@ -59,6 +77,7 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
                 "situation_id": run.situation.id,
                 "seed": run.seed,
                 "status": run.status,
+                "failure_kind": run.failure_kind,
                 "wall_time": run.wall_time,
                 "replay_of": run.replay_of,
             }
@@ -97,6 +116,7 @@ def export_json(store: Store, out: IO[str], campaign: str | None = None) -> int:
                 "created": c.created,
                 "generator": c.generator,
                 "tags": c.tags,
+                **campaign_setup(c),
             }
             for c in infos
         ],
@@ -114,13 +134,15 @@ def export_json(store: Store, out: IO[str], campaign: str | None = None) -> int:
 
 
 def run_to_json(run: RunRecord) -> dict[str, Any]:
-    """One run as JSON data: campaign, index, situation, seed, status, outcome, wall_time."""
+    """One run as JSON data: campaign, index, situation, seed, status, failure_kind,
+    outcome, wall_time."""
     return {
         "campaign": run.campaign,
         "index": run.index,
         "situation": run.situation.to_dict(),
         "seed": run.seed,
         "status": run.status,
+        "failure_kind": run.failure_kind,
         "outcome": run.outcome.to_dict() if run.outcome is not None else None,
         "wall_time": run.wall_time,
         "replay_of": run.replay_of,
@@ -177,12 +199,13 @@ def _testcase(run: RunRecord) -> str:
     elif run.status == "fail" and outcome is not None:
         detail = json.dumps(outcome.to_dict(), sort_keys=True)
         body = (
-            f'      <failure message={quoteattr(outcome.end_reason)} type="collision">'
+            f"      <failure message={quoteattr(outcome.end_reason)} "
+            f"type={quoteattr(outcome.kind)}>"
             f"{escape(detail)}</failure>\n"
         )
     elif run.status in ("error", "timeout") and outcome is not None:
         body = (
-            f"      <error message={quoteattr(outcome.message or run.status)} "
+            f"      <error message={quoteattr((outcome.message or run.status).splitlines()[0])} "
             f"type={quoteattr(run.status)}>{escape(outcome.message or '')}</error>\n"
         )
     return head + body + "    </testcase>\n"

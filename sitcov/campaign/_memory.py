@@ -50,6 +50,7 @@ class MemoryStore(Store):
             generator_state=_roundtrip(info.generator_state),
             batch_start=runs[0].index if runs else info.batch_start,
             tags=_roundtrip(dict(info.tags)),
+            world_version=info.world_version,
         )
         self._runs[info.name] = {}
         self._insert(info.name, runs)

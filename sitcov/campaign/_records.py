@@ -44,6 +44,12 @@ class RunRecord:
         return self.situation.bins
 
     @property
+    def failure_kind(self) -> str | None:
+        """``pass``, ``collision``, ``road_departure``, ``lane_departure``, ``error`` or
+        ``timeout`` (``Outcome.kind``); None while pending."""
+        return self.outcome.kind if self.outcome is not None else None
+
+    @property
     def failed(self) -> bool:
         """True when the stack under test failed in this run."""
         return self.status == "fail"

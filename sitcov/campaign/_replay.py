@@ -16,13 +16,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from pydantic import ValidationError
+
 from sitcov.campaign._build import build_backend, build_stack
 from sitcov.campaign._config import CampaignConfig
 from sitcov.campaign._executors import execute
 from sitcov.campaign._records import RunRecord
+from sitcov.campaign._runner import judge_of
 from sitcov.campaign._store import Store, StoreError
 from sitcov.errors import ConfigError
-from sitcov.sim import Outcome
+from sitcov.sim import Judge, Outcome
 
 _DEFAULT_PERCEPTION = "pem"  # the embedded backend's default perception
 
@@ -44,7 +47,8 @@ def parse_run_id(store: Store, text: str) -> tuple[str, int]:
 
 
 def _comparable(outcome: Outcome) -> dict[str, Any]:
-    return json.loads(json.dumps(outcome.to_dict(), sort_keys=True))
+    data = {**outcome.to_dict(), "failure_kind": outcome.kind}  # stored before kinds: derived
+    return json.loads(json.dumps(data, sort_keys=True))
 
 
 def outcome_differences(stored: Outcome, new: Outcome) -> dict[str, tuple[Any, Any]]:
@@ -106,7 +110,14 @@ def replay_run(
     run = store.get_run(campaign, index, with_trace=False)
     if run.outcome is None:
         raise StoreError(f"{store.location}: run {campaign}:{index} has not run yet (pending)")
-    config = CampaignConfig(**{k: v for k, v in run.config.items() if k != "workers"})
+    try:
+        config = CampaignConfig(**{k: v for k, v in run.config.items() if k != "workers"})
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        raise StoreError(
+            f"{store.location}: campaign {campaign!r}: the stored config is not valid "
+            f"({'.'.join(map(str, first['loc']))}: {first['msg']}; damaged database?)"
+        ) from None
     options = dict(config.backend_options)
     if perception is not None:
         options["perception"] = perception
@@ -120,10 +131,12 @@ def replay_run(
     stack = build_stack(config)
     try:
         task = (index, run.situation.to_dict(), run.seed)
-        _, outcome, _ = execute(sim, stack, task, render is not None)
+        _, raw, _ = execute(sim, stack, task, render is not None)
     finally:
         stack.close()
         sim.close()
+    # judged as the campaign stored it (see _runner.run_campaign); legacy: collision only
+    outcome = (judge_of(config) if "judge" in run.config else Judge.from_spec("paper"))(raw)
     written = None
     if render is not None:
         from sitcov.sim.embedded import render_topdown

@@ -7,7 +7,10 @@ For each batch of ``B = config.batch_size`` runs (independent of the worker coun
 2. ask ``B`` situations, run ``i`` with ``ask_rng(seed, i)``;
 3. in ONE transaction store the generator state and the ``B`` runs as ``pending`` with their
    situation and ``run_seed(seed, i)``;
-4. execute them (in any order, on any executor) and store each result as it arrives.
+4. execute them (in any order, on any executor) and store each result as it arrives,
+   judged by the campaign's judge (``config.judge``): every executor's results pass
+   through :func:`judge_of` here, after ``Backend.run``, so the simulation never depends
+   on what counts as a failure.
 
 A campaign killed at any moment therefore resumes exactly: the stored generator state is
 the one that produced the stored plan; pending runs are re-run with their stored situation
@@ -36,6 +39,7 @@ from sitcov.campaign._config import CampaignConfig, config_differences
 from sitcov.campaign._executors import Executor, make_executor
 from sitcov.campaign._store import CampaignInfo, PlannedRun, Store
 from sitcov.errors import ConfigError, SitcovError
+from sitcov.sim import WORLD_MODEL_VERSION, Judge
 
 
 @dataclass(frozen=True)
@@ -126,6 +130,25 @@ def _failures_to_replay(store: Store, name: str, hyperspace: dict, limit: int) -
     return planned
 
 
+def judge_of(config: CampaignConfig) -> Judge:
+    """The judge a campaign's runs are stored with (``config.judge``)."""
+    return Judge.from_spec(config.judge)
+
+
+def _refuse_other_world(store: Store, info: CampaignInfo) -> None:
+    """A campaign made with another world model cannot be extended: its verdicts would mix."""
+    if info.world_version == WORLD_MODEL_VERSION:
+        return
+    made = "the legacy world model" if info.legacy else f"world model {info.world_version}"
+    raise ConfigError(
+        f"{store.location}: campaign {info.name!r} was made with {made} and cannot be "
+        f"extended or resumed with world model {WORLD_MODEL_VERSION} (summary, report and "
+        "export still work); start a new campaign with another --name",
+        field="name",
+        value=info.name,
+    )
+
+
 def no_effect_elements(hyperspace: Any, backend: Any) -> tuple[str, ...]:
     """Elements of ``hyperspace`` that ``backend.effects()`` does not list."""
     effects = backend.effects()
@@ -153,10 +176,12 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
                 generator=config.generator,
                 generator_state=generator.state(),
                 tags=dict(config.tags),
+                world_version=WORLD_MODEL_VERSION,
             ),
             replays,
         )
         return generator, False, len(replays)
+    _refuse_other_world(store, info)
     diffs = config_differences(info.config, config)
     if info.hyperspace != hs_data:
         diffs.append(f"hyperspace content: the elements or bins of {config.hyperspace!r} changed")
@@ -167,13 +192,34 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
             field="name",
             value=config.name,
         )
-    if info.config.get("runs") != config.runs:
-        store.update_config(config.name, {**info.config, "runs": config.runs})
+    _check_runs(store, info, config)
     generator = restore_generator(config, hyperspace, dict(info.generator_state or {}))
     replays = store.count_runs(config.name) and sum(
         1 for r in store.iter_runs(config.name) if r.replay_of
     )
     return generator, True, int(replays)
+
+
+def _check_runs(store: Store, info: CampaignInfo, config: CampaignConfig) -> None:
+    """Extend the stored ``runs`` if ``config`` asks for more; refuse fewer (one line)."""
+    stored = int(info.config.get("runs", 0))
+    if config.runs < stored:
+        raise ConfigError(
+            f"{store.location}: campaign {config.name!r} is stored with runs: {stored}; "
+            f"runs: {config.runs} would shrink it (a campaign can only be extended)",
+            field="runs",
+            value=config.runs,
+        )
+    if config.runs > stored:
+        store.update_config(config.name, {**info.config, "runs": config.runs})
+
+
+def _runs_as_stored(config: CampaignConfig, store: Store) -> CampaignConfig:
+    """``config`` with the stored campaign's ``runs`` if ``runs`` was not given explicitly."""
+    info = store.find_campaign(config.name)
+    if info is None or "runs" in config.model_fields_set:
+        return config
+    return config.model_copy(update={"runs": int(info.config.get("runs", config.runs))})
 
 
 def run_campaign(
@@ -185,6 +231,9 @@ def run_campaign(
 ) -> CampaignResult:
     """Run (or resume, or extend) the campaign ``config.name`` up to ``config.runs`` runs.
 
+    A stored campaign keeps its stored ``runs`` unless ``config`` sets ``runs`` explicitly;
+    more extends it, fewer is refused.
+
     Args:
         config: the campaign configuration.
         store: where the campaign lives (see :func:`open_store`).
@@ -193,10 +242,11 @@ def run_campaign(
         executor: an executor to use instead of the one ``config`` names (not closed here).
 
     Raises:
-        ConfigError: the campaign exists with a different defining config, or a part
-            (hyperspace, generator, backend, stack) cannot be built.
+        ConfigError: the campaign exists with a different defining config or with more
+            ``runs``, or a part (hyperspace, generator, backend, stack) cannot be built.
     """
     start = time.perf_counter()
+    config = _runs_as_stored(config, store)
     hyperspace = resolve_hyperspace(config.hyperspace)
     backend = build_backend(config)
     build_stack(config).close()  # a bad stack or fault must fail before anything is stored
@@ -239,11 +289,13 @@ def run_campaign(
         report("end")
         return _result(store, name, state["executed"], start, no_effect, resumed, replayed)
     runner = executor or make_executor(config, backend)
+    judge = judge_of(config)
     try:
 
         def execute(plans: list[PlannedRun]) -> None:
             tasks = [(p.index, p.situation.to_dict(), p.seed) for p in plans]
-            for index, outcome, wall in runner.map(tasks):
+            for index, raw, wall in runner.map(tasks):
+                outcome = judge(raw)
                 store.record_result(name, index, outcome, wall)
                 state["done"] += 1
                 state["executed"] += 1

@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import sqlite3
 from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -91,8 +92,17 @@ ALTER TABLE runs ADD COLUMN replay_of TEXT;
 CREATE INDEX runs_by_situation ON runs (situation_id);
 """
 
+# Failure kinds and world-model versions: every run failed before by collision; campaigns
+# stored before have no world version (NULL = the legacy world model).
+_V3 = """
+ALTER TABLE runs ADD COLUMN failure_kind TEXT;
+UPDATE runs SET failure_kind = CASE status WHEN 'fail' THEN 'collision'
+    WHEN 'pending' THEN NULL ELSE status END;
+ALTER TABLE campaigns ADD COLUMN world_version INTEGER;
+"""
+
 #: ``MIGRATIONS[i]`` takes a version-``i`` file to version ``i + 1``.
-MIGRATIONS: tuple[str, ...] = (_V1, _V2)
+MIGRATIONS: tuple[str, ...] = (_V1, _V2, _V3)
 #: The schema version this sitcov writes.
 SCHEMA_VERSION = len(MIGRATIONS)
 
@@ -125,8 +135,11 @@ class SQLiteStore(Store):
             self._db.execute("PRAGMA foreign_keys=ON")
             self._configs: dict[str, dict[str, Any]] = {}
             self._migrate()
-        except sqlite3.DatabaseError as exc:
-            raise StoreError(f"{self.location}: not a sitcov database ({exc})") from None
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:  # a damaged schema page
+            detail = " ".join(str(exc).split())[:200]
+            what = "cannot open the file" if "unable to open" in detail else "not a sitcov database"
+            raise StoreError(f"{self.location}: {what} ({detail})") from None
+        self._db = _Guarded(self._db, self.location)  # damaged pages: one-line StoreError
 
     # -- schema ------------------------------------------------------------------------------
     def schema_version(self) -> int:
@@ -164,7 +177,11 @@ class SQLiteStore(Store):
 
     # -- campaigns ---------------------------------------------------------------------------
     def _info(self, row: sqlite3.Row | tuple) -> CampaignInfo:
-        name, config, hyper, version, created, gen, state, batch_start, tags = row
+        with _decoding(self.location, f"campaign {row[0]!r}"):
+            return self._decode_info(row)
+
+    def _decode_info(self, row: sqlite3.Row | tuple) -> CampaignInfo:
+        name, config, hyper, version, created, gen, state, batch_start, tags, world = row
         return CampaignInfo(
             name=name,
             config=json.loads(config),
@@ -175,11 +192,12 @@ class SQLiteStore(Store):
             generator_state=json.loads(state) if state is not None else None,
             batch_start=int(batch_start),
             tags=json.loads(tags),
+            world_version=world,
         )
 
     _CAMPAIGN_COLS = (
         "name, config, hyperspace, sitcov_version, created, generator, generator_state, "
-        "batch_start, tags"
+        "batch_start, tags, world_version"
     )
 
     def campaigns(self) -> list[CampaignInfo]:
@@ -199,7 +217,7 @@ class SQLiteStore(Store):
             if self.find_campaign(info.name) is not None:
                 raise StoreError(f"{self.location}: campaign {info.name!r} already exists")
             self._db.execute(
-                f"INSERT INTO campaigns ({self._CAMPAIGN_COLS}) VALUES (?,?,?,?,?,?,?,?,?)",
+                f"INSERT INTO campaigns ({self._CAMPAIGN_COLS}) VALUES (?,?,?,?,?,?,?,?,?,?)",
                 (
                     info.name,
                     _dumps(dict(info.config)),
@@ -210,6 +228,7 @@ class SQLiteStore(Store):
                     _dumps(info.generator_state) if info.generator_state is not None else None,
                     runs[0].index if runs else info.batch_start,
                     _dumps(dict(info.tags)),
+                    info.world_version,
                 ),
             )
             self._insert_runs(info.name, runs)
@@ -271,10 +290,12 @@ class SQLiteStore(Store):
             cur = self._db.execute(
                 "UPDATE runs SET status = ?, "
                 + ", ".join(f"{c} = ?" for c in OUTCOME_COLUMNS)
-                + ", outcome = ?, wall_time = ?, trace = ? WHERE campaign = ? AND idx = ?",
+                + ", failure_kind = ?, outcome = ?, wall_time = ?, trace = ?"
+                " WHERE campaign = ? AND idx = ?",
                 (
                     outcome.status,
                     *values,
+                    outcome.kind,
                     _dumps(data),
                     float(wall_time),
                     _dumps(_trace_dict(trace)) if trace is not None else None,
@@ -308,6 +329,10 @@ class SQLiteStore(Store):
         return self._configs[name]
 
     def _record(self, row: tuple, trace: str | None = None) -> RunRecord:
+        with _decoding(self.location, f"run {row[0]}:{row[1]}"):
+            return self._decode_record(row, trace)
+
+    def _decode_record(self, row: tuple, trace: str | None = None) -> RunRecord:
         name, idx, _sid, bins, vals, seed, status, outcome, wall, replay_of = row
         out = None
         if outcome is not None:
@@ -364,6 +389,58 @@ class SQLiteStore(Store):
 
     def close(self) -> None:
         self._db.close()
+
+
+def _damaged(location: str, what: str, exc: BaseException) -> StoreError:
+    """The one-line error for a file whose pages or stored values cannot be read back."""
+    detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
+    return StoreError(f"{location}: damaged database, {what} cannot be read ({detail})")
+
+
+@contextmanager
+def _decoding(location: str, what: str) -> Iterator[None]:
+    """Turn a stored value that no longer decodes (JSON, UTF-8, fields) into a StoreError."""
+    try:
+        yield
+    except (ValueError, TypeError, KeyError, AttributeError) as exc:
+        raise _damaged(location, what, exc) from None
+
+
+class _Guarded:
+    """A sqlite3 connection whose DatabaseErrors (damaged pages) become one-line StoreErrors.
+
+    Every statement and every fetch goes through :meth:`_call`, so a damaged page found
+    while streaming rows is reported as cleanly as one found when the query starts.
+    """
+
+    def __init__(self, target: Any, location: str) -> None:
+        self._target = target
+        self._location = location
+
+    def _call(self, method: str, *args: Any) -> Any:
+        try:
+            result = getattr(self._target, method)(*args)
+        except sqlite3.DatabaseError as exc:
+            raise _damaged(self._location, "a page", exc) from None
+        return _Guarded(result, self._location) if isinstance(result, sqlite3.Cursor) else result
+
+    def execute(self, *args: Any) -> Any:
+        return self._call("execute", *args)
+
+    def executemany(self, *args: Any) -> Any:
+        return self._call("executemany", *args)
+
+    def fetchone(self) -> Any:
+        return self._call("fetchone")
+
+    def fetchall(self) -> Any:
+        return self._call("fetchall")
+
+    def fetchmany(self, size: int) -> Any:
+        return self._call("fetchmany", size)
+
+    def __getattr__(self, name: str) -> Any:  # rowcount, in_transaction, close, ...
+        return getattr(self._target, name)
 
 
 def _trace_dict(trace: Trace) -> dict[str, Any]:

@@ -48,6 +48,9 @@ class CampaignInfo:
         batch_start: index of the first run of the last planned batch (the runs the
             generator has not been told about yet).
         tags: free labels, e.g. ``{"experiment": "faults", "fault": "f1", "seed": 3}``.
+        world_version: ``sitcov.sim.WORLD_MODEL_VERSION`` when the campaign was created;
+            None for a campaign stored before versions were recorded (the legacy world
+            model: no physics profiles, collision-only verdicts).
     """
 
     name: str
@@ -59,6 +62,12 @@ class CampaignInfo:
     generator_state: Mapping[str, Any] | None = None
     batch_start: int = 0
     tags: Mapping[str, Any] = field(default_factory=dict)
+    world_version: int | None = None
+
+    @property
+    def legacy(self) -> bool:
+        """Made with the legacy world model (before world versions were stored)."""
+        return self.world_version is None
 
 
 @dataclass(frozen=True)

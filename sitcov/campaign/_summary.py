@@ -3,6 +3,11 @@
 The numbers come from ``sitcov.analysis.summarize`` over the finished runs (pending runs
 are not counted). Bins are ranked "worst" by the lower end of their Wilson 95% interval,
 so a bin with 1 failure in 1 run does not outrank one with 30 in 60.
+
+The summary also says how the verdicts were made: the physics profile, the judge (what
+counts as a failure) and the world-model version of the campaign(s). A campaign stored
+before these existed is labelled ``legacy``: its physics was the old compounded weather
+model and its judge counted collisions only.
 """
 
 from __future__ import annotations
@@ -10,7 +15,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from sitcov.campaign._store import Store, StoreError
+from sitcov.campaign._store import CampaignInfo, Store, StoreError
 
 FINISHED = ("pass", "fail", "error", "timeout")
 
@@ -32,12 +37,62 @@ def campaign_hyperspace(store: Store, campaign: str | None = None) -> Any:
     return Hyperspace.from_dict(first, file=f"{store.location} (campaign {infos[0].name})")
 
 
+def campaign_setup(info: CampaignInfo) -> dict[str, Any]:
+    """Physics profile, judge and world model a stored campaign was made with."""
+    if info.legacy:
+        return {"physics": "legacy", "judge": "paper", "world_model": "legacy"}
+    return {
+        "physics": info.config.get("physics", "carla"),
+        "judge": _judge_text(info.config.get("judge", "default")),
+        "world_model": info.world_version,
+    }
+
+
+def _judge_text(spec: Any) -> str:
+    """A judge setting as text: a name, or its kinds comma-separated."""
+    return spec if isinstance(spec, str) else ",".join(spec)
+
+
+def _one_or_all(values: list[Any]) -> Any:
+    """The value if all campaigns agree, else the distinct values in order."""
+    distinct = [v for i, v in enumerate(values) if v not in values[:i]]
+    return distinct[0] if len(distinct) == 1 else distinct
+
+
+def events_by_kind(runs: Any) -> dict[str, int]:
+    """Judged runs in which each failure event happened, whether the judge counted it or not
+    (what another judge would add; legacy runs report collisions only)."""
+    from sitcov.sim import FAILURE_KINDS
+    from sitcov.sim._judge import event_times
+
+    counts = dict.fromkeys(FAILURE_KINDS, 0)
+    for run in runs:
+        if run.status in ("pass", "fail") and run.outcome is not None:
+            for kind in event_times(run.outcome):
+                counts[kind] += 1
+    return counts
+
+
 def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]:
-    """The DESIGN §6 summary object of the finished runs of ``campaign`` (or all)."""
+    """The DESIGN §6 summary object of the finished runs of ``campaign`` (or all), plus
+    ``physics``, ``judge`` and ``world_model`` (one value, or a list when the campaigns
+    differ), ``judge_counts`` (the kinds that fail a run), ``legacy_world_model`` (any
+    campaign made before world versions) and ``events_by_kind``."""
     from sitcov.analysis import summarize
+    from sitcov.sim import Judge
 
     hyperspace = campaign_hyperspace(store, campaign)
-    return summarize(hyperspace, store.runs(campaign, FINISHED))
+    runs = store.runs(campaign, FINISHED)
+    summary = summarize(hyperspace, runs)
+    infos = [store.campaign(campaign)] if campaign else store.campaigns()
+    setups = [campaign_setup(i) for i in infos]
+    for key in ("physics", "judge", "world_model"):
+        summary[key] = _one_or_all([s[key] for s in setups])
+    if len({s["judge"] for s in setups}) == 1:
+        summary["judge_counts"] = list(Judge.from_spec(setups[0]["judge"]).counts)
+    summary["legacy_world_model"] = any(i.legacy for i in infos)
+    summary["events_by_kind"] = events_by_kind(runs)
+    return summary
 
 
 def worst_bins(summary: dict[str, Any], n: int = 5) -> list[tuple[str, str, dict[str, Any]]]:
@@ -72,7 +127,15 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     else:
         rate = "n/a"
     totals.add_row("failure rate", rate)
+    for kind, k in summary.get("failures_by_kind", {}).items():
+        if k["failures"]:
+            lo, hi = k["ci95"]
+            text = f"{k['failures']}  {k['failure_rate']:.1%}  (95% CI {lo:.1%} - {hi:.1%})"
+            totals.add_row(f"  {kind.replace('_', ' ')}", text)
     totals.add_row("errors + timeouts", str(errors))
+    for key, label in (("physics", "physics"), ("judge", "judge"), ("world_model", "world model")):
+        if key in summary:
+            totals.add_row(label, _setup_text(summary, key))
     cov = summary.get("coverage", {})
     totals.add_row("bins covered", f"{cov.get('bins_covered', 0)} / {cov.get('bins_total', 0)}")
     totals.add_row("pairwise coverage", f"{cov.get('pairwise', 0.0):.1%}")
@@ -90,6 +153,20 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
             f"{lo:.0%} - {hi:.0%}",
         )
     return Group(totals, worst) if worst.row_count else totals
+
+
+def _setup_text(summary: dict[str, Any], key: str) -> str:
+    """One line for the physics / judge / world model row of the console summary."""
+    value = summary[key]
+    if isinstance(value, list):
+        return "mixed: " + ", ".join(str(v) for v in value)
+    if key == "judge" and summary.get("judge_counts"):
+        counts = " + ".join(k.replace("_", " ") for k in summary["judge_counts"])
+        legacy = ", legacy" if summary.get("legacy_world_model") else ""
+        return f"{value} ({counts}{legacy})"
+    if key == "world_model" and value == "legacy":
+        return "legacy (before physics profiles and failure kinds)"
+    return str(value)
 
 
 def summary_json(store: Store, campaign: str | None = None) -> str:

@@ -54,6 +54,8 @@ class CampaignView:
         runs: the campaign's runs in index order (pending runs excluded).
         sitcov_version: the sitcov version that created the campaign.
         created: when the campaign was created (ISO 8601).
+        setup: ``physics``, ``judge`` and ``world_model`` it was made with (``legacy`` for
+            a campaign stored before these existed; see ``sitcov.campaign._summary``).
     """
 
     name: str
@@ -63,6 +65,7 @@ class CampaignView:
     runs: list[RunRecord] = field(default_factory=list)
     sitcov_version: str = "?"
     created: str = "?"
+    setup: dict[str, Any] = field(default_factory=dict)
 
     @property
     def generator(self) -> str:
@@ -92,6 +95,14 @@ def _campaign_config(info: Any, runs: Sequence[RunRecord]) -> dict[str, Any]:
     if not config and runs:
         config = _as_dict(runs[0].config)
     return config
+
+
+def _setup(info: Any) -> dict[str, Any]:
+    """Physics, judge and world model of a stored campaign (empty if it cannot say)."""
+    from sitcov.campaign._store import CampaignInfo
+    from sitcov.campaign._summary import campaign_setup
+
+    return campaign_setup(info) if isinstance(info, CampaignInfo) else {}
 
 
 def _ordered(infos: list[Any]) -> list[Any]:
@@ -147,6 +158,7 @@ def load_campaigns(store: Any, names: Sequence[str] | None = None) -> list[Campa
                 runs=runs,
                 sitcov_version=str(_get(info, "sitcov_version", "?")),
                 created=str(_get(info, "created", "?")),
+                setup=_setup(info),
             )
         )
     return views

@@ -48,7 +48,10 @@ def _trace_outcome(store: Any, run: Any, builders: dict) -> Any:
         config = CampaignConfig(**{k: v for k, v in dict(run.config).items() if k in known})
         builders[key] = (build_backend(config), build_stack(config))
     backend, stack = builders[key]
-    return backend.run(run.situation, stack, run.seed, record=True)
+    from sitcov.sim import Judge
+
+    judge = Judge.from_spec(run.config.get("judge", "paper"))  # stored before judges: paper
+    return judge(backend.run(run.situation, stack, run.seed, record=True))
 
 
 def failure_pictures(
@@ -75,7 +78,7 @@ def failure_pictures(
             except (SitcovError, ValueError, TypeError, OSError) as exc:
                 problems.append(f"{ref}: {exc}")
                 continue
-            detail = []
+            detail = [outcome.kind.replace("_", " ")]
             if outcome.collision_speed is not None:
                 detail.append(f"impact {outcome.collision_speed:.1f} m/s")
             if outcome.collision_time is not None:

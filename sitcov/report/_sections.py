@@ -101,8 +101,12 @@ def run_command(db: str, view: CampaignView, experiment: str | None) -> str:
         ("backend", "--backend"),
         ("av", "--av"),
         ("fault", "--fault"),
+        ("physics", "--physics"),
+        ("judge", "--judge"),
     ):
         value = cfg.get(key)
+        if isinstance(value, list):
+            value = ",".join(value)
         if value is not None and not (key == "hyperspace" and value == "t-junction"):
             parts += [flag, str(value)]
     perception = (cfg.get("backend_options") or {}).get("perception")
@@ -156,8 +160,64 @@ def table2_section(table: dict[str, Any], out: Path) -> dict[str, Any] | None:
     return {"faults": faults, "rows": rows, "figure": b64(png), "runs_note": runs_note}
 
 
+def _setup_value(views: Sequence[CampaignView], key: str) -> str:
+    """One physics / judge / world-model value for the cards, or ``mixed: a, b``."""
+    values = list(dict.fromkeys(str(v.setup.get(key, "?")) for v in views))
+    return values[0] if len(values) == 1 else "mixed: " + ", ".join(values)
+
+
+def _setup_cards(views: Sequence[CampaignView]) -> list[dict[str, Any]]:
+    from sitcov.sim import Judge
+
+    judge = _setup_value(views, "judge")
+    try:
+        counted = " + ".join(k.replace("_", " ") for k in Judge.from_spec(judge).counts)
+    except ValueError:  # mixed judges
+        counted = "campaigns differ"
+    world = _setup_value(views, "world_model")
+    legacy = "legacy" in world
+    return [
+        {
+            "key": "judge",
+            "value": judge,
+            "detail": f"fails on {counted}" + (" (legacy: collision only)" if legacy else ""),
+        },
+        {
+            "key": "physics",
+            "value": _setup_value(views, "physics"),
+            "detail": f"world model {world}"
+            + (" (before physics profiles and failure kinds)" if legacy else ""),
+        },
+    ]
+
+
+def kinds_text(runs: Sequence[Any]) -> str:
+    """Failures per kind, e.g. ``12 collision, 3 road departure`` (``–`` for none)."""
+    counts: dict[str, int] = {}
+    for run in runs:
+        if run.status == "fail":
+            kind = run.failure_kind or "collision"
+            counts[kind] = counts.get(kind, 0) + 1
+    return ", ".join(f"{n} {k.replace('_', ' ')}" for k, n in counts.items()) or "–"
+
+
+def kind_rows(runs: Sequence[Any]) -> list[dict[str, str]]:
+    """The failures-by-kind table: kind, failures / judged, rate with Wilson 95% CI."""
+    from sitcov.analysis import failures_by_kind
+
+    judged = sum(1 for r in runs if r.status in ("pass", "fail"))
+    return [
+        {
+            "kind": kind.replace("_", " "),
+            "fj": f"{row['failures']} / {judged}",
+            "rate": rate_ci(row["failures"], judged),
+        }
+        for kind, row in failures_by_kind(runs).items()
+    ]
+
+
 def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[Any]) -> dict:
-    """The summary cards and the per-campaign table."""
+    """The summary cards, the failures by kind and the per-campaign table."""
     from sitcov.analysis import coverage
 
     counts = status_counts(all_runs)
@@ -183,6 +243,7 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
             "detail": f"{len(hs.elements)} elements",
         },
         {"key": "pairwise coverage", "value": pct(cov["pairwise"]), "detail": "2-way bins"},
+        *_setup_cards(views),
     ]
     rows = []
     for view in views:
@@ -201,9 +262,17 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
                 "timeouts": c["timeout"],
                 "bins": f"{s['bins_covered']}/{s['bins_total']}" if s else "–",
                 "pairwise": pct(s["pairwise"]) if s else "–",
+                "kinds": kinds_text(view.runs),
+                "physics": str(view.setup.get("physics", "?")),
+                "judge": str(view.setup.get("judge", "?")),
             }
         )
-    return {"cards": cards, "campaigns": rows, "bins_total": cov["bins_total"]}
+    return {
+        "cards": cards,
+        "campaigns": rows,
+        "bins_total": cov["bins_total"],
+        "kinds": kind_rows(all_runs),
+    }
 
 
 def element_section(hs: Any, views: Sequence[CampaignView], fig_dir: Path) -> dict:

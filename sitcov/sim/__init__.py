@@ -6,8 +6,9 @@ from typing import Any
 
 from sitcov import _plugins
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, arrival_time, pure_pursuit
-from sitcov.sim._base import STATUSES, Backend, Conditions, Outcome, Trace
-from sitcov.sim._conditions import conditions_from_values
+from sitcov.sim._base import STATUSES, WORLD_MODEL_VERSION, Backend, Conditions, Outcome, Trace
+from sitcov.sim._conditions import PHYSICS_PROFILES, conditions_from_values
+from sitcov.sim._judge import FAILURE_KINDS, JUDGES, OUTCOME_KINDS, Judge, normalize_judge
 
 _plugins.register_builtin("backend", "embedded", "sitcov.sim.embedded:EmbeddedBackend")
 _plugins.register_builtin("backend", "carla", "sitcov.sim.carla:CarlaBackend")
@@ -29,15 +30,22 @@ def make_backend(name: str = "embedded", **options: Any) -> Backend:
 
 
 __all__ = [
+    "FAILURE_KINDS",
+    "JUDGES",
+    "OUTCOME_KINDS",
+    "PHYSICS_PROFILES",
     "STATUSES",
+    "WORLD_MODEL_VERSION",
     "AdversaryController",
     "AdversaryParams",
     "Backend",
     "Conditions",
+    "Judge",
     "Outcome",
     "Trace",
     "arrival_time",
     "conditions_from_values",
     "make_backend",
+    "normalize_judge",
     "pure_pursuit",
 ]

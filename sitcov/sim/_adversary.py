@@ -12,12 +12,21 @@ The paper's controller, backend-neutral (the embedded and the CARLA backends bot
    P-controller and ignores the ego.
 
 Lateral control is pure pursuit on the OV's route.
+
+Where the synchronisation ends is a property of the intersection situation: the paper ended
+it with a "pass-through" trigger box on the ego's approach leg in Town03, so the ego's
+distance to the conflict point at the switch differs per situation (13.5 to 29 m).
+:data:`TOWN03_SWITCH_DISTANCES` derives those distances from the Town03 geometry below
+(facts from the authors' released code); maps carry them as ``switch_distances`` and the
+backends pass the situation's value in (docs/embedded.md, "The adversarial OV").
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import statistics
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True)
@@ -27,7 +36,9 @@ class AdversaryParams:
     Attributes:
         gain: the paper's timing gain on ``t_OV - t_ego`` [1/s].
         switch_distance: the ego's remaining distance to the conflict point at which the
-            OV stops regulating and cruises [m].
+            OV stops regulating and cruises [m]; None (the default) takes the situation's
+            value from the map (:func:`with_switch_distance`), a number overrides it for
+            every situation.
         cruise_speed: speed after the switch, 15 km/h [m/s].
         cruise_gain: P gain of the cruise speed control [1/(m/s)].
         min_speed: speed floor in the arrival-time estimate [m/s].
@@ -37,7 +48,7 @@ class AdversaryParams:
     """
 
     gain: float = 3.0
-    switch_distance: float = 8.0
+    switch_distance: float | None = None
     cruise_speed: float = 15.0 / 3.6
     cruise_gain: float = 0.5
     min_speed: float = 0.5
@@ -73,11 +84,12 @@ class AdversaryController:
             v_ego, v_ov: current speeds [m/s].
         """
         p = self.params
+        switch = FALLBACK_SWITCH_DISTANCE if p.switch_distance is None else p.switch_distance
         if self.phase == "wait":
             if v_ego <= p.start_speed:
                 return 0.0, 1.0
             self.phase = "regulate" if self.has_conflict else "cruise"
-        if self.phase == "regulate" and (d_ego <= p.switch_distance or d_ov <= 0.0):
+        if self.phase == "regulate" and (d_ego <= switch or d_ov <= 0.0):
             self.phase = "cruise"
         if self.phase == "regulate":
             u = p.gain * (
@@ -104,3 +116,98 @@ def pure_pursuit(
     if dist < 1e-6:
         return 0.0
     return math.atan2(2.0 * wheelbase * math.sin(alpha), dist)
+
+
+# --- where the synchronisation ends: the paper's Town03 trigger boxes -----------------------
+
+#: The paper's "pass-through" trigger box per ego start leg in CARLA Town03
+#: (x_min, x_max, y_min, y_max) [m], CARLA frame: when the ego enters it the OV stops
+#: synchronising (authors' released code, ``select_ego_passthroughtrigger_loc``).
+TOWN03_SYNC_END_BOXES: dict[str, tuple[float, float, float, float]] = {
+    "L": (-103.64, -98.64, -148.5, -128.5),
+    "B": (-90.0, -70.0, -127.0, -121.0),
+    "R": (-66.15, -61.15, -147.5, -127.5),
+}
+#: Town03 conflict points the OV synchronises to [m], CARLA frame (DESIGN.md section 2).
+TOWN03_CONFLICT_POINTS: dict[str, tuple[float, float]] = {
+    "c1": (-74.63, -136.34),
+    "c2": (-74.63, -139.28),
+    "c4": (-89.0, -136.5),
+}
+#: A point and heading [deg] on each leg's inbound lane, towards the junction: the OV spawn
+#: points of Town03 (DESIGN.md section 2), which lie on the lane the ego approaches on.
+TOWN03_INBOUND_LANES: dict[str, tuple[float, float, float]] = {
+    "L": (-109.0, -136.0, 0.0),
+    "B": (-74.70, -114.95, 270.0),
+    "R": (-55.08, -139.5, 180.0),
+}
+#: The twelve intersection situations: (ego movement, OV movement) -> conflict point.
+PAPER_INTSITS: dict[tuple[str, str], str] = {
+    ("L-B", "R-B"): "c4",
+    ("L-R", "R-B"): "c4",
+    ("L-R", "B-R"): "c1",
+    ("L-R", "B-L"): "c1",
+    ("B-L", "L-R"): "c1",
+    ("B-L", "R-L"): "c2",
+    ("B-L", "R-B"): "c2",
+    ("B-R", "L-R"): "c1",
+    ("R-L", "B-L"): "c2",
+    ("R-B", "B-L"): "c2",
+    ("R-B", "L-R"): "c4",
+    ("R-B", "L-B"): "c4",
+}
+
+
+def box_entry(leg: str) -> tuple[float, float]:
+    """Where an ego approaching on Town03 leg ``leg`` enters that leg's trigger box [m].
+
+    The inbound lane is the ray from the leg's lane point along its heading; the entry is
+    where that ray first reaches the box (slab intersection with the axis-aligned box).
+    """
+    x0, x1, y0, y1 = TOWN03_SYNC_END_BOXES[leg]
+    px, py, yaw = TOWN03_INBOUND_LANES[leg]
+    dx, dy = math.cos(math.radians(yaw)), math.sin(math.radians(yaw))
+    t_in = 0.0
+    for p, d, lo, hi in ((px, dx, x0, x1), (py, dy, y0, y1)):
+        if abs(d) < 1e-9:
+            continue
+        t_in = max(t_in, min((lo - p) / d, (hi - p) / d))
+    return px + t_in * dx, py + t_in * dy
+
+
+def town03_switch_distance(ego_move: str, conflict: str) -> float:
+    """The ego's distance [m] to the conflict point when it enters its trigger box.
+
+    Euclidean, as the paper's synchronisation measured it (scenario_runner's SyncArrival
+    uses straight-line distances to the target location).
+    """
+    ex, ey = box_entry(ego_move.split("-", 1)[0])
+    cx, cy = TOWN03_CONFLICT_POINTS[conflict]
+    return math.hypot(cx - ex, cy - ey)
+
+
+def intsit_key(ego_move: str, ov_move: str) -> str:
+    """Key of an intersection situation in ``switch_distances`` tables, e.g. ``"L-B/R-B"``."""
+    return f"{ego_move}/{ov_move}"
+
+
+#: The ego's distance to the conflict point at which the paper's OV stopped synchronising,
+#: per intersection situation ("EGO/OV" -> m), derived from the Town03 geometry above.
+TOWN03_SWITCH_DISTANCES: dict[str, float] = {
+    intsit_key(e, o): round(town03_switch_distance(e, c), 2) for (e, o), c in PAPER_INTSITS.items()
+}
+#: Used when neither the parameters nor the map give a distance: the median of the Town03
+#: situations [m].
+FALLBACK_SWITCH_DISTANCE: float = statistics.median(TOWN03_SWITCH_DISTANCES.values())
+
+
+def with_switch_distance(params: AdversaryParams, distance: float | None) -> AdversaryParams:
+    """``params`` with the situation's switch ``distance`` [m] unless they fix their own."""
+    if params.switch_distance is not None or distance is None:
+        return params
+    return replace(params, switch_distance=float(distance))
+
+
+def lookup_switch_distance(table: Mapping[str, float], ego_move: str, ov_move: str) -> float | None:
+    """The situation's entry of a ``switch_distances`` table, or None if it has none."""
+    return table.get(intsit_key(ego_move, ov_move))

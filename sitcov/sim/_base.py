@@ -11,9 +11,14 @@ if TYPE_CHECKING:
     from sitcov.av import AVStack
     from sitcov.hyperspace import Situation
 
-#: Statuses a stored run can have. ``fail`` means the stack failed (collision);
-#: ``error`` and ``timeout`` mean the run could not be judged.
+#: Statuses a stored run can have. ``fail`` means the stack failed (what counts as a
+#: failure is the campaign's judge, see ``sitcov.sim.Judge``; ``Outcome.kind`` says which
+#: kind); ``error`` and ``timeout`` mean the run could not be judged.
 STATUSES = ("pass", "fail", "error", "timeout")
+#: Version of the embedded world model (dynamics, conditions, judge facts). Stored with every
+#: campaign; campaigns made with another version cannot be extended. Version 1 ("legacy")
+#: is everything before physics profiles and failure kinds.
+WORLD_MODEL_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -31,7 +36,8 @@ class Conditions:
         illumination: relative scene illumination in (0, 1], 1 = clear noon.
         rain_noise: perception noise intensity in [0, 1] from rain, spray and glare.
         wind_speed: mean wind speed [m/s].
-        wind_lateral_accel: standard deviation of the wind's lateral acceleration [m/s^2].
+        wind_lateral_accel: RMS of the wind's lateral acceleration [m/s^2] (0 in the
+            ``carla`` physics profile: CARLA's wind moves no vehicle).
         raw: the environment values as given (CARLA units), for renderers.
     """
 
@@ -82,12 +88,18 @@ class Outcome:
         collision_time: [s] or None.
         collision_speed: relative speed at impact [m/s] or None.
         min_distance: minimum distance between the two vehicle boxes [m].
-        min_ttc: minimum time-to-collision [s] or None if they never closed in.
-        pet: post-encroachment time at the conflict point [s] or None.
+        min_ttc: minimum constant-velocity time-to-collision of the vehicles' footprint
+            discs [s], or None if they never closed in (docs/metrics.md).
+        pet: post-encroachment time at the conflict zone [s] or None (docs/metrics.md).
         aeb_fired: whether the ego's emergency brake fired.
         aeb_time: [s] or None.
         message: error text for ``error``/``timeout`` runs.
-        metrics: further backend-specific metrics (JSON-serialisable).
+        metrics: further backend-specific metrics (JSON-serialisable); the embedded
+            backend reports ``road_departure_time`` and ``lane_departure_time`` here.
+        failure_kind: set by the campaign's judge: ``pass``, ``collision``,
+            ``road_departure``, ``lane_departure``, ``error`` or ``timeout``; None for an
+            outcome straight from a backend (see :attr:`kind`). Not part of ``==``: it is
+            derived from the facts and ``status``, which are compared.
         trace: recorded trajectories when the run was asked to record.
     """
 
@@ -104,12 +116,21 @@ class Outcome:
     aeb_time: float | None = None
     message: str | None = None
     metrics: dict[str, Any] = field(default_factory=dict)
+    failure_kind: str | None = field(default=None, compare=False)
     trace: Trace | None = field(default=None, compare=False)
 
     @property
     def failed(self) -> bool:
-        """True when the stack under test failed (a collision)."""
+        """True when the stack under test failed (by the judge that set ``status``)."""
         return self.status == "fail"
+
+    @property
+    def kind(self) -> str:
+        """``failure_kind`` if a judge set it; else ``collision`` for a failed run (what
+        ``fail`` meant before failure kinds existed) and the status otherwise."""
+        if self.failure_kind is not None:
+            return self.failure_kind
+        return "collision" if self.status == "fail" else self.status
 
     def to_dict(self, *, with_trace: bool = False) -> dict[str, Any]:
         """JSON-serialisable form (the trace only if asked)."""

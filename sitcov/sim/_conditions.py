@@ -3,6 +3,12 @@
 Every environment element of the default hyperspace moves at least one quantity of
 :class:`~sitcov.sim.Conditions`; the numbers and their sources are in ``docs/weather.md``.
 Missing elements take clear-weather, dry-road defaults (CARLA's ``ClearNoon``).
+
+Two physics profiles (``PHYSICS_PROFILES``) decide what weather does to the vehicles:
+``carla`` (the default) does what CARLA 0.9.x does, nothing (tyre friction is the friction
+element; wetness, rain, puddles, fog and clouds reach only the camera; wind only slants the
+rain); ``physical`` adds the real-world couplings, a wet-road grip loss and a crosswind
+force, each with its source. Perception quantities are the same in both.
 """
 
 from __future__ import annotations
@@ -29,13 +35,27 @@ DEFAULTS: dict[str, float] = {
 #: The environment elements that are weather parameters (carla.WeatherParameters names).
 WEATHER_ELEMENTS: tuple[str, ...] = tuple(name for name in DEFAULTS if name != "friction")
 
-#: Friction loss on a fully wet surface (wetness 100) [-]: wet asphalt keeps ~0.7 of dry.
-WET_LOSS = 0.30
-#: Extra loss from heavy rain (precipitation 100): a thicker water film [-].
-RAIN_LOSS = 0.10
-#: Extra loss from standing water (precipitation_deposits 100): puddles, partial aquaplaning [-].
-DEPOSIT_LOSS = 0.15
-# With everything at 100 the road keeps 1 - 0.55 = 45 % of its dry grip.
+#: Physics profiles: how weather reaches the vehicles (see ``docs/weather.md``).
+#: ``carla``: as CARLA 0.9.x, weather acts on the camera only; ``physical``: wet-road grip
+#: and crosswind force as well.
+PHYSICS_PROFILES: tuple[str, ...] = ("carla", "physical")
+
+# --- physical profile: one water-film state, one wet/dry grip curve ----------------------
+#: Water-film depth on a fully wet road (wetness 100) [mm]: the thin-film range in which
+#: Kulakowski & Harwood (ASTM STP 1031, 1990) measured most of the friction loss.
+FILM_WET = 0.25
+#: Water-film depth in heavy rain (precipitation 100) [mm]: order of the film a road
+#: carries in heavy rain (Gallaway et al., FHWA-RD-79-31, 1979).
+FILM_RAIN = 1.0
+#: Depth of standing water in puddles (precipitation_deposits = their area share) [mm].
+FILM_PUDDLE = 3.0
+#: Wet/dry grip ratio once the film is thick [-]: Wong, *Theory of Ground Vehicles*
+#: (Table 1.3): asphalt peak friction 0.8-0.9 dry, 0.5-0.7 wet; Do et al. (2014): the
+#: damp state alone costs 30-40 %. 0.55 is the low end of the handbook's ratio.
+WET_GRIP_RATIO = 0.55
+#: Film depth at which half of the wet loss has happened [mm] (Kulakowski & Harwood:
+#: friction falls significantly between 0.025 and 0.23 mm; Do et al.: inverse-S curve).
+FILM_CRITICAL = 0.1
 
 #: Extinction coefficient at fog_density 100 [1/m]: Koschmieder visibility 3.912/0.1565 = 25 m.
 FOG_BETA_MAX = 3.912 / 25.0
@@ -84,7 +104,55 @@ def side_force_accel(wind_speed: float, mass: float = REFERENCE_MASS) -> float:
     return 0.5 * AIR_DENSITY * SIDE_FORCE_COEFF * SIDE_AREA * wind_speed * wind_speed / mass
 
 
-def conditions_from_values(values: Mapping[str, Any], *, wind_direction: float = 0.0) -> Conditions:
+def wet_grip_ratio(film_mm: float) -> float:
+    """Wet/dry tyre-road grip ratio for a water film ``film_mm`` deep [-].
+
+    An inverse-S curve (Do et al. 2014): dry grip while the film is far thinner than
+    ``FILM_CRITICAL``, half the loss at it, ``WET_GRIP_RATIO`` once the film is thick.
+    Full hydroplaning is not modelled: it needs ~90 km/h on a car tyre (Horne's
+    hydroplaning speed, NASA TN D-2056), far above junction speeds.
+    """
+    if film_mm <= 0.0:
+        return 1.0
+    x = film_mm / FILM_CRITICAL
+    return WET_GRIP_RATIO + (1.0 - WET_GRIP_RATIO) / (1.0 + x * x)
+
+
+def road_grip_factor(wetness: float, precipitation: float, deposits: float) -> float:
+    """Share of the dry grip the road keeps under water (physical profile) [-].
+
+    The three elements describe ONE state, the water on the road, so they are not
+    compounded as independent losses: the film between puddles is the thicker of the
+    wet-road film (``wetness``) and the rain film (``precipitation``); ``deposits`` is
+    the share of the road under standing water, whose grip is mixed in by area. All
+    arguments are fractions in [0, 1].
+    """
+    film = max(FILM_WET * wetness, FILM_RAIN * precipitation)
+    return (1.0 - deposits) * wet_grip_ratio(film) + deposits * wet_grip_ratio(FILM_PUDDLE)
+
+
+def _friction(values: Mapping[str, Any]) -> float:
+    """The friction element as a coefficient, clamped to 0.01..1.5."""
+    raw = values.get("friction", DEFAULTS["friction"])
+    try:
+        friction = float(raw)
+    except (TypeError, ValueError):
+        raise ConfigError(field="friction", value=raw, expected="a number") from None
+    if not math.isfinite(friction):
+        raise ConfigError(field="friction", value=raw, expected="a number")
+    return min(1.5, max(0.01, friction))
+
+
+def check_profile(profile: str, field: str = "physics") -> str:
+    """``profile`` if it is a known physics profile, else a one-line ConfigError."""
+    if profile not in PHYSICS_PROFILES:
+        raise ConfigError(field=field, value=profile, expected=" | ".join(PHYSICS_PROFILES))
+    return profile
+
+
+def conditions_from_values(
+    values: Mapping[str, Any], *, wind_direction: float = 0.0, profile: str = "carla"
+) -> Conditions:
     """Derive physical conditions from a situation's environment values (CARLA units).
 
     Args:
@@ -92,20 +160,20 @@ def conditions_from_values(values: Mapping[str, Any], *, wind_direction: float =
             Other keys (e.g. ``intsit``) are ignored; missing elements are clear and dry.
         wind_direction: direction the wind blows towards, world frame [rad]; backends
             draw it from the run's random generator. Stored in ``raw`` for renderers.
+        profile: ``carla`` (default): mu is the friction element alone and the wind
+            pushes nothing, as in CARLA 0.9.x; ``physical``: mu also falls with the water
+            on the road (:func:`road_grip_factor`) and the wind has a side force.
 
     Returns:
-        Conditions: ``mu`` (friction x wet-road factor), fog extinction and start,
-        illumination (Kasten-Czeplak), rain noise, wind speed and its lateral acceleration.
+        Conditions: ``mu``, fog extinction and start, illumination (Kasten-Czeplak), rain
+        noise, wind speed and (physical profile) its lateral acceleration. The
+        perception quantities are the same in both profiles.
 
     Raises:
-        ConfigError: a value is not a number.
+        ConfigError: a value is not a number, or an unknown profile.
     """
-    raw_friction = values.get("friction", DEFAULTS["friction"])
-    try:
-        friction = float(raw_friction)
-    except (TypeError, ValueError):
-        raise ConfigError(field="friction", value=raw_friction, expected="a number") from None
-    friction = min(1.5, max(0.01, friction))
+    check_profile(profile, "profile")
+    friction = _friction(values)
     wet = _fraction(values, "wetness")
     rain = _fraction(values, "precipitation")
     deposits = _fraction(values, "precipitation_deposits")
@@ -118,7 +186,8 @@ def conditions_from_values(values: Mapping[str, Any], *, wind_direction: float =
     except (TypeError, ValueError):
         raise ConfigError(field="fog_distance", value=fog_distance_raw, expected="metres") from None
 
-    mu = friction * (1.0 - WET_LOSS * wet - RAIN_LOSS * rain - DEPOSIT_LOSS * deposits)
+    physical = profile == "physical"
+    mu = friction * road_grip_factor(wet, rain, deposits) if physical else friction
     beta = CLEAR_AIR_BETA + FOG_BETA_MAX * fog
     illumination = 1.0 - KASTEN_A * cloud**KASTEN_B
     rain_noise = 1.0 - (
@@ -137,6 +206,6 @@ def conditions_from_values(values: Mapping[str, Any], *, wind_direction: float =
         illumination=illumination,
         rain_noise=rain_noise,
         wind_speed=wind_speed,
-        wind_lateral_accel=side_force_accel(wind_speed) * _RMS_SIN2,
+        wind_lateral_accel=side_force_accel(wind_speed) * _RMS_SIN2 if physical else 0.0,
         raw=raw,
     )

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import sys
 import textwrap
 import time
@@ -12,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from needs import missing, need_program
 
 from sitcov.av import EgoState, Observation, RunInfo, make_stack
 from sitcov.av._external import ExternalProcessStack
@@ -66,7 +66,8 @@ def alive(pid: int) -> bool:
     return stat is not None and stat[0] != "Z"
 
 
-pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+if not Path("/proc/self/stat").exists():  # the process checks read Linux's /proc
+    missing("Linux /proc is not available")
 
 
 @pytest.fixture(autouse=True)
@@ -207,8 +208,8 @@ def test_handshake_round_trip_and_clipping(script: Path) -> None:
 
 @pytest.mark.parametrize("example", sorted(EXAMPLES))
 def test_example_stacks_follow_the_route_and_brake(example: str) -> None:
-    if example == "node" and shutil.which("node") is None:
-        pytest.skip("node is not installed")
+    if example == "node":
+        need_program("node")
     stack = ExternalProcessStack(EXAMPLES[example], step_timeout=5.0)
     try:
         stack.reset(info())
@@ -454,8 +455,7 @@ def _campaign(tmp_path: Path, name: str, av: str, **options):
 
 def test_campaigns_with_python_and_node_stacks_agree(tmp_path: Path) -> None:
     """The same stack in two languages: every stored run has the identical outcome."""
-    if shutil.which("node") is None:
-        pytest.skip("node is not installed")
+    need_program("node")
     runs = {}
     for lang in ("python", "node"):
         av = "cmd:" + " ".join(EXAMPLES[lang])

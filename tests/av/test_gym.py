@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from needs import need_module
 
-gym = pytest.importorskip("gymnasium", reason="the gym extra (gymnasium) is not installed")
+gym = need_module("gymnasium", "gym")
 
 from sitcov.av import ENV_ID, PolicyStack, TJunctionEnv  # noqa: E402
 from sitcov.errors import ConfigError  # noqa: E402

@@ -43,15 +43,24 @@ def test_aeb_truth_table(case):
     assert aeb_test(d, W, 0.5, (0.05, 0.98), 0.35) is f3
 
 
-@pytest.mark.parametrize("fault", [None, "f1", "f2", "f3"])
+@pytest.mark.parametrize("fault", [None, "f1-raw", "f2", "f3"])
 @pytest.mark.parametrize("index", range(len(CASES)))
 def test_stack_uses_the_fault_values(fault, index):
-    d, *expected = CASES[index]
-    want = expected[[None, "f1", "f2", "f3"].index(fault)]
+    d, *expected = CASES[index]  # the f1 column is the paper's raw 0.95: fault f1-raw
+    want = expected[[None, "f1-raw", "f2", "f3"].index(fault)]
     stack = _started(ReferenceStack(fault=fault))
     control = stack.step(_obs(1.0, (d,)))
     assert (control.brake == 1.0) is want
     assert stack.aeb_fired is want
+
+
+def test_f1_fires_exactly_from_its_computed_threshold():
+    theta = ReferenceStack(fault="f1").params["threshold"]
+    assert 0.5 < theta < 0.95
+    for score, want in ((theta, True), (theta - 1e-3, False), (0.5, False), (0.9, True)):
+        stack = _started(ReferenceStack(fault="f1"))
+        stack.step(_obs(1.0, (det(0.5, 0.30, score),)))
+        assert stack.aeb_fired is want
 
 
 def _started(stack: ReferenceStack) -> ReferenceStack:

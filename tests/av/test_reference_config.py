@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 
 import pytest
 
@@ -15,23 +18,31 @@ from sitcov.av import (
     ReferenceStack,
     make_stack,
 )
+from sitcov.av._fault_map import f1_threshold
+from sitcov.av._faults import fault_overrides
 from sitcov.errors import ConfigError, UnknownPluginError
 
 
-def test_faults_are_the_papers_values():
-    assert FAULTS == {
-        "f1": {"threshold": 0.95},
-        "f2": {"centering": (0.3, 0.6)},
-        "f3": {"distance": 0.35},
-    }
-    assert set(FAULT_DESCRIPTIONS) == set(FAULTS)
+def test_geometric_faults_and_f1_raw_are_the_papers_values():
+    assert fault_overrides("f1-raw") == {"threshold": 0.95}
+    assert fault_overrides("f2") == {"centering": (0.3, 0.6)}
+    assert fault_overrides("f3") == {"distance": 0.35}
+    assert set(FAULT_DESCRIPTIONS) == set(FAULTS) == {"f1", "f1-raw", "f2", "f3"}
+    assert "0.95" in FAULT_DESCRIPTIONS["f1-raw"] and "PEM" in FAULT_DESCRIPTIONS["f1"]
+
+
+def test_f1_is_computed_from_the_detector_model():
+    # stricter than nominal, below what our detector never reaches; see test_fault_map.py
+    assert 0.5 < fault_overrides("f1")["threshold"] == f1_threshold() < 0.95
+    assert ReferenceStack(fault="f1").params["threshold"] == f1_threshold()
+    assert ReferenceStack(fault="f1-raw").params["threshold"] == 0.95
 
 
 @pytest.mark.parametrize("fault", sorted(FAULTS))
 def test_config_reports_fault_and_effective_params(fault):
     cfg = ReferenceStack(fault=fault).config()
     assert cfg["name"] == "reference" and cfg["fault"] == fault
-    ((name, value),) = FAULTS[fault].items()
+    ((name, value),) = fault_overrides(fault).items()
     assert cfg["params"][name] == (list(value) if isinstance(value, tuple) else value)
     json.dumps(cfg)  # stored with every run
 
@@ -45,8 +56,9 @@ def test_params_override_defaults_and_faults():
 
 
 def test_unknown_fault_lists_the_allowed_ones():
-    with pytest.raises(ConfigError, match=r"'f9'.*f1, f2, f3"):
+    with pytest.raises(ConfigError, match=r"'f9'.*f1, f1-raw, f2, f3") as info:
         ReferenceStack(fault="f9")
+    assert "\n" not in str(info.value) and info.value.field == "fault"
 
 
 def test_unknown_param_lists_the_allowed_ones():
@@ -97,3 +109,23 @@ def test_make_stack_errors():
     with pytest.raises(ConfigError, match="does not take 'fault'"):
         make_stack(f"{__name__}:_Plain", fault="f1")
     assert isinstance(make_stack(f"{__name__}:_Plain"), _Plain)
+
+
+def _sitcov(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-c", "from sitcov.cli import main; main()", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "COLUMNS": "200"},
+    )
+
+
+def test_cli_unknown_fault_is_one_line_and_help_says_which_f1_is_which():
+    result = _sitcov("bench", "--fault", "f9", "-n", "1")
+    assert result.returncode == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert lines == ["error: unknown fault 'f9'; expected one of: f1, f1-raw, f2, f3 (or none)"]
+    help_text = " ".join(_sitcov("run", "--help").stdout.replace("│", " ").split())
+    assert "f1-raw = the paper's raw 0.95" in help_text
+    assert "relative to our detector" in help_text

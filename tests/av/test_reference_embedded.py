@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from sitcov.av import NoPerceptionStack, ReferenceStack
 from sitcov.hyperspace import load_hyperspace
-
-embedded = pytest.importorskip("sitcov.sim.embedded")
+from sitcov.sim.embedded import EmbeddedBackend
 
 
 def _clear_situations():
@@ -23,7 +21,7 @@ def _clear_situations():
 
 
 def test_aeb_prevents_most_collisions_that_a_blind_stack_has():
-    backend = embedded.EmbeddedBackend()
+    backend = EmbeddedBackend()
     situations = _clear_situations()
     seeing = [backend.run(s, ReferenceStack(), 1) for s in situations]
     blind = [backend.run(s, NoPerceptionStack(), 1) for s in situations]
@@ -34,7 +32,7 @@ def test_aeb_prevents_most_collisions_that_a_blind_stack_has():
 
 
 def test_runs_are_reproducible_with_a_reused_stack():
-    backend = embedded.EmbeddedBackend()
+    backend = EmbeddedBackend()
     situation = _clear_situations()[4]
     stack = ReferenceStack(fault="f2")
     first = backend.run(situation, stack, 7)

@@ -10,6 +10,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK
+from needs import need_module
 
 from sitcov.cli import main
 
@@ -94,7 +95,7 @@ def test_exports(db, capsys, tmp_path):
         k: rows[5][f"bin.{k}"] for k in data["runs"][5]["situation"]["bins"]
     }
 
-    pq = pytest.importorskip("pyarrow.parquet")
+    pq = need_module("pyarrow.parquet", "parquet")
     out_file = tmp_path / "runs.parquet"
     code, _, _ = sitcov(
         capsys, "export", "--db", str(path), "--format", "parquet", "--out", str(out_file)

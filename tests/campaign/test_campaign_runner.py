@@ -71,11 +71,14 @@ def test_raising_runs_are_errors_and_the_rest_complete(executor, source):
     assert [r.index for r in runs if r.status == "error"] == expected_errors
     for r in runs:
         if r.status == "error":
-            assert r.outcome.message == (
+            head, _, trace = r.outcome.message.partition("\n")
+            assert head == (
                 f"ValueError: fake stack refused seed {r.seed}"
                 if source == "stack"
                 else f"RuntimeError: fake backend exploded on seed {r.seed}"
             )
+            assert trace.startswith("Traceback (most recent call last):")
+            assert "campaign_fakes.py" in trace and trace.endswith(head)
         else:
             assert r.outcome == fake_outcome(r.situation, r.seed)
     assert result.errors == len(expected_errors) and result.counts["pending"] == 0

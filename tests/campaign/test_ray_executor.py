@@ -5,11 +5,12 @@ from __future__ import annotations
 import pytest
 from campaign_fakes import raises
 from campaign_helpers import db_rows, fake_config
+from needs import need_module
 
 from sitcov.campaign import open_store, run_campaign
 from sitcov.campaign._summary import summarize_store
 
-ray = pytest.importorskip("ray", reason="the ray extra is not installed")
+ray = need_module("ray", "ray")
 
 
 @pytest.fixture(scope="module", autouse=True)

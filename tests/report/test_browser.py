@@ -3,17 +3,16 @@ and the screenshot shows a rendered page (not a blank one)."""
 
 from __future__ import annotations
 
-import shutil
 import subprocess
 
 import pytest
+from needs import need_program
 from report_fakes import add_campaign
 
 from sitcov.report import build_report
 
 pytestmark = pytest.mark.browser
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
 #: Flags for a quiet, offline, sandbox-free headless run (CI containers run as root).
 FLAGS = [
     "--headless",
@@ -29,8 +28,8 @@ FLAGS = [
 ]
 
 
-@pytest.mark.skipif(CHROMIUM is None, reason="chromium is not on PATH (CI installs Debian's)")
 def test_report_renders_in_headless_chromium(make_db, tmp_path):
+    chromium = need_program("chromium", "chromium-browser")  # CI installs Debian's
     from PIL import Image, ImageStat
 
     def build(store):
@@ -42,7 +41,7 @@ def test_report_renders_in_headless_chromium(make_db, tmp_path):
     shot = tmp_path / "shot.png"
     proc = subprocess.run(
         [
-            CHROMIUM,
+            chromium,
             *FLAGS,
             f"--user-data-dir={tmp_path / 'profile'}",
             f"--screenshot={shot}",

@@ -120,7 +120,7 @@ def test_ego_reaches_goal_when_ov_gives_way() -> None:
 
 
 def test_wind_disturbs_both_vehicles() -> None:
-    backend = EmbeddedBackend(adversary={"switch_distance": 1e9})
+    backend = EmbeddedBackend(adversary={"switch_distance": 1e9}, physics="physical")
     calm = backend.run(make_situation(4), NoPerceptionStack(), 5, record=True)
     windy = backend.run(
         make_situation(4, wind_intensity=100.0), NoPerceptionStack(), 5, record=True
@@ -163,8 +163,6 @@ def test_errors_are_config_errors() -> None:
 
 
 def test_camera_mode_passes_images() -> None:
-    pytest.importorskip("sitcov.perception._renderer")
-
     class Looker(StandStill):
         def __init__(self) -> None:
             super().__init__()

@@ -22,7 +22,7 @@ import numpy as np
 from sitcov.av._base import EgoState, Observation, RunInfo
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
 from sitcov.sim._base import Backend, Outcome
-from sitcov.sim._conditions import WEATHER_ELEMENTS
+from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
 from sitcov.sim.carla._geometry import plan_route, to_sitcov
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
 from sitcov.sim.carla._metrics import MetricTracker, VehicleState
@@ -61,6 +61,10 @@ class CarlaBackend(Backend):
             ``trigger`` (a static.trigger.friction box over the junction) or ``both``.
         camera_rate_hz: frames per second handed to the stack.
         sun_altitude: sun altitude [deg] (the paper never varied the sun).
+        physics: ``carla`` (default: the wheels' tyre friction is scaled by the friction
+            element alone; weather is rendering only) or ``physical`` (the wet-road mu of
+            ``sitcov.sim.conditions_from_values`` reaches the wheels; the crosswind force
+            is NOT applied: CARLA's weather wind moves no vehicle). See docs/carla.md.
         connect: connect now (fail fast without a server) rather than at the first run.
         carla_module: the module providing the client API (tests pass a fake).
     """
@@ -81,6 +85,7 @@ class CarlaBackend(Backend):
         friction_mode: str = "wheels",
         camera_rate_hz: float = CAMERA_RATE_HZ,
         sun_altitude: float = 45.0,
+        physics: str = "carla",
         connect: bool = True,
         carla_module: Any = None,
     ) -> None:
@@ -99,6 +104,7 @@ class CarlaBackend(Backend):
         self.map: CarlaMap = load_carla_map(map)
         self.dt, self.sim_timeout = float(dt), float(sim_timeout)
         self.friction_mode = friction_mode
+        self.physics = check_profile(physics)
         self.camera_every = max(1, round(1.0 / (camera_rate_hz * self.dt)))
         self.sun_altitude = float(sun_altitude)
         self._carla = carla_module if carla_module is not None else _import_carla()
@@ -177,10 +183,19 @@ class CarlaBackend(Backend):
             name: f"carla.WeatherParameters.{name} (rendering: reaches the stack via the camera)"
             for name in WEATHER_ELEMENTS
         }
-        out["friction"] = (
-            "scales every wheel's tire_friction of ego and OV (with the wet-road factor of "
-            "sitcov.sim.conditions_from_values), read back after applying"
-        )
+        if getattr(self, "physics", "carla") == "physical":
+            out["friction"] = (
+                "scales every wheel's tire_friction of ego and OV by the physical profile's "
+                "wet-road mu (sitcov.sim.conditions_from_values), read back after applying"
+            )
+            for name in ("wetness", "precipitation", "precipitation_deposits"):
+                out[name] += "; lowers the wheels' tire_friction (wet-road mu)"
+            out["wind_intensity"] += "; no side force (CARLA's wind moves no vehicle)"
+        else:
+            out["friction"] = (
+                "scales every wheel's tire_friction of ego and OV by the friction element, "
+                "read back after applying"
+            )
         out["intsit"] = "ego/OV spawn points, routes and conflict point from the map file"
         return out
 
@@ -254,7 +269,7 @@ class CarlaBackend(Backend):
         ov_route = self._route(cmap, ov_sp, spec.goal(ov_mv))
         conflict = spec.conflict_point(label)
         weather, weather_values = self._weather(situation.values)
-        scale = friction_scale(situation.values)
+        scale = friction_scale(situation.values, self.physics)
         original = world.get_settings()
         actors: list[Any] = []
         sensors: list[Any] = []
@@ -298,10 +313,14 @@ class CarlaBackend(Backend):
                 [(x, -y) for x, y in ov_route],
                 sit_conflict,
                 friction["max_steer"],
+                switch_distance=spec.switch_distance(ego_mv, ov_mv),
             )
-            outcome = episode.drive(driver, MetricTracker(sit_conflict), ego_goal)
+            tracker = MetricTracker(list(info.route), [(x, -y) for x, y in ov_route])
+            outcome = episode.drive(driver, tracker, ego_goal)
             outcome.metrics.update(
                 friction_scale=scale,
+                physics=self.physics,
+                mu=scale * conditions_from_values({}).mu,
                 tire_friction=friction["readback"],
                 friction_mode=self.friction_mode,
                 weather=weather_values,
@@ -370,15 +389,15 @@ class CarlaBackend(Backend):
             self.close()  # a dead connection: reconnect next time
 
 
-def friction_scale(values: Mapping[str, Any]) -> float:
+def friction_scale(values: Mapping[str, Any], physics: str = "carla") -> float:
     """Factor applied to the tyres' friction: the situation's mu relative to clear, dry mu.
 
     Uses ``sitcov.sim.conditions_from_values`` so both backends share one friction model
-    (friction element × wet-road factor).
+    per physics profile: the friction element alone (``carla``), or times the wet-road
+    grip ratio (``physical``).
     """
-    from sitcov.sim._conditions import conditions_from_values
-
-    return conditions_from_values(values).mu / conditions_from_values({}).mu
+    dry = conditions_from_values({}, profile=physics).mu
+    return conditions_from_values(values, profile=physics).mu / dry
 
 
 def image_to_rgb(image: Any) -> np.ndarray:

@@ -5,6 +5,12 @@ read both vehicles' states and, every ``camera_every`` ticks, the camera image o
 ``f``; the stack turns the observation into a control; the OV driver commands the OV;
 ``world.tick()`` advances 0.05 s. Collision events arrive through the collision sensor's
 callback during the tick and are checked after it.
+
+Road departure: after each tick a :class:`RoadMonitor` asks the map whether each corner of
+the ego's bounding box lies on a driving lane (``Map.get_waypoint(location,
+project_to_road=False)`` is None off the road: sidewalk, shoulder, kerb, grass) and records
+the first time one does not, as ``metrics["road_departure_time"]``. Lane departure is not
+reported by this backend (``lane_departure_time`` is None); see docs/campaigns.md.
 """
 
 from __future__ import annotations
@@ -27,6 +33,29 @@ if TYPE_CHECKING:
     from sitcov.sim.carla._backend import CarlaBackend
     from sitcov.sim.carla._metrics import MetricTracker
     from sitcov.sim.carla._ovdriver import OVDriver
+
+
+class RoadMonitor:
+    """Records the first time a corner of the ego's box is off every driving lane."""
+
+    def __init__(self, carla: Any, carla_map: Any) -> None:
+        self.carla, self.map = carla, carla_map
+        self.time: float | None = None
+
+    def update(self, t: float, actor: Any) -> None:
+        """Check the four corners of ``actor``'s bounding box (CARLA frame)."""
+        if self.time is not None:
+            return
+        tf = actor.get_transform()
+        ext = actor.bounding_box.extent
+        yaw = math.radians(tf.rotation.yaw)
+        c, s = math.cos(yaw), math.sin(yaw)
+        x, y, z = tf.location.x, tf.location.y, tf.location.z
+        for a, b in ((ext.x, ext.y), (ext.x, -ext.y), (-ext.x, -ext.y), (-ext.x, ext.y)):
+            corner = self.carla.Location(x=x + a * c - b * s, y=y + a * s + b * c, z=z)
+            if self.map.get_waypoint(corner, project_to_road=False) is None:
+                self.time = t
+                return
 
 
 class Episode:
@@ -109,8 +138,10 @@ class Episode:
         status, reason = "pass", "sim_timeout"
         collision_time = collision_speed = None
         aeb_fired = False
+        road = RoadMonitor(carla, backend._cmap)
         while True:
             ego, ov = vehicle_state(self.ego), vehicle_state(self.ov)
+            road.update(t, self.ego)
             image = self._image(frame)
             if self.record:
                 ego_rows.append((t, ego.x, ego.y, ego.yaw, ego.speed))
@@ -172,10 +203,15 @@ class Episode:
             collision_speed=collision_speed,
             min_distance=None if math.isinf(metrics.min_distance) else metrics.min_distance,
             min_ttc=metrics.min_ttc,
-            pet=metrics.pet,
+            pet=metrics.pet(collided=collision_time is not None),
             aeb_fired=metrics.aeb_time is not None,
             aeb_time=metrics.aeb_time,
-            metrics={"ticks": step, "other_collisions": sorted(set(other_hits))},
+            metrics={
+                "ticks": step,
+                "other_collisions": sorted(set(other_hits)),
+                "road_departure_time": road.time,
+                "lane_departure_time": None,
+            },
             trace=trace,
         )
 

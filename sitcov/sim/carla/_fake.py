@@ -25,7 +25,9 @@ class Vector3D:
 
 
 class Location(Vector3D):
-    pass
+    @property
+    def z(self) -> float:
+        return self._z
 
 
 class Rotation:
@@ -233,13 +235,25 @@ class Map:
     def __init__(self, server: FakeServer, name: str) -> None:
         self._server, self.name = server, name
 
-    def get_waypoint(self, location: Location) -> Waypoint:
+    def get_waypoint(self, location: Location, project_to_road: bool = True) -> Waypoint | None:
+        if not project_to_road and not self._on_road(location.x, location.y):
+            return None  # as CARLA: no driving lane at this location
         best, best_d = 0, math.inf
         for i, (start, _end, _) in enumerate(self._server._lanes):
             d = math.hypot(start[0] - location.x, start[1] - location.y)
             if d < best_d:
                 best, best_d = i, d
         return Waypoint(self._server, best, 0.0)
+
+    def _on_road(self, x: float, y: float) -> bool:
+        """Within ``FakeServer.road_half_width`` of a lane of the fake lane graph."""
+        for (ax, ay), (bx, by), _ in self._server._lanes:
+            dx, dy = bx - ax, by - ay
+            f = ((x - ax) * dx + (y - ay) * dy) / max(dx * dx + dy * dy, 1e-12)
+            f = min(1.0, max(0.0, f))
+            if math.hypot(ax + f * dx - x, ay + f * dy - y) <= self._server.road_half_width:
+                return True
+        return False
 
 
 class World:
@@ -307,6 +321,7 @@ class FakeServer:
         self.fail_ticks = 0  # the next N ticks raise a time-out
         self.collide_at_tick: int | None = None  # counted from the last vehicle spawn
         self.collision_radius = 3.0  # centres closer than this collide [m]
+        self.road_half_width = 3.5  # driving lanes reach this far from a lane's line [m]
         self.log: list[tuple] = []
         self.weather: dict[str, float] = {}
         self.frame = 0

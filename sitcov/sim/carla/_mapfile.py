@@ -2,7 +2,8 @@
 
 A map file is YAML, in CARLA's own coordinates (x, y [m]; yaw [deg], left-handed as CARLA
 reports them), so positions can be copied from the simulator. ``maps/town03.yaml`` holds the
-paper's Town03 T-junction (DESIGN §2); another junction or town is another file::
+paper's Town03 T-junction (from the authors' released code); another junction or town is
+another file::
 
     name: town03-t-junction
     town: Town03
@@ -65,6 +66,9 @@ class CarlaMap(_Strict):
     ov_blueprint: str = "vehicle.audi.tt"
     goal_tolerance: float = Field(default=3.0, gt=0)
     source: str = ""
+    #: "EGO/OV" -> the ego's distance to the conflict point [m] at which the OV stops
+    #: synchronising (sitcov.sim._adversary); situations without an entry use the fallback.
+    switch_distances: dict[str, float] = Field(default_factory=dict)
 
     @model_validator(mode="after")
     def _legs_consistent(self) -> CarlaMap:
@@ -108,6 +112,10 @@ class CarlaMap(_Strict):
                 expected=f"one of {sorted(self.conflict_points)} (map {self.name!r})",
             )
         return self.conflict_points[label]
+
+    def switch_distance(self, ego_move: str, ov_move: str) -> float | None:
+        """The situation's ``switch_distances`` entry [m], or None if the file has none."""
+        return self.switch_distances.get(f"{ego_move}/{ov_move}")
 
     def _spawn(self, table: dict[str, SpawnPoint], movement: str, field: str) -> SpawnPoint:
         start, _ = _split(movement)

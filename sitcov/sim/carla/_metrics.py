@@ -1,21 +1,24 @@
 """Criticality metrics of a CARLA run, accumulated tick by tick (sitcov frame).
 
-The same quantities as the embedded backend reports: minimum distance between the two
-vehicle boxes, minimum constant-velocity time-to-collision, post-encroachment time at the
-conflict point, the AEB's first firing, and the relative speed at a collision.
+The same quantities, with the same definitions, as the embedded backend reports: minimum
+distance between the two vehicle boxes, minimum time-to-collision and post-encroachment
+time as :mod:`sitcov.sim._metrics` defines them, the AEB's first firing, and the relative
+speed at a collision.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any
 
+from sitcov.sim._metrics import (
+    disc_radius,
+    post_encroachment_time,
+    time_to_collision,
+    zone_clocks,
+)
 from sitcov.sim.carla._geometry import box_corners, box_distance
-
-#: A vehicle "occupies" the conflict point while its centre is within this radius [m].
-CONFLICT_RADIUS = 2.5
-#: Closing speeds below this do not define a time-to-collision [m/s].
-MIN_CLOSING_SPEED = 0.1
 
 
 @dataclass
@@ -38,43 +41,57 @@ class VehicleState:
 
 @dataclass
 class MetricTracker:
-    """Accumulates the run's metrics; call :meth:`update` once per tick."""
+    """Accumulates the run's metrics; call :meth:`update` once per tick.
 
-    conflict: tuple[float, float]
+    ``min_ttc`` and ``pet`` follow the one definition of :mod:`sitcov.sim._metrics` (the
+    embedded backend's): disc time-to-collision, and PET at the conflict zone where the
+    two routes' swept paths overlap, timed by each vehicle's arc length on its route.
+
+    Args:
+        ego_route, ov_route: the vehicles' routes, (x, y) [m] in the sitcov frame.
+    """
+
+    ego_route: list[tuple[float, float]]
+    ov_route: list[tuple[float, float]]
     min_distance: float = math.inf
     min_ttc: float | None = None
     aeb_time: float | None = None
-    # time intervals [s] each vehicle's centre spent inside the conflict radius
-    _ego_in: list[float] = field(default_factory=list)
-    _ov_in: list[float] = field(default_factory=list)
+    _zone: Any = None  # (ego path, OV path, ego clock, OV clock, hints), built on first tick
+
+    def _zones(self, ego: VehicleState, ov: VehicleState) -> Any:
+        """The routes as paths and the conflict-zone clocks (needs the vehicles' sizes)."""
+        if self._zone is None:
+            from sitcov.sim.embedded._map import find_conflict
+            from sitcov.sim.embedded._path import Path
+
+            e_path, o_path = Path.from_points(self.ego_route), Path.from_points(self.ov_route)
+            conflict = find_conflict(e_path, o_path, ego.half_width + ov.half_width)
+            clocks = zone_clocks(conflict, ego.half_length, ov.half_length)
+            self._zone = [e_path, o_path, *clocks, 0, 0]
+        return self._zone
 
     def update(self, t: float, ego: VehicleState, ov: VehicleState) -> None:
         """Add the tick at time ``t`` [s] (the AEB time is set by the caller)."""
         a = box_corners(ego.x, ego.y, ego.yaw, ego.half_length, ego.half_width)
         b = box_corners(ov.x, ov.y, ov.yaw, ov.half_length, ov.half_width)
-        gap = box_distance(a, b)
-        self.min_distance = min(self.min_distance, gap)
-        dx, dy = ov.x - ego.x, ov.y - ego.y
-        centre = math.hypot(dx, dy)
-        if centre > 0:
-            closing = -((dx * (ov.vx - ego.vx) + dy * (ov.vy - ego.vy)) / centre)
-            if closing > MIN_CLOSING_SPEED:
-                ttc = gap / closing
-                self.min_ttc = ttc if self.min_ttc is None else min(self.min_ttc, ttc)
-        cx, cy = self.conflict
-        if math.hypot(ego.x - cx, ego.y - cy) <= CONFLICT_RADIUS:
-            self._ego_in.append(t)
-        if math.hypot(ov.x - cx, ov.y - cy) <= CONFLICT_RADIUS:
-            self._ov_in.append(t)
+        self.min_distance = min(self.min_distance, box_distance(a, b))
+        radius = disc_radius(2 * ego.half_length, 2 * ego.half_width) + disc_radius(
+            2 * ov.half_length, 2 * ov.half_width
+        )
+        ttc = time_to_collision(ov.x - ego.x, ov.y - ego.y, ov.vx - ego.vx, ov.vy - ego.vy, radius)
+        if ttc is not None:
+            self.min_ttc = ttc if self.min_ttc is None else min(self.min_ttc, ttc)
+        zone = self._zones(ego, ov)
+        s_e, zone[4] = zone[0].track(ego.x, ego.y, zone[4])
+        s_o, zone[5] = zone[1].track(ov.x, ov.y, zone[5])
+        zone[2].update(t, s_e)
+        zone[3].update(t, s_o)
 
-    @property
-    def pet(self) -> float | None:
-        """Post-encroachment time [s]: from the first vehicle leaving the conflict point to
-        the second reaching it (0 if they were there together); None unless both passed."""
-        if not self._ego_in or not self._ov_in:
+    def pet(self, collided: bool) -> float | None:
+        """Post-encroachment time [s] (:func:`sitcov.sim._metrics.post_encroachment_time`)."""
+        if self._zone is None:
             return None
-        first, second = sorted((self._ego_in, self._ov_in), key=lambda ts: ts[0])
-        return max(0.0, second[0] - first[-1])
+        return post_encroachment_time(self._zone[2], self._zone[3], collided)
 
 
 def relative_speed(ego: VehicleState, ov: VehicleState) -> float:

@@ -10,7 +10,12 @@ from __future__ import annotations
 
 import math
 
-from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit
+from sitcov.sim._adversary import (
+    AdversaryController,
+    AdversaryParams,
+    pure_pursuit,
+    with_switch_distance,
+)
 
 #: Wheelbase used by pure pursuit [m] (a mid-size car; CARLA does not report it).
 WHEELBASE = 2.8
@@ -65,6 +70,9 @@ class OVDriver:
         conflict: conflict point (x, y) [m].
         max_steer: the OV's maximum road-wheel angle [rad] (steer 1.0).
         params: adversary tuning (default: the shared defaults).
+        switch_distance: the situation's switch distance [m] (the map file's
+            ``switch_distances`` entry: where the paper's Town03 trigger box ended the
+            synchronisation); used unless ``params`` fix their own.
     """
 
     def __init__(
@@ -74,10 +82,13 @@ class OVDriver:
         conflict: tuple[float, float],
         max_steer: float = math.radians(70.0),
         params: AdversaryParams | None = None,
+        switch_distance: float | None = None,
     ) -> None:
         self.ego = RouteProgress(ego_route, conflict)
         self.ov = RouteProgress(ov_route, conflict)
-        self.controller = AdversaryController(params)
+        self.controller = AdversaryController(
+            with_switch_distance(params or AdversaryParams(), switch_distance)
+        )
         self.max_steer = max_steer
         self.released_at: float | None = None
 

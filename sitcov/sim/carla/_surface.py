@@ -55,7 +55,7 @@ SURFACE: dict[str, Use] = {
     "WeatherParameters": Use("new", keywords=(*WEATHER_ELEMENTS, "sun_altitude_angle")),
     # map and routes
     "Map.name": GET,
-    "Map.get_waypoint": Use("call", 1),
+    "Map.get_waypoint": Use("call", 1, ("project_to_road",)),
     "Waypoint.transform": GET,
     "Waypoint.next": Use("call", 1),
     "Waypoint.road_id": GET,
@@ -70,6 +70,7 @@ SURFACE: dict[str, Use] = {
     "Location": Use("new", keywords=("x", "y", "z")),
     "Location.x": GET,
     "Location.y": GET,
+    "Location.z": GET,
     "Rotation": Use("new", keywords=("pitch", "yaw", "roll")),
     "Rotation.yaw": GET,
     "Transform": Use("new", 2),

@@ -184,9 +184,9 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     ego_event.add_action("hero_speed", speed(EGO_SPEED))
     ego_event.add_trigger(start)
 
-    from sitcov.sim._adversary import AdversaryParams
+    from sitcov.sim._adversary import FALLBACK_SWITCH_DISTANCE
 
-    switch = AdversaryParams().switch_distance
+    switch = spec.switch_distance(ego_mv, ov_mv) or FALLBACK_SWITCH_DISTANCE
     ov_go = xosc.Event("adversary_approach", xosc.Priority.overwrite)
     ov_go.add_action("adversary_timed_speed", speed(v_ov))
     ov_go.add_trigger(

@@ -3,7 +3,10 @@
 One run: conditions from the situation's weather values, routes and conflict point from
 its intersection situation, the AV stack drives the ego from simulated perception (a
 perception error model, or rendered frames in camera mode), the adversarial OV times its
-arrival at the conflict point, and the run is judged by collision. Everything random
+arrival at the conflict point. The run ends at a collision, the goal, a standstill that
+nothing can change, or the time limit; monitors record when the ego first left its lane
+or the road. What counts as a failure is the campaign's judge (``sitcov.sim.Judge``),
+applied afterwards: the backend's own ``status`` is collision-only. Everything random
 comes from ``numpy.random.default_rng(seed)``, so a (situation, seed) pair always gives
 the same outcome.
 """
@@ -11,6 +14,7 @@ the same outcome.
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -19,9 +23,21 @@ import numpy as np
 from sitcov.av._base import EgoState, Observation, RunInfo
 from sitcov.errors import ConfigError
 from sitcov.perception._base import ActorView, CameraSpec, Pose, Sensor
-from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit
+from sitcov.sim._adversary import (
+    AdversaryController,
+    AdversaryParams,
+    pure_pursuit,
+    with_switch_distance,
+)
 from sitcov.sim._base import Backend, Outcome, Trace
-from sitcov.sim._conditions import AIR_DENSITY, SIDE_AREA, SIDE_FORCE_COEFF, conditions_from_values
+from sitcov.sim._conditions import (
+    AIR_DENSITY,
+    SIDE_AREA,
+    SIDE_FORCE_COEFF,
+    check_profile,
+    conditions_from_values,
+)
+from sitcov.sim._metrics import PET_ZONE, post_encroachment_time
 from sitcov.sim.embedded._collision import (
     box_distance,
     corridor_gap,
@@ -30,6 +46,11 @@ from sitcov.sim.embedded._collision import (
 )
 from sitcov.sim.embedded._dynamics import G, Vehicle, default_params
 from sitcov.sim.embedded._map import MAPS_DIR, JunctionMap, load_map
+from sitcov.sim.embedded._monitors import (
+    LANE_TOLERANCE,
+    LaneDepartureMonitor,
+    RoadDepartureMonitor,
+)
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
@@ -42,8 +63,6 @@ GUST_INTENSITY = 0.3
 GUST_TIME = 2.0
 #: Ego speed below which it counts as stopped [m/s].
 STOPPED_SPEED = 0.05
-#: Length of the conflict zone used for PET along each route, at most [m].
-PET_ZONE = 5.0
 #: The ego has reached its goal within this arc length of the route's end [m].
 GOAL_TOLERANCE = 1.5
 #: Safety factor on the friction an OV needs to hold its lane (for the early end) [-].
@@ -53,17 +72,49 @@ CORRIDOR_MARGIN = 1.0
 #: Centre distance beyond which the box distance is evaluated every other step [m].
 FAR = 15.0
 
-ELEMENT_EFFECTS = {
-    "friction": "scales the tyre-road friction mu (dynamics: braking, cornering limit)",
-    "wetness": "lowers mu by up to 30 %; adds glare to perception noise",
-    "precipitation": "lowers mu by up to 10 %; rain streaks in perception noise; rain angle",
-    "precipitation_deposits": "lowers mu by up to 15 % (puddles); spray in perception noise",
+_PERCEPTION_EFFECTS = {
     "fog_density": "fog extinction coefficient (Koschmieder), lowers detection contrast",
     "fog_distance": "distance at which the fog starts [m]",
     "cloudiness": "scene illumination (Kasten-Czeplak), lowers image contrast",
-    "wind_intensity": "mean wind speed and gusty crosswind force on ego and OV; rain angle",
     "intsit": "ego and OV routes and their conflict point",
 }
+#: What each element does, per physics profile (``docs/weather.md`` has the table).
+ELEMENT_EFFECTS: dict[str, dict[str, str]] = {
+    "carla": {
+        "friction": "the tyre-road friction mu itself (dynamics: braking, cornering limit)",
+        "wetness": "perception only: glare in perception noise (mu unchanged, as in CARLA)",
+        "precipitation": "perception only: rain streaks in perception noise; rain angle",
+        "precipitation_deposits": "perception only: spray in perception noise",
+        "wind_intensity": "perception only: slants the rain (no force, as in CARLA)",
+        **_PERCEPTION_EFFECTS,
+    },
+    "physical": {
+        "friction": "dry-road tyre-road friction, times the wet-road grip ratio = mu",
+        "wetness": "water film up to 0.25 mm: mu x 0.61 at 100; glare in perception noise",
+        "precipitation": "rain film up to 1 mm: mu x 0.55 at 100; rain streaks; rain angle",
+        "precipitation_deposits": "share of road under puddles (mu x 0.55 there); spray",
+        "wind_intensity": "gusty crosswind side force on ego and OV; rain angle",
+        **_PERCEPTION_EFFECTS,
+    },
+}
+#: Default perception and brake actuation delays [s] per physics profile: none in
+#: ``carla`` (CARLA applies a control at the next tick, as here); in ``physical`` the
+#: brake takes 0.2 s to build up (modern passenger-car brakes, the value German accident
+#: reconstruction uses; EEC 71/320 allows up to 0.36 s for M1 vehicles).
+DEFAULT_DELAYS: dict[str, tuple[float, float]] = {"carla": (0.0, 0.0), "physical": (0.0, 0.2)}
+
+
+def _delay(field: str, value: float | None, default: float) -> float:
+    """A delay option [s]: ``default`` when None, else a finite number >= 0."""
+    if value is None:
+        return default
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ConfigError(field=field, value=value, expected="seconds >= 0") from None
+    if not (math.isfinite(number) and number >= 0.0):
+        raise ConfigError(field=field, value=value, expected="seconds >= 0")
+    return number
 
 
 class EmbeddedBackend(Backend):
@@ -79,7 +130,14 @@ class EmbeddedBackend(Backend):
         sim_timeout: simulated time after which a run ends as a pass [s].
         grey_box: give the stack the full situation in ``RunInfo``.
         adversary: AdversaryParams, or a mapping of its fields.
-        wind: False switches the crosswind disturbance off (for tests).
+        wind: False switches the crosswind force off (it exists only in ``physical``).
+        physics: ``carla`` (default: weather acts on perception only, friction is the
+            friction element, as in CARLA 0.9.x) or ``physical`` (wet-road grip loss and
+            crosswind force too); see ``docs/weather.md``.
+        perception_delay: seconds between a frame's capture and the stack receiving it
+            (default 0: a property of the stack under test, set it to model its latency).
+        brake_delay: seconds between the ego's brake command and its effect (default:
+            ``DEFAULT_DELAYS`` of the profile: 0 in ``carla``, 0.2 s in ``physical``).
         early_end: end a run as ``stopped`` as soon as nothing can change any more
             (False runs on to the goal or the timeout; verdicts are the same, slower).
         frame_gate: camera mode: render and detect a frame only if some vehicle's true
@@ -103,7 +161,14 @@ class EmbeddedBackend(Backend):
         wind: bool = True,
         early_end: bool = True,
         frame_gate: float = 0.5,
+        physics: str = "carla",
+        perception_delay: float | None = None,
+        brake_delay: float | None = None,
     ) -> None:
+        self.physics = check_profile(physics)
+        defaults = DEFAULT_DELAYS[self.physics]
+        self.perception_delay = _delay("perception_delay", perception_delay, defaults[0])
+        self.brake_delay = _delay("brake_delay", brake_delay, defaults[1])
         if perception not in ("pem", "camera"):
             raise ConfigError(field="perception", value=perception, expected="pem | camera")
         if not 0.0 <= frame_gate <= 1.0:
@@ -139,8 +204,8 @@ class EmbeddedBackend(Backend):
         self._geometry: dict[str, Any] | None = None
 
     def effects(self) -> dict[str, str]:
-        """Every element this backend uses, and how."""
-        return dict(ELEMENT_EFFECTS)
+        """Every element this backend uses, and how (in this backend's physics profile)."""
+        return dict(ELEMENT_EFFECTS[self.physics])
 
     # --- helpers ----------------------------------------------------------------------------
 
@@ -219,7 +284,7 @@ class EmbeddedBackend(Backend):
         values = situation.values
         intsit = self._intsit(situation)
         wind_direction = float(rng.uniform(-math.pi, math.pi))
-        cond = conditions_from_values(values, wind_direction=wind_direction)
+        cond = conditions_from_values(values, wind_direction=wind_direction, profile=self.physics)
         vp = self.vehicle
         scen = self.map.scenario(intsit["ego"], intsit["ov"], vp.width, vp.width)
         er, orr = scen.ego_route, scen.ov_route
@@ -234,7 +299,8 @@ class EmbeddedBackend(Backend):
         gust_noise = rng.standard_normal(n_max + 1).tolist()
         phi = math.exp(-dt / GUST_TIME)
         gust_scale = GUST_INTENSITY * math.sqrt(1.0 - phi * phi)
-        wind_mean = cond.wind_speed if self.wind else 0.0
+        # carla profile: no wind force (the noise is drawn all the same: same streams)
+        wind_mean = cond.wind_speed if self.wind and self.physics == "physical" else 0.0
         wind_k = 0.5 * AIR_DENSITY * SIDE_FORCE_COEFF * SIDE_AREA / vp.mass
         gust = GUST_INTENSITY * gust_noise[0]
 
@@ -242,7 +308,8 @@ class EmbeddedBackend(Backend):
         ego = Vehicle(vp, ex, ey, eh)
         ox, oy, oh = orr.point_at(0.0)
         ov = Vehicle(vp, ox, oy, oh)
-        adv = AdversaryController(self.adversary, has_conflict=conflict is not None)
+        adv_params = with_switch_distance(self.adversary, self.map.switch_distance(scen))
+        adv = AdversaryController(adv_params, has_conflict=conflict is not None)
         s_conf_e = conflict.s_ego if conflict else math.inf
         s_conf_o = conflict.s_ov if conflict else math.inf
         zone_e = min(conflict.s_ego_end, s_conf_e + PET_ZONE) if conflict else math.inf
@@ -269,6 +336,12 @@ class EmbeddedBackend(Backend):
         diag2 = 2.0 * math.hypot(half_l, half_w)
         mu = cond.mu
         steer_max, lr, wb = vp.steer_max, vp.lr, vp.wheelbase
+        # delays in whole control periods: frames wait in ``frames`` until their delivery
+        # step, brake commands in ``brakes`` (pre-filled with "no brake")
+        delay_p = round(self.perception_delay / dt)
+        delay_b = round(self.brake_delay / dt)
+        frames: deque[tuple[int, Any, Any]] = deque()
+        brakes: deque[float] = deque([0.0] * delay_b)
 
         s_e = s_o = 0.0
         hint_e = hint_o = 0
@@ -279,7 +352,12 @@ class EmbeddedBackend(Backend):
         enter_e = exit_e = enter_o = exit_o = None
         collision_speed: float | None = None
         max_lat = 0.0
+        lane_mon = LaneDepartureMonitor(0.5 * (self.map.lane_width - vp.width) + LANE_TOLERANCE)
+        left, right = self.map.clearance(er)
+        road_mon = RoadDepartureMonitor(self.map.drivable_area, er.hs, left, right, half_l, half_w)
+        monitors = (lane_mon, road_mon)
         switch_time: float | None = None
+        switch_gap: float | None = None  # ego's distance to the conflict at the switch [m]
         prev_gap = math.inf
         clear: bool | None = None  # decided once the ego stands latched
         ego_rows: list[tuple[float, float, float, float, float]] = []
@@ -312,6 +390,12 @@ class EmbeddedBackend(Backend):
                     image = self._frame(camera, pose, actors, cond, frame_rng)
                 else:
                     detections = ()  # camera mode, no vehicle in view (see _needs_frame)
+            if delay_p:
+                if detections is not None or image is not None:
+                    frames.append((k + delay_p, detections, image))
+                detections = image = None
+                if frames and frames[0][0] == k:
+                    _, detections, image = frames.popleft()
             obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, ego_speed, t), detections, image)
             ctrl = av_stack.step(obs)
             if ctrl.info and ctrl.info.get("aeb"):
@@ -336,18 +420,24 @@ class EmbeddedBackend(Backend):
                 ov_speed = ov.speed
                 thr, brk = adv.command(s_conf_e - s_e, ego_speed, s_conf_o - s_o, ov_speed)
                 if switch_time is None and adv.phase == "cruise":
-                    switch_time = t
+                    switch_time, switch_gap = t, s_conf_e - s_e
                 look = adv.lookahead(ov_speed)
                 tx, ty, _ = orr.point_at(s_o + look)
                 c, s = math.cos(ov.yaw), math.sin(ov.yaw)
                 delta = pure_pursuit(ov.x - lr * c, ov.y - lr * s, ov.yaw, tx, ty, wb)
                 ov.step(thr, brk, delta / steer_max, mu, lat_o, dt)
-            ego.step(ctrl.throttle, ctrl.brake, ctrl.steer, mu, lat_e, dt)
+            brake = ctrl.brake
+            if delay_b:
+                brakes.append(brake)
+                brake = brakes.popleft()
+            ego.step(ctrl.throttle, brake, ctrl.steer, mu, lat_e, dt)
             t = (k + 1) * dt
             k += 1
             # --- bookkeeping ------------------------------------------------------------
             s_e, hint_e = er.track(ego.x, ego.y, hint_e)
             lat = -(ego.x - e_xs[hint_e]) * e_sin[hint_e] + (ego.y - e_ys[hint_e]) * e_cos[hint_e]
+            for mon in monitors:
+                mon.update(t, ego.x, ego.y, ego.yaw, hint_e, lat)
             lat = -lat if lat < 0.0 else lat
             if lat > max_lat:
                 max_lat = lat
@@ -423,17 +513,13 @@ class EmbeddedBackend(Backend):
             if k >= n_max:
                 break
 
-        pet = None
-        if None not in (enter_e, enter_o):
-            if enter_e <= enter_o:
-                pet = None if exit_e is None else max(0.0, enter_o - exit_e)
-            else:
-                pet = None if exit_o is None else max(0.0, enter_e - exit_o)
-            if reason == "collision":
-                pet = 0.0
+        pet = post_encroachment_time((enter_e, exit_e), (enter_o, exit_o), reason == "collision")
         metrics = {
             "steps": k,
             "mu": mu,
+            "physics": self.physics,
+            "perception_delay": self.perception_delay,
+            "brake_delay": self.brake_delay,
             "visibility": cond.visibility if math.isfinite(cond.visibility) else None,
             "wind_direction": wind_direction,
             "ego_route": intsit["ego"],
@@ -441,8 +527,12 @@ class EmbeddedBackend(Backend):
             "conflict_label": intsit["conflict"],
             "conflict_point": list(conflict.point) if conflict else None,
             "ov_switch_time": switch_time,
+            "ov_switch_distance": adv_params.switch_distance,
+            "ego_gap_at_switch": switch_gap,
             "ego_max_lateral_offset": max_lat,
-            "ego_left_lane": max_lat > 0.5 * (self.map.lane_width - vp.width) + 0.5,
+            "ego_left_lane": lane_mon.time is not None,
+            "lane_departure_time": None if lane_mon.time is None else round(lane_mon.time, 10),
+            "road_departure_time": None if road_mon.time is None else round(road_mon.time, 10),
             "ego_final_speed": ego.speed,
         }
         trace = None

@@ -15,13 +15,16 @@ def bench(
     *,
     fault: str | None = None,
     perception: str = "pem",
+    physics: str = "carla",
+    judge: str = "default",
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, Any]:
     """Run ``runs`` random default-hyperspace situations with the reference stack.
 
     Situations come from the ``random`` generator (``ask_rng(seed, i)``) and runs use
-    ``run_seed(seed, i)``, as a campaign would. Time is CPU time of this process
-    (``time.process_time``), so other load on the machine does not count against us;
+    ``run_seed(seed, i)``, as a campaign would; outcomes are judged by ``judge`` and the
+    world uses the ``physics`` profile, as in a campaign with the same settings. Time is
+    CPU time of this process (``time.process_time``), so other load does not count;
     wall time is reported too.
 
     Returns:
@@ -31,18 +34,20 @@ def bench(
     from sitcov.av import make_stack
     from sitcov.generation import make_generator
     from sitcov.hyperspace import load_hyperspace
+    from sitcov.sim._judge import Judge
     from sitcov.sim.embedded._backend import EmbeddedBackend
 
     hyperspace = load_hyperspace()
     generator = make_generator("random", hyperspace)
     situations = [generator.ask(ask_rng(seed, i)) for i in range(runs)]
-    backend = EmbeddedBackend(perception=perception)
+    backend = EmbeddedBackend(perception=perception, physics=physics)
+    verdict = Judge.from_spec(judge)
     stack = make_stack("reference", fault=fault)
     steps = failures = 0
     reasons: dict[str, int] = {}
     wall0, cpu0 = time.perf_counter(), time.process_time()
     for i, situation in enumerate(situations):
-        outcome = backend.run(situation, stack, run_seed(seed, i))
+        outcome = verdict(backend.run(situation, stack, run_seed(seed, i)))
         steps += int(outcome.metrics.get("steps", 0))
         failures += outcome.failed
         reasons[outcome.end_reason] = reasons.get(outcome.end_reason, 0) + 1

@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from sitcov.sim._metrics import time_to_collision  # noqa: F401  (shared definition)
+
 Box = tuple[float, float, float, float, float]
 
 
@@ -73,30 +75,6 @@ def box_distance(a: Box, b: Box) -> float:
         if d < best:
             best = d
     return best
-
-
-def time_to_collision(px: float, py: float, vx: float, vy: float, radius: float) -> float | None:
-    """Constant-velocity TTC of two discs [s].
-
-    Args:
-        px, py: position of the other vehicle relative to the ego [m].
-        vx, vy: its velocity relative to the ego [m/s].
-        radius: sum of the two discs' radii [m].
-
-    Returns:
-        The first time the discs touch, 0 if they already do, None if they never will.
-    """
-    c = px * px + py * py - radius * radius
-    if c <= 0.0:
-        return 0.0
-    b = px * vx + py * vy
-    if b >= 0.0:
-        return None  # not closing in
-    a = vx * vx + vy * vy
-    disc = b * b - a * c
-    if disc < 0.0:
-        return None
-    return (-b - math.sqrt(disc)) / a
 
 
 def corridor_gap(path: Any, s_from: float, box: Box) -> float:

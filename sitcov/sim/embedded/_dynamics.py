@@ -7,10 +7,16 @@ CommonRoad's functions, which are far too slow to call every 25 ms sub-step:
 - lateral tyre force ``Fy = Fy_max * tanh(C * Fz * alpha / Fy_max)``: linear with the
   cornering stiffness for small slip angles, saturating at the friction limit;
 - combined slip by a friction ellipse: ``Fy_max = sqrt((mu*Fz)^2 - Fx^2)``;
-- braking as ideal ABS (force split by axle load, each axle capped at ``mu*Fz``), so a
-  full brake decelerates at ``min(mu, brake_max) * g``; rear-wheel drive, up to ~3 m/s^2;
+- braking as ABS does it (force split by axle load, each axle's longitudinal force,
+  rolling resistance included, capped at ``ABS_SHARE * mu * Fz``), so a full brake
+  decelerates at ~``0.9 * min(mu, brake_max) * g`` and the tyres keep at least
+  ``sqrt(1 - ABS_SHARE^2) = 44 %`` of their grip for steering; the same cap holds the
+  drive (traction control); rear-wheel drive, up to ~3 m/s^2;
 - below ``V_KIN_LOW`` the kinematic single-track model, blended into the dynamic one up to
-  ``V_KIN_HIGH``, because tyre slip angles are ill-defined at walking pace.
+  ``V_KIN_HIGH``, because tyre slip angles are ill-defined at walking pace (and the
+  explicit sub-step would be unstable); the kinematic model gets its velocity change
+  from the tyres too, so its accelerations (path curvature, snapping the direction of
+  travel) never exceed ``mu * g``.
 
 See ``docs/embedded.md`` for the equations.
 """
@@ -29,6 +35,12 @@ V_KIN_LOW = 2.0
 V_KIN_HIGH = 4.0
 #: Height of a saloon car for sensors and renderers [m].
 VEHICLE_HEIGHT = 1.45
+#: Share of an axle's grip mu*Fz its longitudinal force may use (ABS / traction control)
+#: [-]. CommonRoad's own Pacejka tyre for this car (vehiclemodels parameters_vehicle2,
+#: MF combined slip) at the slip of peak braking force (~0.16, where ABS holds the
+#: wheel) and a 0.05 rad slip angle gives 0.93 of the peak braking force and 0.55 of the
+#: peak side force; the ellipse with 0.9 leaves 0.44, a little less (conservative).
+ABS_SHARE = 0.9
 
 
 @dataclass(frozen=True)
@@ -173,6 +185,8 @@ class Vehicle:
         share_f = fzf / (fzf + fzr)
         share_r = 1.0 - share_f
         muf, mur = mu * fzf, mu * fzr
+        capf, capr = ABS_SHARE * muf, ABS_SHARE * mur
+        mug = mu * G
         cos_d, sin_d, tan_d = math.cos(delta), math.sin(delta), math.tan(delta)
         cos_bk = sin_bk = 0.0
         if self.vx < V_KIN_HIGH + 1.0:  # the kinematic model may be needed this period
@@ -181,21 +195,26 @@ class Vehicle:
         for _ in range(substeps):
             vx, vy, r = self.vx, self.vy, self.r
             v = math.hypot(vx, vy)
-            # longitudinal forces: drive (rear), brake split by axle load, each axle <= mu*Fz
+            # longitudinal tyre forces: drive (rear), brake split by axle load, rolling
+            # resistance by axle load; each axle's net force within ABS_SHARE * mu * Fz
             drive = fdrive * throttle
             if v > 1.0 and drive * v > power * throttle:
                 drive = power * throttle / v
-            if drive > mur:
-                drive = mur
             fb = fbrake * brake
-            fbf, fbr = fb * share_f, fb * share_r
-            if fbf > muf:
-                fbf = muf
-            if fbr > mur - drive:
-                fbr = mur - drive
-            resist = (drag * v * v + roll) if v > 0.05 else 0.0
-            fxf = -fbf
-            fxr = drive - fbr
+            if v > 0.05:
+                fxf = -(fb + roll) * share_f
+                fxr = drive - (fb + roll) * share_r
+                resist = drag * v * v
+            else:
+                fxf = -fb * share_f
+                fxr = drive - fb * share_r
+                resist = 0.0
+            if fxf < -capf:
+                fxf = -capf
+            if fxr > capr:
+                fxr = capr
+            elif fxr < -capr:
+                fxr = -capr
             if v >= V_KIN_HIGH:
                 w = 1.0
             elif v <= V_KIN_LOW:
@@ -207,12 +226,10 @@ class Vehicle:
                 # dynamic single-track with saturating tyres
                 alpha_f = delta - math.atan2(vy + lf * r, vx)
                 alpha_r = -math.atan2(vy - lr * r, vx)
-                lim = muf * muf - fxf * fxf
-                fyf_max = math.sqrt(lim) if lim > 1.0 else 1.0
-                lim = mur * mur - fxr * fxr
-                fyr_max = math.sqrt(lim) if lim > 1.0 else 1.0
-                fyf = fyf_max * math.tanh(cf * alpha_f / fyf_max)
-                fyr = fyr_max * math.tanh(cr * alpha_r / fyr_max)
+                fyf_max = math.sqrt(muf * muf - fxf * fxf)
+                fyr_max = math.sqrt(mur * mur - fxr * fxr)
+                fyf = fyf_max * math.tanh(cf * alpha_f / fyf_max) if fyf_max > 0.0 else 0.0
+                fyr = fyr_max * math.tanh(cr * alpha_r / fyr_max) if fyr_max > 0.0 else 0.0
                 fyf_c = fxf * sin_d + fyf * cos_d
                 vx_n = vx + ((fxf * cos_d - fyf * sin_d + fxr - resist) / m + vy * r) * h
                 vy_n = vy + ((fyf_c + fyr) / m + lateral_accel - vx * r) * h
@@ -220,14 +237,23 @@ class Vehicle:
                 if vx_n < 0.0:
                     vx_n = 0.0
             if w < 1.0:
-                # kinematic single-track (speed along the body, no slip)
+                # kinematic single-track (speed along the body, no slip): the target
+                # velocity, reached only as far as the tyres' mu*g allows
                 v_kin = v + (fxf + fxr - resist) / m * h
                 if v_kin < 0.0:
                     v_kin = 0.0
-                vx_k, vy_k = v_kin * cos_bk, v_kin * sin_bk
-                if v_kin > 0.0:
-                    vy_k += lateral_accel * h
                 r_k = v_kin * cos_bk * tan_d / wb
+                if v_kin * abs(r_k) > mug:  # steady turn: v^2 * curvature <= mu*g
+                    r_k = mug / v_kin if r_k > 0.0 else -mug / v_kin
+                ax = (v_kin * cos_bk - vx) / h - vy * r  # tyre force / m needed [m/s^2]
+                ay = (v_kin * sin_bk - vy) / h + vx * r - lateral_accel
+                need = math.hypot(ax, ay)
+                if need > mug:
+                    ax, ay = ax * mug / need, ay * mug / need
+                vx_k = vx + (ax + vy * r) * h
+                vy_k = vy + (ay + lateral_accel - vx * r) * h
+                if vx_k < 0.0:
+                    vx_k = 0.0
                 if w > 0.0:
                     vx_n = w * vx_n + (1.0 - w) * vx_k
                     vy_n = w * vy_n + (1.0 - w) * vy_k

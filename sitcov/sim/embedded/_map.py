@@ -19,6 +19,7 @@ import numpy as np
 import yaml
 
 from sitcov.errors import ConfigError
+from sitcov.sim.embedded._monitors import DrivableArea, route_clearance
 from sitcov.sim.embedded._path import Path, wrap_angle
 
 MAPS_DIR = FsPath(__file__).parent / "maps"
@@ -107,6 +108,7 @@ class JunctionMap:
             "legs",
             "spawns",
             "goal_distance",
+            "switch_distances",
         }
         if unknown:
             raise ConfigError(
@@ -114,7 +116,7 @@ class JunctionMap:
                 field=sorted(unknown)[0],
                 value=None,
                 expected="one of format, name, description, lane_width, legs, "
-                "spawns, goal_distance",
+                "spawns, goal_distance, switch_distances",
             )
         if data.get("format", 1) != 1:
             raise ConfigError(file=source, field="format", value=data.get("format"), expected="1")
@@ -180,6 +182,31 @@ class JunctionMap:
                 self.spawns[role][str(leg_name)] = dist
         self._lanes = self._build_lanes()
         self.graph: dict[str, tuple[str, ...]] = self._build_graph()
+        self.switch_distances = self._switch_distances(data.get("switch_distances", {}))
+
+    def _switch_distances(self, table: Any) -> dict[str, float]:
+        """Validate ``switch_distances``: ``"EGO/OV"`` (movements of this map) -> metres."""
+        if not isinstance(table, dict):
+            raise ConfigError(
+                file=self.source,
+                field="switch_distances",
+                value=table,
+                expected='a mapping "EGO/OV" (e.g. "L-B/R-B") -> distance [m]',
+            )
+        out: dict[str, float] = {}
+        for key in table:
+            moves = [m.partition("-") for m in str(key).split("/")]
+            if len(moves) != 2 or any(
+                not sep or a not in self.legs or b not in self.legs or a == b for a, sep, b in moves
+            ):
+                raise ConfigError(
+                    file=self.source,
+                    field=f"switch_distances.{key}",
+                    value=key,
+                    expected=f'"EGO/OV" movements "X-Y" of legs {sorted(self.legs)}',
+                )
+            out[str(key)] = _number(table, key, self.source, "switch_distances.", 0.0)
+        return out
 
     # --- construction ---------------------------------------------------------------------
 
@@ -294,6 +321,24 @@ class JunctionMap:
         conflict = find_conflict(ego_route, ov_route, 0.5 * (width_ego + width_ov))
         return Scenario(ego_move, ov_move, ego_route, ov_route, conflict)
 
+    def switch_distance(self, scenario: Scenario) -> float | None:
+        """Ego's distance to the conflict point [m] at which the OV stops synchronising.
+
+        The map's ``switch_distances`` entry for the situation if it has one (the shipped
+        maps list the paper's twelve situations, derived from its Town03 trigger boxes);
+        otherwise the ego's remaining distance when it crosses the mouth of its start leg,
+        where the paper's boxes sit (just inside the junction entrance). None without a
+        conflict.
+        """
+        key = f"{scenario.ego_move}/{scenario.ov_move}"
+        if key in self.switch_distances:
+            return self.switch_distances[key]
+        if scenario.conflict is None:
+            return None
+        leg = self._parse_move(scenario.ego_move)[0]
+        s_mouth = self.spawns["ego"][leg] - self.legs[leg].mouth
+        return max(scenario.conflict.s_ego - s_mouth, 0.0)
+
     def render_geometry(self) -> dict[str, Any]:
         """Drawable geometry for renderers: road polygons, lane markings and kerbs [m]."""
         half = self.lane_width
@@ -342,6 +387,18 @@ class JunctionMap:
             if frozenset((a, b)) not in mouths:
                 kerbs.append([a, b])
         return {"road_polygons": polygons, "markings": markings, "kerbs": kerbs}
+
+    @functools.cached_property
+    def drivable_area(self) -> DrivableArea:
+        """The road surface: every leg's two lanes plus the junction area (the convex hull
+        of the leg mouths), derived from the legs as the drawn road polygons are."""
+        return DrivableArea(self.render_geometry()["road_polygons"])
+
+    @functools.lru_cache(maxsize=64)  # noqa: B019 - maps live for the process
+    def clearance(self, route: Path) -> tuple[list[float], list[float]]:
+        """Left and right extent of the drivable area around each point of ``route`` [m]
+        (see ``sitcov.sim.embedded._monitors.route_clearance``)."""
+        return route_clearance(self.drivable_area, route)
 
 
 def _straight(a: tuple[float, float], b: tuple[float, float]) -> Path:

@@ -10,6 +10,7 @@ import time
 import numpy as np
 import pytest
 from carla_testkit import WEATHER, DrivingStack, centred_car, fake_backend, situation, small_map
+from needs import need_module
 
 from sitcov.av import ReferenceStack
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
@@ -68,11 +69,27 @@ def test_run_sets_up_and_restores_the_world_and_destroys_everything(tmp_path) ->
     assert outcome.status in ("pass", "fail") and outcome.metrics["attempts"] == 1
 
 
-def test_wetness_lowers_the_friction_that_reaches_the_wheels(tmp_path) -> None:
+def test_carla_profile_wetness_leaves_the_wheels_alone(tmp_path) -> None:
+    """As CARLA itself: weather is rendering only; the friction element alone scales."""
     backend, _ = fake_backend(small_map(tmp_path))
     dry = backend.run(situation(friction=0.8, wetness=0.0), DrivingStack(), seed=1)
     wet = backend.run(situation(friction=0.8, wetness=100.0), DrivingStack(), seed=1)
+    assert wet.metrics["tire_friction"] == dry.metrics["tire_friction"]
+    assert wet.metrics["physics"] == "carla" and wet.metrics["friction_scale"] == 0.8
+
+
+def test_physical_profile_wetness_lowers_the_friction_that_reaches_the_wheels(tmp_path) -> None:
+    backend, _ = fake_backend(small_map(tmp_path), physics="physical")
+    dry = backend.run(situation(friction=0.8, wetness=0.0), DrivingStack(), seed=1)
+    wet = backend.run(situation(friction=0.8, wetness=100.0), DrivingStack(), seed=1)
     assert wet.metrics["tire_friction"][0][0] < dry.metrics["tire_friction"][0][0]
+    assert wet.metrics["physics"] == "physical" and wet.metrics["mu"] < dry.metrics["mu"]
+    assert "no side force" in backend.effects()["wind_intensity"]
+
+
+def test_unknown_physics_profile_is_a_config_error(tmp_path) -> None:
+    with pytest.raises(ConfigError, match=r"physics: expected carla \| physical"):
+        fake_backend(small_map(tmp_path), physics="realistic")
 
 
 def test_camera_frames_reach_the_stack_at_10_hz_in_the_sitcov_frame(tmp_path) -> None:
@@ -231,7 +248,7 @@ def _free_port() -> int:
 
 
 def test_no_server_is_one_clear_error_within_the_timeout() -> None:
-    pytest.importorskip("carla")
+    need_module("carla", "carla")
     port = _free_port()
     start = time.monotonic()
     with pytest.raises(BackendUnavailableError) as info:

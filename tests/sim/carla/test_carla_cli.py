@@ -10,6 +10,7 @@ import time
 
 import pytest
 from carla_testkit import situation
+from needs import need_module
 
 from sitcov.cli import main
 
@@ -21,7 +22,7 @@ def _free_port() -> int:
 
 
 def _run_without_server(tmp_path, executor: str) -> None:
-    pytest.importorskip("carla")
+    need_module("carla", "carla")
     cfg = tmp_path / "carla.yaml"
     cfg.write_text(
         f"backend_options: {{host: 127.0.0.1, port: {_free_port()}, timeout: 1.0}}\nruns: 3\n"
@@ -51,7 +52,7 @@ def test_run_without_server_fails_with_one_line_from_worker_processes(tmp_path) 
 
 
 def test_export_xosc_from_situation_json(tmp_path, capsys) -> None:
-    pytest.importorskip("scenariogeneration")
+    need_module("scenariogeneration", "xosc")
     sits = [situation(), situation("R-L", "B-L", "c2")]
     text = "\n".join(json.dumps(s.to_dict()) for s in sits)
     main(["export-xosc", "--situation-json", text, "--out", str(tmp_path)])
@@ -68,7 +69,7 @@ def test_export_xosc_needs_exactly_one_source(tmp_path, capsys) -> None:
 
 @pytest.mark.slow
 def test_export_xosc_writes_the_failing_runs_of_a_database(tmp_path, capsys) -> None:
-    pytest.importorskip("scenariogeneration")
+    need_module("scenariogeneration", "xosc")
     from sitcov.campaign import open_store
 
     db = tmp_path / "e.db"

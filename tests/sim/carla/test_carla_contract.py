@@ -12,11 +12,12 @@ import re
 from typing import Any
 
 import pytest
+from needs import need_module
 
 from sitcov.sim.carla import _fake
 from sitcov.sim.carla._surface import SURFACE, Use, classes, members
 
-carla = pytest.importorskip("carla", reason="the carla extra is not installed")
+carla = need_module("carla", "carla")
 
 _PARAM = re.compile(r"\((\w+)\)(\w+)")
 

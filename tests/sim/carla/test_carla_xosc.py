@@ -7,14 +7,15 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from carla_testkit import situation
+from needs import need_module
 
 from sitcov.errors import ConfigError
 from sitcov.sim.carla import export_xosc, load_carla_map, situations_from_json
 from sitcov.sim.carla._xosc import approach_speed
 
-xosc = pytest.importorskip("scenariogeneration.xosc", reason="the xosc extra is not installed")
+xosc = need_module("scenariogeneration.xosc", "xosc")
 
-#: The paper's twelve intersection situations (DESIGN §2).
+#: The paper's twelve intersection situations (its Table 1).
 INTSITS = [
     ("L-B", "R-B", "c4"), ("L-R", "R-B", "c4"), ("L-R", "B-R", "c1"), ("L-R", "B-L", "c1"),
     ("B-L", "L-R", "c1"), ("B-L", "R-L", "c2"), ("B-L", "R-B", "c2"), ("B-R", "L-R", "c1"),

@@ -1,0 +1,666 @@
+"""How often PEM mode and camera mode reach the same verdict: the agreement experiment.
+
+Every agreement figure the docs quote about the PEM comes from :func:`run_agreement`
+(``sitcov experiment agreement``), computed the same way for every pair of sides.
+
+Construction. For evaluation seed ``s`` and index ``i`` the situation is the random
+generator's ``ask_rng(s, i)`` (the situation of run ``i`` of ``sitcov run --generator random
+--seed s``). Each situation is simulated with the reference stack, no fault, by up to four
+*sides*: PEM mode or camera mode, each under one of two run seeds,
+
+- stream ``A``: ``run_seed(s, i)``, the run seed ``sitcov run`` gives run ``i``;
+- stream ``B``: :func:`second_run_seed` ``(s, i)``, drawn from a separate stream of the
+  same seed sequence, so it differs from stream A and from every stream-A seed.
+
+A *pair* compares the verdicts (``failed``) of two sides on the same situations:
+
+- ``pem-camera``: camera at A vs PEM at B (run seeds differ);
+- ``camera-camera``: camera at A vs camera at B (run seeds differ);
+- ``pem-pem``: PEM at A vs PEM at B (run seeds differ);
+- ``pem-camera-shared-seed``: camera at A vs PEM at A (the same run seed on both sides;
+  what the calibration compares).
+
+The first three are the like-for-like comparisons: each side of each pair sees the same
+situation and a run seed of its own, so "the PEM agrees with the camera as often as the
+camera agrees with itself" can be checked by comparing their agreements directly. The run
+seed drives wind direction and gusts, rain streaks and the PEM's noise.
+
+Evaluation seeds must not be calibration seeds (read from the PEM file's ``meta``, see
+:func:`calibration_seeds`); :func:`check_seeds` refuses an overlap.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import json
+import os
+import time
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sitcov.errors import ConfigError
+
+#: Seed-sequence stream of the second run seed (0 and 1 are ask and run, sitcov._seeding).
+_SECOND_RUN_STREAM = 2
+#: Pair name -> (side A, side B); a side is (perception, run-seed stream).
+PAIRS: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
+    "pem-camera": (("camera", "A"), ("pem", "B")),
+    "camera-camera": (("camera", "A"), ("camera", "B")),
+    "pem-pem": (("pem", "A"), ("pem", "B")),
+    "pem-camera-shared-seed": (("camera", "A"), ("pem", "A")),
+}
+#: Columns of the rows file, one row per simulated run.
+ROW_FIELDS = (
+    "seed",
+    "index",
+    "situation_id",
+    "perception",
+    "stream",
+    "run_seed",
+    "status",
+    "failed",
+    "aeb_time",
+    "cpu_s",
+    "wall_s",
+)
+#: CPU seconds of one camera-mode run on the reference machine (docs/camera.md), for the
+#: runtime estimate printed before the runs start; PEM runs cost about 1 % of it.
+CAMERA_CPU_S_PER_RUN = 1.9
+PEM_CPU_S_PER_RUN = 0.03
+#: Judged statuses (the others, error and timeout, carry no verdict).
+_JUDGED = ("pass", "fail")
+
+
+def second_run_seed(seed: int, index: int) -> int:
+    """Stream B's run seed of situation ``index`` of evaluation seed ``seed`` (32-bit)."""
+    sequence = np.random.SeedSequence([_SECOND_RUN_STREAM, int(seed), int(index)])
+    return int(sequence.generate_state(1, dtype=np.uint32)[0])
+
+
+def stream_seed(stream: str, seed: int, index: int) -> int:
+    """The run seed of ``stream`` (``A`` = the campaign's ``run_seed``, ``B`` = the second)."""
+    from sitcov._seeding import run_seed
+
+    if stream == "A":
+        return run_seed(seed, index)
+    if stream == "B":
+        return second_run_seed(seed, index)
+    raise ConfigError(field="stream", value=stream, expected="A | B")
+
+
+@dataclass(frozen=True)
+class Job:
+    """One simulation: situation ``index`` of evaluation seed ``seed`` by one side."""
+
+    seed: int
+    index: int
+    perception: str
+    stream: str
+
+
+def parse_pairs(text: str) -> list[str]:
+    """Comma-separated pair names (``all`` = every pair), checked against :data:`PAIRS`."""
+    names = list(PAIRS) if text.strip() == "all" else [p.strip() for p in text.split(",")]
+    bad = [p for p in names if p not in PAIRS]
+    if bad or not names:
+        expected = "all or a comma-separated subset of " + ", ".join(PAIRS)
+        raise ConfigError(field="--pairs", value=text, expected=expected)
+    return list(dict.fromkeys(names))
+
+
+def parse_seeds(text: str) -> list[int]:
+    """Comma-separated distinct non-negative integers, e.g. ``2,4``."""
+    try:
+        seeds = [int(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        seeds = []
+    if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
+        raise ConfigError(
+            field="--seeds", value=text, expected="distinct non-negative integers, e.g. 2,4"
+        )
+    return seeds
+
+
+def plan_jobs(seeds: Sequence[int], situations: int, pairs: Sequence[str]) -> list[Job]:
+    """Every simulation the pairs need, each once; camera runs first (they are the slow ones)."""
+    sides = sorted({side for name in pairs for side in PAIRS[name]})
+    jobs = [
+        Job(seed, index, perception, stream)
+        for perception, stream in sides
+        for seed in seeds
+        for index in range(situations)
+    ]
+    return sorted(jobs, key=lambda j: (j.perception != "camera", j.seed, j.index, j.stream))
+
+
+# --- calibration seeds ----------------------------------------------------------------------
+
+
+def calibration_seeds(pem_file: str | os.PathLike[str] | None = None) -> list[int] | None:
+    """The seeds a PEM file was calibrated on, from its ``meta``; None if it does not say.
+
+    ``meta.calibration_seeds`` (a list) if present; otherwise ``meta.camera_runs.seed``,
+    which ``sitcov calibrate`` writes (its sweep and its camera runs use that one seed).
+
+    Raises:
+        ConfigError: the file cannot be read, or ``meta.calibration_seeds`` is not a list of
+            integers.
+    """
+    import yaml
+
+    from sitcov.perception._pem import PEM_PARAMS_FILE
+
+    path = Path(pem_file) if pem_file is not None else PEM_PARAMS_FILE
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except (OSError, yaml.YAMLError) as exc:
+        raise ConfigError(f"{path}: cannot read the PEM file: {exc}") from None
+    meta = data.get("meta") if isinstance(data, Mapping) else None
+    if not isinstance(meta, Mapping):
+        return None
+    if "calibration_seeds" in meta:
+        seeds = meta["calibration_seeds"]
+        if not isinstance(seeds, list) or not all(_is_int(s) for s in seeds):
+            raise ConfigError(
+                file=str(path), field="meta.calibration_seeds", value=seeds,
+                expected="a list of integers",
+            )  # fmt: skip
+        return sorted({int(s) for s in seeds})
+    runs = meta.get("camera_runs")
+    if isinstance(runs, Mapping) and _is_int(runs.get("seed")):
+        return [int(runs["seed"])]
+    return None
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def check_seeds(
+    seeds: Sequence[int], calibrated: Sequence[int] | None, *, allow: bool, pem_file: str
+) -> None:
+    """Refuse evaluation seeds the PEM was calibrated on (or a PEM that does not say).
+
+    Raises:
+        ConfigError: one line naming the overlapping seeds and the PEM file, unless
+            ``allow`` (``--allow-calibration-seeds``, for development only).
+    """
+    if allow:
+        return
+    if calibrated is None:
+        raise ConfigError(
+            f"{pem_file}: meta names no calibration seeds (meta.calibration_seeds or "
+            "meta.camera_runs.seed), so held-out seeds cannot be checked; pass "
+            "--allow-calibration-seeds to evaluate anyway"
+        )
+    overlap = sorted(set(seeds) & set(calibrated))
+    if overlap:
+        raise ConfigError(
+            f"--seeds: {overlap} calibrated the PEM ({pem_file}: calibration seeds "
+            f"{list(calibrated)}); choose held-out seeds or pass --allow-calibration-seeds"
+        )
+
+
+# --- running the sides ----------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SideSettings:
+    """What a side needs to run: the PEM file and the detector model (None = defaults)."""
+
+    pem_file: str | None = None
+    model: str | None = None
+
+
+class SideRunner:
+    """Runs jobs with the reference stack on the embedded backend; one per process.
+
+    The backends, stacks and the detector are built on first use and reused: the PEM
+    sensor and the stack are reset at the start of every run, so a run's verdict depends
+    only on (situation, run seed).
+    """
+
+    def __init__(self, settings: SideSettings) -> None:
+        from sitcov.generation import make_generator
+        from sitcov.hyperspace import load_hyperspace
+
+        self.settings = settings
+        self.generator = make_generator("random", load_hyperspace())
+        self._sides: dict[str, tuple[Any, Any]] = {}
+
+    def _side(self, perception: str) -> tuple[Any, Any]:
+        if perception not in self._sides:
+            from sitcov.av import ReferenceStack
+            from sitcov.perception import PEMSensor
+            from sitcov.sim.embedded import EmbeddedBackend
+
+            if perception == "pem":
+                backend = EmbeddedBackend(
+                    perception="pem", sensor=PEMSensor(self.settings.pem_file)
+                )
+                stack = ReferenceStack()
+            else:
+                from sitcov.perception import SSDDetector
+
+                backend = EmbeddedBackend(perception="camera")
+                stack = ReferenceStack(detector=SSDDetector(self.settings.model))
+            self._sides[perception] = (backend, stack)
+        return self._sides[perception]
+
+    def __call__(self, job: Job) -> dict[str, Any]:
+        """Simulate ``job``; its row of the rows file."""
+        from sitcov._seeding import ask_rng
+
+        backend, stack = self._side(job.perception)
+        situation = self.generator.ask(ask_rng(job.seed, job.index))
+        seed = stream_seed(job.stream, job.seed, job.index)
+        cpu, wall = time.process_time(), time.perf_counter()
+        outcome = backend.run(situation, stack, seed)
+        cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+        return {
+            **asdict(job),
+            "situation_id": situation.id,
+            "run_seed": seed,
+            "status": outcome.status,
+            "failed": bool(outcome.failed),
+            "aeb_time": None if outcome.aeb_time is None else round(outcome.aeb_time, 4),
+            "cpu_s": round(cpu, 4),
+            "wall_s": round(wall, 4),
+        }
+
+
+_WORKER: dict[SideSettings, SideRunner] = {}
+
+
+def _run_in_worker(item: tuple[SideSettings, Job]) -> dict[str, Any]:
+    """Worker entry point: one runner per process (per settings), reused across jobs."""
+    settings, job = item
+    if settings not in _WORKER:
+        _WORKER[settings] = SideRunner(settings)
+    return _WORKER[settings](job)
+
+
+def iter_rows(
+    jobs: Sequence[Job],
+    settings: SideSettings,
+    *,
+    workers: int = 1,
+    run_job: Callable[[Job], dict[str, Any]] | None = None,
+) -> Iterator[dict[str, Any]]:
+    """The rows of ``jobs`` as they finish (out of order with ``workers > 1``).
+
+    ``run_job`` replaces the real :class:`SideRunner` (serial only; tests use a fake).
+    Every row is the same whatever the number of workers.
+    """
+    if run_job is not None or workers <= 1:
+        runner = run_job or SideRunner(settings)
+        for job in jobs:
+            yield runner(job)
+        return
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(workers) as pool:
+        yield from pool.imap_unordered(_run_in_worker, [(settings, j) for j in jobs])
+
+
+# --- the rows file --------------------------------------------------------------------------
+
+
+def rows_format(path: Path) -> str:
+    """``csv`` or ``jsonl`` from the file's suffix."""
+    suffix = path.suffix.lower()
+    if suffix not in (".csv", ".jsonl"):
+        raise ConfigError(field="--out", value=str(path), expected="a .csv or .jsonl file name")
+    return suffix[1:]
+
+
+class RowsWriter:
+    """Appends rows to the rows file as runs finish (an interrupted run keeps its data)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path, self.fmt = path, rows_format(path)
+        self._fh = open(path, "w", newline="")  # noqa: SIM115 - closed in close()
+        self._csv = csv.DictWriter(self._fh, fieldnames=ROW_FIELDS) if self.fmt == "csv" else None
+        if self._csv is not None:
+            self._csv.writeheader()
+
+    def write(self, row: Mapping[str, Any]) -> None:
+        """One row, flushed."""
+        if self._csv is not None:
+            self._csv.writerow({k: "" if row[k] is None else row[k] for k in ROW_FIELDS})
+        else:
+            self._fh.write(json.dumps({k: row[k] for k in ROW_FIELDS}) + "\n")
+        self._fh.flush()
+
+    def close(self) -> None:
+        """Close the file."""
+        self._fh.close()
+
+
+def write_rows(path: Path, rows: Iterable[Mapping[str, Any]]) -> None:
+    """Write ``rows`` to ``path`` (csv or jsonl by suffix) in one go."""
+    writer = RowsWriter(path)
+    try:
+        for row in rows:
+            writer.write(row)
+    finally:
+        writer.close()
+
+
+def read_rows(path: Path) -> list[dict[str, Any]]:
+    """Rows written by :class:`RowsWriter`, typed back (ints, bools, floats, None)."""
+    if rows_format(path) == "jsonl":
+        return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+    with open(path, newline="") as fh:
+        return [_typed(raw) for raw in csv.DictReader(fh)]
+
+
+def _typed(raw: Mapping[str, str]) -> dict[str, Any]:
+    def num(text: str) -> float | None:
+        return None if text == "" else float(text)
+
+    return {
+        "seed": int(raw["seed"]),
+        "index": int(raw["index"]),
+        "situation_id": raw["situation_id"],
+        "perception": raw["perception"],
+        "stream": raw["stream"],
+        "run_seed": int(raw["run_seed"]),
+        "status": raw["status"],
+        "failed": raw["failed"] == "True",
+        "aeb_time": num(raw["aeb_time"]),
+        "cpu_s": num(raw["cpu_s"]),
+        "wall_s": num(raw["wall_s"]),
+    }
+
+
+def sort_rows(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Rows in a fixed order (seed, index, perception, stream): reproducible files."""
+    key = ("seed", "index", "perception", "stream")
+    return sorted((dict(r) for r in rows), key=lambda r: tuple(r[k] for k in key))
+
+
+# --- the summary ----------------------------------------------------------------------------
+
+
+def _interval(k: int, n: int) -> list[float] | None:
+    from sitcov.analysis import wilson_interval
+
+    ci = wilson_interval(k, n)
+    return None if ci is None else [round(ci[0], 4), round(ci[1], 4)]
+
+
+def compare(rows: Sequence[Mapping[str, Any]], pair: str) -> dict[str, Any]:
+    """Agreement of one pair over ``rows`` (situations judged on both sides only).
+
+    Returns n (situations judged by both sides), agree, agreement and its Wilson 95 %
+    interval, each side's failures, failure rate and interval, the two kinds of
+    disagreement and the situations left out because a side errored or timed out.
+    """
+    (pa, sa), (pb, sb) = PAIRS[pair]
+    by_key = {(r["seed"], r["index"], r["perception"], r["stream"]): r for r in rows}
+    keys = sorted({(r["seed"], r["index"]) for r in rows})
+    n = agree = fail_a = fail_b = a_only = b_only = left_out = 0
+    for seed, index in keys:
+        ra, rb = by_key.get((seed, index, pa, sa)), by_key.get((seed, index, pb, sb))
+        if ra is None or rb is None:
+            continue
+        if ra["status"] not in _JUDGED or rb["status"] not in _JUDGED:
+            left_out += 1
+            continue
+        a, b = bool(ra["failed"]), bool(rb["failed"])
+        n += 1
+        agree += a == b
+        fail_a, fail_b = fail_a + a, fail_b + b
+        a_only, b_only = a_only + (a and not b), b_only + (b and not a)
+    return {
+        "side_a": f"{pa}@{sa}",
+        "side_b": f"{pb}@{sb}",
+        "n": n,
+        "agree": agree,
+        "agreement": round(agree / n, 4) if n else None,
+        "agreement_ci95": _interval(agree, n),
+        "failures_a": fail_a,
+        "failure_rate_a": round(fail_a / n, 4) if n else None,
+        "failure_rate_a_ci95": _interval(fail_a, n),
+        "failures_b": fail_b,
+        "failure_rate_b": round(fail_b / n, 4) if n else None,
+        "failure_rate_b_ci95": _interval(fail_b, n),
+        "a_fails_b_passes": a_only,
+        "b_fails_a_passes": b_only,
+        "not_judged": left_out,
+    }
+
+
+def summarise(
+    rows: Sequence[Mapping[str, Any]], pairs: Sequence[str], seeds: Sequence[int]
+) -> dict[str, Any]:
+    """Per pair: pooled over ``seeds`` and per seed; per perception: cost of a run."""
+    result: dict[str, Any] = {"pairs": {}, "cost": {}}
+    for pair in pairs:
+        per_seed = {str(s): compare([r for r in rows if r["seed"] == s], pair) for s in seeds}
+        result["pairs"][pair] = {"pooled": compare(rows, pair), "per_seed": per_seed}
+    for perception in ("camera", "pem"):
+        mine = [r for r in rows if r["perception"] == perception]
+        if mine:
+            result["cost"][perception] = {
+                "runs": len(mine),
+                "cpu_s_per_run": round(sum(r["cpu_s"] or 0.0 for r in mine) / len(mine), 4),
+                "wall_s_per_run": round(sum(r["wall_s"] or 0.0 for r in mine) / len(mine), 4),
+            }
+    return result
+
+
+def situation_bins(seeds: Sequence[int], situations: int) -> dict[tuple[int, int], dict]:
+    """(seed, index) -> the situation's bins (regenerated: the random generator is cheap)."""
+    from sitcov._seeding import ask_rng
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+
+    gen = make_generator("random", load_hyperspace())
+    return {(s, i): dict(gen.ask(ask_rng(s, i)).bins) for s in seeds for i in range(situations)}
+
+
+def bin_differences(
+    rows: Sequence[Mapping[str, Any]], pair: str, bins: Mapping[tuple[int, int], Mapping]
+) -> dict[str, dict[str, Any]]:
+    """Per element: the largest difference between the two sides' failure rates in one bin.
+
+    Only situations judged on both sides count; ``min_n`` is the smallest bin's size, which
+    says how much of the difference sampling noise alone explains.
+    """
+    (pa, sa), (pb, sb) = PAIRS[pair]
+    by_key = {(r["seed"], r["index"], r["perception"], r["stream"]): r for r in rows}
+    counts: dict[str, dict[str, list[int]]] = {}  # element -> bin -> [n, fails a, fails b]
+    for (seed, index), sit_bins in bins.items():
+        ra, rb = by_key.get((seed, index, pa, sa)), by_key.get((seed, index, pb, sb))
+        if ra is None or rb is None or {ra["status"], rb["status"]} - set(_JUDGED):
+            continue
+        for element, name in sit_bins.items():
+            cell = counts.setdefault(element, {}).setdefault(name, [0, 0, 0])
+            cell[0], cell[1], cell[2] = cell[0] + 1, cell[1] + ra["failed"], cell[2] + rb["failed"]
+    return {
+        element: {
+            "max_difference": round(max(abs(a - b) / n for n, a, b in per_bin.values()), 3),
+            "min_n": min(n for n, _, _ in per_bin.values()),
+        }
+        for element, per_bin in counts.items()
+    }
+
+
+def estimate_seconds(jobs: Sequence[Job], workers: int) -> float:
+    """Expected wall time of ``jobs`` on ``workers`` free cores [s] (a rough planning figure)."""
+    cpu = sum(CAMERA_CPU_S_PER_RUN if j.perception == "camera" else PEM_CPU_S_PER_RUN
+              for j in jobs)  # fmt: skip
+    return cpu / max(1, workers)
+
+
+def run_agreement(
+    *,
+    seeds: Sequence[int],
+    situations: int,
+    out: Path,
+    pairs: Sequence[str] = tuple(PAIRS),
+    pem_file: str | None = None,
+    model: str | None = None,
+    workers: int = 1,
+    allow_calibration_seeds: bool = False,
+    run_job: Callable[[Job], dict[str, Any]] | None = None,
+    on_plan: Callable[[list[Job]], None] | None = None,
+    progress: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
+    """Run the agreement experiment; write the rows to ``out``; return the summary.
+
+    Checks everything before the first run: the pairs, the rows file's suffix, the PEM
+    file, that no evaluation seed calibrated it, and (when a camera side is needed) the
+    detector model. ``on_plan`` then gets the jobs (to print the plan), ``progress`` each
+    row as it finishes.
+
+    Raises:
+        ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
+    """
+    from sitcov import __version__
+    from sitcov.perception._pem import PEM_PARAMS_FILE, load_pem_params
+
+    if situations < 1:
+        raise ConfigError(field="--situations", value=situations, expected="at least 1")
+    rows_format(out)
+    pem_path = Path(pem_file) if pem_file is not None else PEM_PARAMS_FILE
+    pem_name = str(pem_file) if pem_file is not None else "sitcov/perception/data/pem.yaml"
+    load_pem_params(pem_file)
+    calibrated = calibration_seeds(pem_file)
+    check_seeds(seeds, calibrated, allow=allow_calibration_seeds, pem_file=pem_name)
+    jobs = plan_jobs(seeds, situations, pairs)
+    if run_job is None and any(j.perception == "camera" for j in jobs):
+        from sitcov.perception._models import model_path
+
+        model = str(model_path(model))
+    settings = SideSettings(pem_file=None if pem_file is None else str(pem_file), model=model)
+    if on_plan is not None:
+        on_plan(jobs)
+    start = time.perf_counter()
+    rows: list[dict[str, Any]] = []
+    writer = RowsWriter(out)
+    try:
+        for row in iter_rows(jobs, settings, workers=workers, run_job=run_job):
+            rows.append(row)
+            writer.write(row)
+            if progress is not None:
+                progress(row)
+    finally:
+        writer.close()
+    wall = time.perf_counter() - start
+    rows = sort_rows(rows)
+    write_rows(out, rows)
+    summary = summarise(rows, pairs, seeds)
+    bins = situation_bins(seeds, situations)
+    for pair in pairs:
+        summary["pairs"][pair]["bin_differences"] = bin_differences(rows, pair, bins)
+    summary.update(
+        construction=CONSTRUCTION,
+        seeds=list(seeds),
+        situations_per_seed=situations,
+        pem_file=pem_name,
+        pem_sha256=hashlib.sha256(pem_path.read_bytes()).hexdigest(),
+        sitcov_version=__version__,
+        calibration_seeds=calibrated,
+        workers=workers,
+        runs={
+            "camera": sum(j.perception == "camera" for j in jobs),
+            "pem": sum(j.perception == "pem" for j in jobs),
+        },  # fmt: skip
+        wall_s=round(wall, 1),
+        rows_file=str(out),
+    )
+    return summary
+
+
+#: The construction, as stored in the summary JSON (and quoted by the docs).
+CONSTRUCTION = (
+    "situation i of evaluation seed s = random generator ask_rng(s, i); reference stack, no "
+    "fault, embedded backend; run seed A = run_seed(s, i) (as sitcov run --generator random "
+    "--seed s), run seed B = SeedSequence([2, s, i]) (a separate stream); pairs: pem-camera = "
+    "camera@A vs pem@B, camera-camera = camera@A vs camera@B, pem-pem = pem@A vs pem@B, "
+    "pem-camera-shared-seed = camera@A vs pem@A; verdict = failed; runs that error or time "
+    "out are left out of their pairs; intervals are Wilson 95 %"
+)
+
+
+def command_line(
+    *,
+    seeds: Sequence[int],
+    situations: int,
+    out: str,
+    pairs: str,
+    workers: int,
+    pem: str | None,
+    allow: bool,
+) -> str:
+    """The ``sitcov experiment agreement`` command that reproduces a summary."""
+    import shlex
+
+    parts = ["sitcov experiment agreement", "--seeds", ",".join(map(str, seeds)),
+             "--situations", str(situations), "--workers", str(workers), "--out", out]  # fmt: skip
+    if pairs != "all":
+        parts += ["--pairs", pairs]
+    if pem is not None:
+        parts += ["--pem", pem]
+    if allow:
+        parts.append("--allow-calibration-seeds")
+    return " ".join(p if i == 0 else shlex.quote(p) for i, p in enumerate(parts))
+
+
+def _pct(value: float | None, ci: Sequence[float] | None) -> str:
+    if value is None or ci is None:
+        return "-"
+    return f"{100 * value:5.1f}% [{100 * ci[0]:4.1f}, {100 * ci[1]:4.1f}]"
+
+
+def _line(label: str, row: Mapping[str, Any]) -> str:
+    sides = f"{row['side_a']} vs {row['side_b']}"
+    return (
+        f"{label:<28} {sides:<22} {row['n']:>4}  "
+        f"{_pct(row['agreement'], row['agreement_ci95']):<22} "
+        f"{_pct(row['failure_rate_a'], row['failure_rate_a_ci95']):<22} "
+        f"{_pct(row['failure_rate_b'], row['failure_rate_b_ci95']):<22} "
+        f"{row['a_fails_b_passes']:>3} / {row['b_fails_a_passes']:<3}"
+        + (f"  ({row['not_judged']} not judged)" if row["not_judged"] else "")
+    )
+
+
+def table_lines(summary: Mapping[str, Any]) -> list[str]:
+    """The printed table: each pair pooled over the seeds, then per seed; then run costs."""
+    head = (
+        f"{'pair':<28} {'sides (A vs B)':<22} {'n':>4}  {'agreement [Wilson 95%]':<22} "
+        f"{'failure rate A':<22} {'failure rate B':<22} A only / B only"
+    )
+    lines = [
+        f"seeds {','.join(map(str, summary['seeds']))}, {summary['situations_per_seed']} "
+        f"situations each; PEM {summary['pem_file']} (calibration seeds "
+        f"{summary['calibration_seeds']}); run seed A = run_seed(s, i), B = second stream",
+        head,
+    ]
+    for pair, result in summary["pairs"].items():
+        lines.append(_line(pair, result["pooled"]))
+        if len(result["per_seed"]) > 1:
+            for seed, row in result["per_seed"].items():
+                lines.append(_line(f"  seed {seed}", row))
+    for pair in ("pem-camera", "camera-camera"):
+        diffs = summary["pairs"].get(pair, {}).get("bin_differences")
+        if diffs:
+            text = ", ".join(f"{el} {d['max_difference']:.2f}" for el, d in diffs.items())
+            low = min(d["min_n"] for d in diffs.values())
+            lines.append(
+                f"{pair}: largest per-bin failure-rate difference (smallest bin {low} runs): {text}"
+            )
+    for perception, cost in summary["cost"].items():
+        lines.append(
+            f"{perception} run: {cost['cpu_s_per_run']:.3f} CPU-s, {cost['wall_s_per_run']:.3f} s "
+            f"wall (mean of {cost['runs']})"
+        )
+    return lines

@@ -1,0 +1,48 @@
+"""What a test needs from the machine: skipped locally when missing, a FAILURE in CI.
+
+CI (``CI`` set to ``true``/``1``/``yes``, as GitHub Actions and .ci/run do) installs every
+extra, chromium, node and fetches the detector model, so a missing one there means the
+set-up broke and the tests that need it would silently vanish; they fail instead.
+Never use these for sitcov's own modules: an import error in sitcov is a bug, not a skip.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+import shutil
+from types import ModuleType
+from typing import NoReturn
+
+import pytest
+
+
+def in_ci() -> bool:
+    """True when the ``CI`` environment variable is set to true/1/yes."""
+    return os.environ.get("CI", "").strip().lower() in ("1", "true", "yes")
+
+
+def missing(reason: str) -> NoReturn:
+    """Skip with ``reason`` locally; fail with it when running in CI."""
+    if in_ci():
+        pytest.fail(f"{reason} (CI is set: everything the tests need must be installed)")
+    pytest.skip(reason, allow_module_level=True)
+
+
+def need_module(name: str, extra: str) -> ModuleType:
+    """Import an optional third-party module (from the ``extra`` of pyproject.toml)."""
+    if name.split(".")[0] == "sitcov":
+        raise ValueError("sitcov's own modules are imported, never skipped")
+    try:
+        return importlib.import_module(name)
+    except ImportError as exc:
+        missing(f"{name} is not installed (pip install 'sitcov[{extra}]'): {exc}")
+
+
+def need_program(*names: str) -> str:
+    """The path of the first of ``names`` on PATH (e.g. ``node``, ``chromium``)."""
+    for name in names:
+        path = shutil.which(name)
+        if path:
+            return path
+    missing(f"{' or '.join(names)} is not on PATH")
