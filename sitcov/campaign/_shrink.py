@@ -31,9 +31,11 @@ from sitcov.analysis import wilson_interval
 from sitcov.campaign._build import build_backend, build_stack
 from sitcov.campaign._config import CampaignConfig
 from sitcov.campaign._executors import execute
+from sitcov.campaign._runner import judge_of
 from sitcov.campaign._store import Store
 from sitcov.errors import ConfigError
 from sitcov.hyperspace import Hyperspace, Situation
+from sitcov.sim import Judge
 
 _DECIDE_STREAM, _CONFIRM_STREAM = 2, 3  # seed streams, apart from the campaign's 0 and 1
 
@@ -127,6 +129,9 @@ class _Trial:
         self.sim, self.stack = sim, stack
         self.seeds, self.min_rate = seeds, min_rate
         self.cache: dict[frozenset[str], bool] = {}
+        # verdicts as the campaign stored them (see _replay): its judge, legacy = collision
+        config = CampaignConfig(**{k: v for k, v in run.config.items() if k != "workers"})
+        self.judge = judge_of(config) if "judge" in run.config else Judge.from_spec("paper")
         self.log: list[dict[str, Any]] = []
 
     def situation(self, kept: frozenset[str]) -> Situation | None:
@@ -151,7 +156,7 @@ class _Trial:
             return None
         task_sit = sit.to_dict()
         return sum(
-            execute(self.sim, self.stack, (0, task_sit, s), False)[1].status == "fail"
+            self.judge(execute(self.sim, self.stack, (0, task_sit, s), False)[1]).status == "fail"
             for s in seeds
         )
 
