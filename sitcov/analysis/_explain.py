@@ -24,8 +24,9 @@ Method (docs/explain.md):
    rest (Wilson intervals), the risk difference (Newcombe interval) and the odds ratio
    (Woolf interval); per significant pair, the cell furthest from the main-effects
    prediction and the risk difference of its bin inside vs outside the other bin.
-5. Findings are ranked by the deviance the term explains beyond chance (LR - df; for a
-   pair, or its largest cell's squared residual - 1 if larger).
+5. Findings are ranked by the deviance the term explains beyond chance (LR - df), for
+   pairs too: a cell with one failure where the main effects predict 0.1 % has a huge
+   residual but explains little.
 """
 
 from __future__ import annotations
@@ -463,7 +464,6 @@ def _pair_tests(
         del t["cols"], t["cells"]
         adj = float((1 + np.sum(min_p <= t.pop("stat"))) / (bootstrap + 1))
         _mark(t, adj, alpha)
-        t["importance"] = max(t["lr"] - t["df"], t["cell_z2"] - 1.0)
     return pairs
 
 
