@@ -395,6 +395,8 @@ def shrink_cmd(
         None, "--av-step-timeout", help="Seconds an external stack may take per step."
     ),
     grey_box: bool = typer.Option(False, "--grey-box", help="Give the stack the situation."),
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
 ) -> None:
     """Re-run a failing run with elements moved to benign bins: the necessary ones."""
     from sitcov.campaign._config import run_overrides
@@ -404,7 +406,7 @@ def shrink_cmd(
 
     overrides = run_overrides(perception=perception, av_cmd=av_cmd, grey_box=grey_box,
                               av_step_timeout=av_step_timeout, av=av, fault=fault,
-                              backend=backend)  # fmt: skip
+                              backend=backend, physics=physics, judge=judge)  # fmt: skip
     kept = [k.strip() for k in keep.split(",") if k.strip()] if keep is not None else None
     with existing_store(db) as store:
         campaign, index = parse_run_id(store, run)

@@ -24,8 +24,9 @@ Method (docs/explain.md):
    rest (Wilson intervals), the risk difference (Newcombe interval) and the odds ratio
    (Woolf interval); per significant pair, the cell furthest from the main-effects
    prediction and the risk difference of its bin inside vs outside the other bin.
-5. Findings are ranked by the deviance the term explains beyond chance (LR - df; for a
-   pair, or its largest cell's squared residual - 1 if larger).
+5. Findings are ranked by the deviance the term explains beyond chance (LR - df), for
+   pairs too: a cell with one failure where the main effects predict 0.1 % has a huge
+   residual but explains little.
 """
 
 from __future__ import annotations
@@ -319,7 +320,8 @@ def interaction_analysis(
             the pair tests (bootstrap min-p).
         min_runs: fewest judged runs for any statistics.
         min_cell: fewest judged runs for a cell to get its own interaction column.
-        bootstrap: parametric-bootstrap replicates calibrating the pair tests.
+        bootstrap: parametric-bootstrap replicates calibrating the pair tests; 0 skips
+            the pair tests (the report does: they take most of the time).
         seed: seed of the bootstrap's numpy Generator.
 
     Returns:
@@ -354,7 +356,12 @@ def interaction_analysis(
         design = _Design(codes, hyperspace.sizes)
         main = fit_logit(design.matrix(), y)
         out["elements"] = _element_tests(hyperspace, design, codes, y, main, alpha)
-        out["pairs"] = _pair_tests(hyperspace, design, y, main, min_cell, bootstrap, seed, alpha)
+        if bootstrap > 0:
+            out["pairs"] = _pair_tests(
+                hyperspace, design, y, main, min_cell, bootstrap, seed, alpha
+            )
+        else:
+            out["method"] = out["method"].split("; pairs:")[0] + "; pairs not tested"
     for t in out["pairs"]:
         a, b = t.pop("ab")
         if t["significant"]:
@@ -457,7 +464,6 @@ def _pair_tests(
         del t["cols"], t["cells"]
         adj = float((1 + np.sum(min_p <= t.pop("stat"))) / (bootstrap + 1))
         _mark(t, adj, alpha)
-        t["importance"] = max(t["lr"] - t["df"], t["cell_z2"] - 1.0)
     return pairs
 
 

@@ -1,7 +1,7 @@
 """Failure regions: readable rules over bins, measured on runs they were not fitted on.
 
 The judged runs are split by a seeded permutation into a fitting part (2/3) and a held-out
-part (1/3). A shallow decision tree (scikit-learn, depth <= 3) is fitted on the fitting
+part (1/3). A shallow decision tree (CART, Gini, depth <= 3; ``_tree``) is fitted on the fitting
 part; subtrees whose leaves all give the same verdict are merged, and every leaf whose
 fitted failure rate is at least 50 % and at least the overall rate becomes a rule, the
 conjunction of the conditions on its path. Each rule's support,
@@ -23,23 +23,13 @@ import numpy as np
 
 from sitcov.analysis._explain import MIN_RUNS, _not_enough, encode_runs
 from sitcov.analysis._stats import wilson_interval
-from sitcov.errors import MissingExtraError
+from sitcov.analysis._tree import grow
 from sitcov.hyperspace import Hyperspace
 
 #: share of the judged runs held out to measure the rules
 HOLDOUT = 1 / 3
 #: depth of the tree (rules have at most this many conditions)
 MAX_DEPTH = 3
-
-
-def _tree_class() -> Any:
-    try:
-        from sklearn.tree import DecisionTreeClassifier
-    except ImportError as exc:
-        raise MissingExtraError(
-            "sitcov explain (failure regions)", "explain", "scikit-learn"
-        ) from exc
-    return DecisionTreeClassifier
 
 
 def _is_ordinal(hs: Hyperspace, e: int) -> bool:
@@ -69,42 +59,6 @@ def _features(codes: np.ndarray, orders: list[list[int]]) -> np.ndarray:
         position[order] = np.arange(len(order))
         x[:, e] = position[codes[:, e]]
     return x
-
-
-def _fail_share(tree: Any, node: int) -> float:
-    value = tree.tree_.value[node][0]
-    return float(value[1] / value.sum()) if value.shape[0] > 1 else 0.0
-
-
-def _leaf_paths(
-    tree: Any, n_features: int, threshold: float
-) -> list[tuple[int, np.ndarray, np.ndarray]]:
-    """(node, lower, upper bounds of feature positions) of each leaf, after merging every
-    subtree whose leaves are all on the same side of ``threshold`` into one leaf (a split
-    that does not change the verdict only makes the rules longer)."""
-    t = tree.tree_
-
-    def sides(node: int) -> set[bool]:
-        left, right = t.children_left[node], t.children_right[node]
-        if left == right:
-            return {_fail_share(tree, node) >= threshold}
-        return sides(left) | sides(right)
-
-    out = []
-    stack = [(0, np.full(n_features, -np.inf), np.full(n_features, np.inf))]
-    while stack:
-        node, lo, hi = stack.pop()
-        left, right = t.children_left[node], t.children_right[node]
-        if left == right or len(sides(node)) == 1:
-            out.append((node, lo, hi))
-            continue
-        f, thr = t.feature[node], t.threshold[node]
-        hi_left, lo_right = hi.copy(), lo.copy()
-        hi_left[f] = min(hi[f], thr)
-        lo_right[f] = max(lo[f], thr)
-        stack.append((left, lo, hi_left))
-        stack.append((right, lo_right, hi))
-    return out
 
 
 def _conditions(
@@ -169,8 +123,8 @@ def failure_regions(
     Args:
         hyperspace: the hyperspace the runs were generated in.
         runs: stored runs (``.bins`` and ``.status``) or mappings with those keys.
-        seed: seed of the numpy Generator that splits fitting and held-out runs (and of
-            the tree's tie-breaking).
+        seed: seed of the numpy Generator that splits fitting and held-out runs (the
+            tree itself is deterministic).
         holdout: share of the judged runs held out.
         max_depth: tree depth (most conditions per rule).
         min_runs: fewest judged runs for any rules.
@@ -181,7 +135,6 @@ def failure_regions(
         (ranked by failures covered on the fitting runs), each with ``text``,
         ``conditions``, ``fit`` and ``holdout`` measures.
     """
-    tree_cls = _tree_class()
     codes, y, _ = encode_runs(hyperspace, runs)
     n = len(y)
     order = np.random.default_rng(seed).permutation(n)
@@ -200,12 +153,10 @@ def failure_regions(
     if out["message"]:
         return out
     orders = _orders(hyperspace, codes[fit], y[fit])
-    tree = tree_cls(
-        max_depth=max_depth, min_samples_leaf=max(10, len(fit) // 50), random_state=seed
-    )
-    tree.fit(_features(codes[fit], orders), y[fit].astype(int))
     threshold = max(0.5, float(y[fit].mean()))
-    for _, lo, hi in _leaf_paths(tree, len(orders), threshold):
+    leaves = grow(_features(codes[fit], orders), y[fit], max_depth=max_depth,
+                  min_leaf=max(10, len(fit) // 50), threshold=threshold)  # fmt: skip
+    for _, lo, hi in leaves:
         conds = _conditions(hyperspace, orders, lo, hi)
         fitted = _measure(_matches(codes[fit], hyperspace, conds), y[fit])
         if not fitted["support"] or fitted["precision"] < threshold:
@@ -241,11 +192,10 @@ def explain(
     """``sitcov explain``'s object: the interaction analysis plus the failure regions.
 
     Keys: those of :func:`~sitcov.analysis._explain.interaction_analysis` and ``regions``
-    (:func:`failure_regions`). Raises MissingExtraError without scikit-learn.
+    (:func:`failure_regions`).
     """
     from sitcov.analysis._explain import BOOTSTRAP, interaction_analysis
 
-    _tree_class()  # fail first, with the one-line message, if the extra is missing
     runs = list(runs)
     out = interaction_analysis(
         hyperspace, runs, alpha=alpha, seed=seed,

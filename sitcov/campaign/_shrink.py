@@ -26,14 +26,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from pydantic import ValidationError
 
 from sitcov.analysis import wilson_interval
 from sitcov.campaign._build import build_backend, build_stack
-from sitcov.campaign._config import CampaignConfig
+from sitcov.campaign._config import CampaignConfig, _config_error
 from sitcov.campaign._executors import execute
+from sitcov.campaign._runner import judge_of
 from sitcov.campaign._store import Store
 from sitcov.errors import ConfigError
 from sitcov.hyperspace import Hyperspace, Situation
+from sitcov.sim import Judge
 
 _DECIDE_STREAM, _CONFIRM_STREAM = 2, 3  # seed streams, apart from the campaign's 0 and 1
 
@@ -122,11 +125,15 @@ class _Trial:
     """Runs a situation on the decision seeds, caching results by the kept set."""
 
     def __init__(self, hs: Hyperspace, run: Any, benign: Mapping[str, str], sim: Any, stack: Any,
-                 seeds: list[int], min_rate: float) -> None:  # fmt: skip
+                 seeds: list[int], min_rate: float, config: CampaignConfig,
+                 config_data: Mapping[str, Any]) -> None:  # fmt: skip
         self.hs, self.run, self.benign = hs, run, benign
         self.sim, self.stack = sim, stack
         self.seeds, self.min_rate = seeds, min_rate
         self.cache: dict[frozenset[str], bool] = {}
+        # verdicts as the campaign stored them (see _replay): its judge, legacy = collision;
+        # or the judge given on the command line
+        self.judge = judge_of(config) if "judge" in config_data else Judge.from_spec("paper")
         self.log: list[dict[str, Any]] = []
 
     def situation(self, kept: frozenset[str]) -> Situation | None:
@@ -151,7 +158,7 @@ class _Trial:
             return None
         task_sit = sit.to_dict()
         return sum(
-            execute(self.sim, self.stack, (0, task_sit, s), False)[1].status == "fail"
+            self.judge(execute(self.sim, self.stack, (0, task_sit, s), False)[1]).status == "fail"
             for s in seeds
         )
 
@@ -193,7 +200,10 @@ def _stack_config(run: Any, overrides: Mapping[str, Any] | None) -> CampaignConf
             data[key] = {**(data.get(key) or {}), **value}
         else:
             data[key] = value
-    return CampaignConfig(**data)
+    try:
+        return CampaignConfig(**data)
+    except ValidationError as exc:
+        raise _config_error(exc, None) from None
 
 
 def shrink_run(
@@ -241,7 +251,8 @@ def shrink_run(
     sim, stack = build_backend(config), build_stack(config)
     min_failures = math.ceil(min_rate * 2 * repeats)
     seeds = [run.seed, *derived_seeds(run.seed, _DECIDE_STREAM, 2 * repeats - 1)]
-    trial = _Trial(hs, run, benign, sim, stack, seeds, min_rate)
+    given = {**run.config, **{k: v for k, v in (overrides or {}).items() if v is not None}}
+    trial = _Trial(hs, run, benign, sim, stack, seeds, min_rate, config, given)
     try:
         result = ShrinkResult(campaign, index, run.seed, dict(run.bins), benign, candidates,
                               [], {}, repeats, min_rate, min_failures, 0)  # fmt: skip

@@ -12,8 +12,6 @@ from sitcov.analysis import explain, explain_lines, failure_regions, interaction
 from sitcov.analysis._logit import fit_logit, holm, newcombe_difference, odds_ratio
 from sitcov.hyperspace import Hyperspace
 
-pytest.importorskip("sklearn")  # the 'explain' extra
-
 HS = Hyperspace.from_dict(
     {
         "name": "toy",

@@ -133,3 +133,11 @@ def test_cli_explain_names_the_two_elements(db, capsys):
     assert {f["element"] for f in result["findings"][:2]} == {"friction", "intsit"}
     code, out, _ = cli(capsys, "explain", "--db", str(db), "--bootstrap", "19")
     assert code == 0 and "findings (most important first" in out and "failure regions" in out
+
+
+def test_cli_bad_stack_option_is_one_line(db, capsys):
+    run = failing_run(db, cell=True)
+    code, _, err = cli(capsys, "shrink", "--db", str(db), f"default:{run.index}",
+                       "--judge", "nonsense")  # fmt: skip
+    assert code == 2 and "judge" in err and "nonsense" in err
+    assert len(err.strip().splitlines()) == 1, err

@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import builtins
-
 import numpy as np
-import pytest
 
 from sitcov.hyperspace import load_hyperspace
 from sitcov.report._explain_section import explain_section
@@ -25,7 +22,6 @@ def runs(n: int, seed: int = 0) -> list[dict]:
 
 
 def test_section_names_the_failing_bin_and_measures_rules_on_held_out_runs():
-    pytest.importorskip("sklearn")
     section = explain_section(HS, runs(300), scope="")["explain"]
     assert section["findings"][0].startswith("intsit IntSit-2 fails")
     assert section["rules"][0]["text"] == "intsit in {IntSit-2}"
@@ -33,20 +29,5 @@ def test_section_names_the_failing_bin_and_measures_rules_on_held_out_runs():
 
 
 def test_small_campaign_says_so():
-    pytest.importorskip("sklearn")
     section = explain_section(HS, runs(20), scope="")["explain"]
     assert section["note"].startswith("not enough runs") and section["rules"] == []
-
-
-def test_missing_extra_is_a_note_not_a_crash(monkeypatch):
-    real_import = builtins.__import__
-
-    def no_sklearn(name, *args, **kwargs):
-        if name.startswith("sklearn"):
-            raise ImportError("No module named 'sklearn'")
-        return real_import(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", no_sklearn)
-    section = explain_section(HS, runs(100), scope="")["explain"]
-    assert "pip install 'sitcov[explain]'" in section["note"]
-    assert section["findings"] == []
