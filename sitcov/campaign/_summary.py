@@ -74,7 +74,7 @@ def events_by_kind(runs: Any) -> dict[str, int]:
 
 
 def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]:
-    """The DESIGN §6 summary object of the finished runs of ``campaign`` (or all), plus
+    """The `sitcov summary --json` object of the finished runs of ``campaign`` (or all), plus
     ``physics``, ``judge`` and ``world_model`` (one value, or a list when the campaigns
     differ), ``judge_counts`` (the kinds that fail a run), ``legacy_world_model`` (any
     campaign made before world versions) and ``events_by_kind``."""

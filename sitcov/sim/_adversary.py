@@ -128,14 +128,14 @@ TOWN03_SYNC_END_BOXES: dict[str, tuple[float, float, float, float]] = {
     "B": (-90.0, -70.0, -127.0, -121.0),
     "R": (-66.15, -61.15, -147.5, -127.5),
 }
-#: Town03 conflict points the OV synchronises to [m], CARLA frame (DESIGN.md section 2).
+#: Town03 conflict points the OV synchronises to [m], CARLA frame.
 TOWN03_CONFLICT_POINTS: dict[str, tuple[float, float]] = {
     "c1": (-74.63, -136.34),
     "c2": (-74.63, -139.28),
     "c4": (-89.0, -136.5),
 }
 #: A point and heading [deg] on each leg's inbound lane, towards the junction: the OV spawn
-#: points of Town03 (DESIGN.md section 2), which lie on the lane the ego approaches on.
+#: points of Town03, which lie on the lane the ego approaches on.
 TOWN03_INBOUND_LANES: dict[str, tuple[float, float, float]] = {
     "L": (-109.0, -136.0, 0.0),
     "B": (-74.70, -114.95, 270.0),

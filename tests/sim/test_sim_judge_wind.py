@@ -1,12 +1,9 @@
 """Statistical acceptance test: with road departures judged, wind cannot look "safer".
 
-Needs the ``physical`` physics profile (crosswind force), i.e. an embedded backend with a
-``physics`` option; it is skipped only where that option does not exist yet.
+Uses the ``physical`` physics profile (the only one with a crosswind force).
 """
 
 from __future__ import annotations
-
-import inspect
 
 import pytest
 
@@ -18,17 +15,10 @@ from sitcov.campaign._build import build_backend
 from sitcov.generation import make_generator
 from sitcov.hyperspace import Situation, load_hyperspace
 from sitcov.sim import Judge
-from sitcov.sim.embedded import EmbeddedBackend
 
 #: Paired runs per wind level.
 PAIRS = 300
 SEED = 11
-
-needs_physics = pytest.mark.skipif(
-    "physics" not in inspect.signature(EmbeddedBackend).parameters,
-    reason="needs the embedded backend's physics profiles (EmbeddedBackend(physics=...))",
-)
-
 
 def _with_wind(situation: Situation, level: str) -> Situation:
     bins = {**situation.bins, "wind_intensity": level}
@@ -37,7 +27,6 @@ def _with_wind(situation: Situation, level: str) -> Situation:
 
 
 @pytest.mark.slow
-@needs_physics
 def test_wind_does_not_lower_the_failure_rate_in_the_physical_profile():
     """Wind 100 must not fail less often than wind 0 under the default judge.
 
