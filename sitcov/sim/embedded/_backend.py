@@ -19,6 +19,7 @@ import numpy as np
 from sitcov.av._base import EgoState, Observation, RunInfo
 from sitcov.errors import ConfigError
 from sitcov.perception._base import ActorView, CameraSpec, Pose, Sensor
+from sitcov.perception._colors import ov_color
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit
 from sitcov.sim._base import Backend, Outcome, Trace
 from sitcov.sim._conditions import AIR_DENSITY, SIDE_AREA, SIDE_FORCE_COEFF, conditions_from_values
@@ -63,6 +64,7 @@ ELEMENT_EFFECTS = {
     "cloudiness": "scene illumination (Kasten-Czeplak), lowers image contrast",
     "wind_intensity": "mean wind speed and gusty crosswind force on ego and OV; rain angle",
     "intsit": "ego and OV routes and their conflict point",
+    "ov_color": "the OV's body colour (camera image; PEM contrast term); default: drawn per run",
 }
 
 
@@ -220,7 +222,9 @@ class EmbeddedBackend(Backend):
         intsit = self._intsit(situation)
         wind_direction = float(rng.uniform(-math.pi, math.pi))
         cond = conditions_from_values(values, wind_direction=wind_direction)
+        ov_rgb = ov_color(values, seed)  # own random stream: shifts no other draw
         vp = self.vehicle
+        ov_dims = (vp.length, vp.width, vp.height)
         scen = self.map.scenario(intsit["ego"], intsit["ov"], vp.width, vp.width)
         er, orr = scen.ego_route, scen.ov_route
         ov_curv = orr.max_curvature
@@ -297,7 +301,7 @@ class EmbeddedBackend(Backend):
             detections = image = None
             if k % self.sensor_every == 0 and not latched:
                 actors = (
-                    (ActorView(Pose(ov.x, ov.y, ov.yaw), vp.length, vp.width, vp.height, ov.speed),)
+                    (ActorView(Pose(ov.x, ov.y, ov.yaw), *ov_dims, ov.speed, ov_rgb),)
                     if ov_active
                     else ()
                 )
