@@ -69,6 +69,8 @@ class ActorView:
         pose: centre of the vehicle's footprint.
         length, width, height: box dimensions [m].
         speed: [m/s].
+        color: body colour (R, G, B), 0..255 each; None = the renderer's default
+            (sitcov.perception._colors.DEFAULT_COLOR).
     """
 
     pose: Pose
@@ -76,6 +78,7 @@ class ActorView:
     width: float
     height: float
     speed: float = 0.0
+    color: tuple[int, int, int] | None = None
 
 
 class Sensor(abc.ABC):

@@ -34,6 +34,7 @@ import numpy as np
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 from sitcov.perception._camera import project_box
 from sitcov.perception._camera_runs import CameraRun, camera_runs, match
+from sitcov.perception._colors import PALETTE as COLOR_PALETTE
 from sitcov.perception._pem import PEMFeatures, PEMParams, PEMSensor
 from sitcov.perception._renderer import render_frame
 from sitcov.sim._conditions import WEATHER_ELEMENTS  # swept one at a time (CARLA units, 0..100)
@@ -45,8 +46,9 @@ CLEAR_FRACTION = 0.35
 #: Distance range [m] (log-uniform) and bearing half-range [deg] of the OV.
 DISTANCE_RANGE = (4.0, 80.0)
 BEARING_DEG = 45.0
-#: Body colours the OV is drawn in (one per frame, at random).
-PALETTE = ((150, 30, 35), (200, 200, 205), (30, 30, 35), (40, 70, 140), (120, 120, 125))
+#: Body colours the OV is drawn in (one per frame, uniformly: every palette colour is
+#: covered, the rare ones too; the camera runs meet them by their real-world shares).
+PALETTE = tuple(rgb for rgb, _ in COLOR_PALETTE.values())
 #: Detector threshold while calibrating (lower than in use, to see the censored tail).
 SWEEP_MIN_SCORE = 0.05
 #: Reporting threshold of the detector in use, which becomes the PEM's floor.
@@ -86,6 +88,7 @@ class Sample:
     features: PEMFeatures
     score: float
     box_error: tuple[float, float, float, float] | None
+    color: tuple[int, int, int] | None = None
 
 
 def _ego_pose() -> tuple[Pose, Any]:
@@ -136,9 +139,9 @@ def sweep(
         cond = conditions_from_values(values, wind_direction=float(rng.uniform(-math.pi, math.pi)))
         los = ego.yaw + bearing
         pose = Pose(cam_x + dist * math.cos(los), cam_y + dist * math.sin(los), los + view)
-        actor = ActorView(pose, vp.length, vp.width, vp.height, 0.0)
+        actor = ActorView(pose, vp.length, vp.width, vp.height, 0.0, color)
         frame_rng = np.random.default_rng([seed, i])
-        image = render_frame(camera, ego, (actor,), cond, geometry, frame_rng, body_colors=[color])
+        image = render_frame(camera, ego, (actor,), cond, geometry, frame_rng)
         if progress is not None:
             progress(i + 1)
         feats = sensor.features(ego, actor, cond)
@@ -146,7 +149,9 @@ def sweep(
         if feats is None or proj is None or not proj.visible:
             continue
         score, err = match(proj.box, detector(image))
-        out.append(Sample(element, value, dist, bearing, view, proj.width, feats, score, err))
+        out.append(
+            Sample(element, value, dist, bearing, view, proj.width, feats, score, err, color)
+        )
     return out
 
 
@@ -176,6 +181,8 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
         -f[:, 5],
         shape,
         -f[:, 7],
+        f[:, 9],
+        f[:, 10],
     ]
     return np.stack(cols, axis=1)
 
@@ -195,6 +202,8 @@ _LINEAR = (
     "rain_gain",
     "aspect_gain",
     "edge_gain",
+    "contrast_gain",
+    "detail_gain",
 )
 #: Ridge penalty on the probit coefficients (not the intercept).
 _RIDGE = 1.0
@@ -376,6 +385,17 @@ def summarize_samples(samples: Sequence[Sample], floor: float = USE_FLOOR) -> di
                 "mean_score": round(float(np.mean([s.score for s in sel])), 3),
             }
     out["clear_box_ge_10pct"] = views
+    names = {rgb: name for name, (rgb, _) in COLOR_PALETTE.items()}
+    by_color: dict[str, Any] = {}
+    for rgb, name in names.items():
+        sel = [s for s in big if s.color == rgb]
+        if sel:
+            by_color[name] = {
+                "n": len(sel),
+                "rate_floor": round(sum(s.score >= floor for s in sel) / len(sel), 3),
+                "rate_0.5": round(sum(s.score >= 0.5 for s in sel) / len(sel), 3),
+            }
+    out["clear_box_ge_10pct_by_color"] = by_color
     weather: dict[str, Any] = {}
     near = [s for s in samples if s.width_px >= 40.0]
     for el in ("clear", *WEATHER_ELEMENTS):
@@ -411,6 +431,7 @@ def calibrate(
     detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
     samples = sweep(frames, detector, seed=seed, progress=progress)
     summary = summarize_samples(samples)
+    summary["seed"] = seed
     if runs <= 0:
         return fit_pem(samples), summary, samples
     recorded = camera_runs(
@@ -451,7 +472,12 @@ def pem_yaml(params: PEMParams, command: str, summary: dict[str, Any]) -> str:
         "source": "sitcov calibrate",
         "command": command,
         "frames": summary.get("frames"),
+        # Run seeds of the sweep and the camera runs: evaluations must use other seeds.
+        "calibration_seeds": [summary["seed"]] if "seed" in summary else [],
         "clear_detection_rate_box_ge_10pct": {k: v["rate_floor"] for k, v in views.items()},
+        "clear_detection_rate_box_ge_10pct_by_color": {
+            k: v["rate_floor"] for k, v in summary.get("clear_box_ge_10pct_by_color", {}).items()
+        },
     }
     if "camera_runs" in summary:
         meta["camera_runs"] = summary["camera_runs"]

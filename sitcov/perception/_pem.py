@@ -14,12 +14,16 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         - rain_gain  * rain_noise                                             rain, spray
         + aspect_gain * ln(clamp(w / h, 0.25, 4))                             box shape
         - edge_gain  * offset                                                 off-centre
+        + contrast_gain * contrast + detail_gain * detail                     body colour
     score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * n_t)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
 actor's heading relative to the line of sight (+1 rear view, -1 front view), ``offset`` the
 distance of the box centre from the image centre as a fraction of half the image width
-(clamped to [0, 1]), and ``n_t`` a unit-variance noise, optionally correlated in time:
+(clamped to [0, 1]), ``contrast`` the luminance contrast of the body colour against the
+road and sky under the scene's light and ``detail`` its contrast against the car's own
+dark parts (:mod:`sitcov.perception._colors`), and ``n_t`` a unit-variance noise,
+optionally correlated in time:
 
     n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share) * u_t
     a ~ N(0, 1)                 drawn once per run and actor ("this car is hard to see")
@@ -50,6 +54,7 @@ import yaml
 from sitcov.errors import ConfigError
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
 from sitcov.perception._camera import project_raw
+from sitcov.perception._colors import color_features
 
 if TYPE_CHECKING:
     import numpy as np
@@ -95,6 +100,10 @@ class PEMParams:
             for one actor (between-run share) [-].
         noise_tau: correlation time of the frame-to-frame part of the noise [s]
             (0 = independent frames).
+        contrast_gain: logit per unit of the body's luminance contrast against road and
+            sky (Michelson, 0..1) [-].
+        detail_gain: logit per unit of the body's contrast against the car's dark parts
+            (signed Michelson, -1..1) [-].
     """
 
     bias: float = 0.5
@@ -122,6 +131,8 @@ class PEMParams:
     side_size_gain: float = 0.0
     facing_gain: float = 0.0
     facing2_gain: float = 0.0
+    contrast_gain: float = 0.0
+    detail_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -196,6 +207,10 @@ def _read(path: Path) -> PEMParams:
     return PEMParams.from_mapping(data.get("params", {}), file=str(path))
 
 
+#: Colour features of an actor without a colour (dark red) in clear weather.
+DEFAULT_CONTRAST, DEFAULT_DETAIL = color_features(None, None)
+
+
 class PEMFeatures(NamedTuple):
     """What the PEM's score depends on (one actor, one frame).
 
@@ -211,6 +226,9 @@ class PEMFeatures(NamedTuple):
             clamped to [0, 1] [-].
         facing: cosine of the actor's heading relative to the line of sight (+1 rear
             view, -1 front view) [-].
+        contrast: the body's luminance contrast against road and sky under the scene's
+            light, in [0, 1] [-] (default: the dark red of earlier versions, clear noon).
+        detail: the body's contrast against the car's dark parts, in [-1, 1] [-].
     """
 
     height_px: float
@@ -222,6 +240,8 @@ class PEMFeatures(NamedTuple):
     width_px: float = 0.0
     offset: float = 0.0
     facing: float = 0.0
+    contrast: float = DEFAULT_CONTRAST
+    detail: float = DEFAULT_DETAIL
 
 
 _TINY = 1e-9  # floor inside logarithms [-]
@@ -243,6 +263,8 @@ def _logit(
     width_px: float = 0.0,
     offset: float = 0.0,
     facing: float = 0.0,
+    contrast: float = DEFAULT_CONTRAST,
+    detail: float = DEFAULT_DETAIL,
 ) -> float:
     h = min(max(height_px, p.size_min_px), p.size_max_px)
     size = math.log(h / p.size_ref_px)
@@ -263,6 +285,8 @@ def _logit(
         - p.rain_gain * rain_noise
         + p.aspect_gain * shape
         - p.edge_gain * offset
+        + p.contrast_gain * contrast
+        + p.detail_gain * detail
     )
 
 
@@ -336,6 +360,8 @@ class PEMSensor(Sensor):
         self._rng: Any = None
         self._tracks: dict[int, _Track] = {}
         self._frame = 0
+        self._color_key: Any = None
+        self._color_value = (DEFAULT_CONTRAST, DEFAULT_DETAIL)
 
     def reset(self, frame_dt: float | None = None) -> None:
         """Start a new run: forget every actor's noise state (optionally set ``frame_dt`` [s])."""
@@ -351,6 +377,7 @@ class PEMSensor(Sensor):
         if proj is None or not proj[6]:
             return None
         raw = proj[1]
+        contrast, detail = self._colors(actor.color, conditions)
         return PEMFeatures(
             raw[3] - raw[1],
             proj[5],
@@ -361,7 +388,18 @@ class PEMSensor(Sensor):
             raw[2] - raw[0],
             _offset(self.camera, raw),
             proj[7],
+            contrast,
+            detail,
         )
+
+    def _colors(self, color: Any, conditions: Conditions) -> tuple[float, float]:
+        """:func:`color_features`, cached for the last (colour, conditions) pair: both are
+        constant over a run."""
+        key = self._color_key
+        if key is None or key[0] != color or key[1] is not conditions:
+            self._color_key = (color, conditions)  # holds conditions: no id reuse
+            self._color_value = color_features(color, conditions)
+        return self._color_value
 
     def _phi(self) -> float:
         tau = self.params.noise_tau
@@ -423,6 +461,7 @@ class PEMSensor(Sensor):
                 raw[2] - raw[0],
                 _offset(camera, raw),
                 facing,
+                *self._colors(actor.color, conditions),
             )
             score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
             if score < p.floor:

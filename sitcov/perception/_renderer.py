@@ -12,6 +12,10 @@ The frame is built in three passes, each cheap enough for 10 Hz campaigns:
    with Pillow. The projection is the one of :func:`sitcov.perception.project_box`.
 3. Weather: fog by the extinction law per pixel depth, light level and contrast from the
    illumination, wet-road darkening and sky reflections in puddles, rain streaks.
+4. Auto-exposure, as CARLA's RGB camera does by default (``exposure_mode`` histogram): the
+   frame is metered on its luminance histogram and scaled so that the metered luminance
+   matches clear noon's, within CARLA's exposure window (:func:`exposure_gain`). So cloud
+   changes contrast, shadows and colour, not the overall brightness.
 
 Only ``rng`` supplies randomness (rain streak positions), so frames are reproducible.
 """
@@ -42,6 +46,33 @@ SKY_ZENITH = np.array([70.0, 120.0, 200.0])
 SKY_HORIZON = np.array([185.0, 210.0, 235.0])
 OVERCAST = np.array([165.0, 170.0, 178.0])
 FOG = np.array([200.0, 203.0, 207.0])
+
+# --- auto-exposure: CARLA's sensor.camera.rgb defaults ------------------------------------
+# CARLA 0.9.x docs (ref_sensors.md, "Advanced camera attributes"): exposure_mode
+# "histogram", exposure_min_bright 10.0, exposure_max_bright 12.0 (EV100), exposure_speed_up
+# 3.0, exposure_speed_down 1.0; the histogram's percents are UE4's defaults
+# (FPostProcessSettings: AutoExposureLowPercent 80, AutoExposureHighPercent 98.3), which
+# CARLA does not override.
+#: Histogram percents between which the luminance is averaged (in log2) [%].
+EXPOSURE_LOW_PERCENT = 80.0
+EXPOSURE_HIGH_PERCENT = 98.3
+#: The exposure window [EV100] the camera adapts within.
+EXPOSURE_MIN_BRIGHT = 10.0
+EXPOSURE_MAX_BRIGHT = 12.0
+#: Adaptation speeds [EV/s]: towards a brighter scene, towards a darker one. A run's
+#: weather is constant and the renderer meters each frame at its steady state (the
+#: adaptation has converged): docs/camera.md#auto-exposure says why that is exact enough.
+EXPOSURE_SPEED_UP = 3.0
+EXPOSURE_SPEED_DOWN = 1.0
+#: Metered luminance (linear, 0..1) of clear noon, which sits at the top of the window:
+#: the median over clear-weather frames of the calibration sweep (docs/camera.md). Darker
+#: scenes are brightened by up to ``EXPOSURE_MAX_BRIGHT - EXPOSURE_MIN_BRIGHT`` EV, brighter
+#: ones are not darkened.
+EXPOSURE_REFERENCE = 0.47
+#: White balance: the camera is balanced for clear daylight (CARLA's ``temp`` 6500 K);
+#: overcast light is bluer, so its frames come out slightly cool (per-channel gain at
+#: cloudiness 100).
+OVERCAST_TINT = np.array([0.95, 1.0, 1.05], dtype=np.float32)
 
 
 @lru_cache(maxsize=4)
@@ -122,7 +153,7 @@ def render_frame(
         road_geometry: the map's ``render_geometry()`` (road polygons, markings, kerbs);
             None renders plain grass.
         rng: source of the rain streaks' randomness.
-        body_colors: one RGB per actor (default a dark red for all).
+        body_colors: one RGB per actor (default: each actor's ``color``, else dark red).
 
     Returns:
         An HxWx3 uint8 image.
@@ -133,6 +164,9 @@ def render_frame(
     small = replace(camera, width=max(2, camera.width // 2), height=max(2, camera.height // 2))
     img = _background(small, ego_pose, w, zen, hor, ground_texture(road_geometry))
     gain, offset = _light(img, w)
+    expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
+    tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
+    gain, offset = gain * expo * tint, offset * expo * tint
     img = img * gain + offset
     pil = Image.fromarray(np.clip(img, 0, 255).astype(np.uint8)).resize(
         (camera.width, camera.height), Image.BILINEAR
@@ -146,15 +180,15 @@ def render_frame(
     ops: list[tuple[list[tuple[float, float]], tuple[int, int, int]]] = []
     fog_c = tuple(float(v) for v in _fog_color(w, hor))
     for i in order:
-        body = colors[i] if i < len(colors) else BODY
+        body = colors[i] if i < len(colors) else (actors[i].color or BODY)
         ops.extend(vehicle_polygons(camera, ego_pose, actors[i], body, w, fog_c, FAR))
     if ops:
         lit = [
             (
                 pts,
                 tuple(
-                    int(min(255.0, max(0.0, c * gain + o)))
-                    for c, o in zip(col, offset, strict=True)
+                    int(min(255.0, max(0.0, c * g + o)))
+                    for c, g, o in zip(col, gain.tolist(), offset.tolist(), strict=True)
                 ),
             )
             for pts, col in ops
@@ -258,12 +292,42 @@ def _wet_ground(
     return ground
 
 
+def metered_luminance(img: np.ndarray) -> float:
+    """The histogram metering of a frame (0..255 display values): the mean log2 of the
+    linear luminance of the pixels between the ``EXPOSURE_LOW_PERCENT`` and
+    ``EXPOSURE_HIGH_PERCENT`` percentiles, as a linear luminance in (0, 1].
+
+    Luminance is taken on display values (Rec. 709 weights), then linearised (gamma 2.2).
+    """
+    y = img.reshape(-1, 3) @ np.asarray([0.2126, 0.7152, 0.0722], dtype=np.float32)
+    y = np.sort(np.clip(y, 1.0, 255.0))
+    n = y.size
+    band = y[int(n * EXPOSURE_LOW_PERCENT / 100) : max(int(n * EXPOSURE_HIGH_PERCENT / 100), 1)]
+    if not band.size:
+        band = y[-1:]
+    return float(2.0 ** (2.2 * (np.mean(np.log2(band)) - math.log2(255.0))))
+
+
+def exposure_gain(img: np.ndarray) -> float:
+    """The camera's steady-state exposure for a frame, as a gain on display values.
+
+    The exposure brings the metered luminance to ``EXPOSURE_REFERENCE`` (clear noon), but
+    only within CARLA's window: at most ``EXPOSURE_MAX_BRIGHT - EXPOSURE_MIN_BRIGHT`` EV
+    brighter, never darker (clear noon sits at the top of the window).
+    """
+    metered = max(metered_luminance(img), 1e-6)
+    window = EXPOSURE_MAX_BRIGHT - EXPOSURE_MIN_BRIGHT
+    ev = min(max(math.log2(EXPOSURE_REFERENCE / metered), 0.0), window)
+    return float(2.0 ** (ev / 2.2))  # linear gain 2**ev on gamma-2.2 display values
+
+
 def _light(img: np.ndarray, w: dict[str, float]) -> tuple[float, np.ndarray]:
-    """The affine light map ``c -> c * gain + offset``: darker with less illumination,
-    flatter (pulled towards the mean colour) under cloud."""
+    """The affine light map ``c -> c * gain + offset`` before exposure: the scene's light
+    (``illumination`` scales the linear radiance, so display values by its 1/2.2 power),
+    flatter (pulled towards the mean colour: diffuse light, no sun) under cloud."""
     illum = max(0.05, min(1.0, w["illum"]))
     flat = 0.35 * w["cloud"]
-    gain = 0.25 + 0.75 * illum
+    gain = illum ** (1.0 / 2.2)
     mean = img[::4, ::4].mean(axis=(0, 1)) if flat > 0 else np.zeros(3, dtype=np.float32)
     return (1 - flat) * gain, (mean * flat * gain).astype(np.float32)
 

@@ -83,6 +83,7 @@ def render_situation(
     """
     from sitcov.av import ReferenceStack
     from sitcov.perception._camera import project_box
+    from sitcov.perception._colors import ov_color
     from sitcov.sim import conditions_from_values
     from sitcov.sim.embedded import EmbeddedBackend
 
@@ -100,8 +101,9 @@ def render_situation(
     vp = backend.vehicle
     actors = ()
     if ov_row is not None:
+        color = ov_color(situation.values, int(seed))  # the run's colour, as the backend drew it
         actors = (ActorView(Pose(ov_row[1], ov_row[2], ov_row[3]), vp.length, vp.width,
-                            vp.height, ov_row[4]),)  # fmt: skip
+                            vp.height, ov_row[4], color),)  # fmt: skip
     wind_dir = float(outcome.metrics.get("wind_direction", 0.0) or 0.0)
     conditions = conditions_from_values(situation.values, wind_direction=wind_dir)
     camera = CameraSpec()

@@ -33,6 +33,7 @@ HEAD = (240, 236, 215)
 PLATE = (225, 225, 215)
 TRIM = (38, 38, 42)
 SHADOW = (26, 26, 28)
+_ASPHALT = (92, 92, 96)  # the road colour of sitcov/perception/_texture.py
 _DARK = (0, 0, 1)  # marker: the body colour, darkened (lower panels)
 #: Direction towards the sun (world frame, unit vector).
 SUN = (0.35 / 1.0, 0.45 / 1.0, 0.82 / 1.0)
@@ -134,6 +135,13 @@ def _tint(color: Sequence[float], k: float) -> tuple[int, int, int]:
     return (int(min(255, color[0] * k)), int(min(255, color[1] * k)), int(min(255, color[2] * k)))
 
 
+def _contact_shadow(cloud: float) -> tuple[float, float, float]:
+    """The ground under the car: a hard, dark sun shadow in clear weather, a softer
+    ambient-occlusion shade (half-way to lit asphalt) under a full overcast."""
+    k = 0.5 * cloud
+    return tuple(s * (1 - k) + 0.55 * a * k for s, a in zip(SHADOW, _ASPHALT, strict=True))  # type: ignore[return-value]
+
+
 def _shade(color: Sequence[float], normal: Vec3, cloud: float) -> tuple[float, float, float]:
     lam = max(0.0, normal[0] * SUN[0] + normal[1] * SUN[1] + normal[2] * SUN[2])
     k = 0.5 + 0.6 * (1.0 - 0.8 * cloud) * lam + 0.15 * max(0.0, normal[2])
@@ -180,7 +188,7 @@ def vehicle_polygons(
     hl, hw = 0.5 * actor.length + 0.15, 0.5 * actor.width + 0.08
     pts, d = project([(hl, hw, 0.0), (hl, -hw, 0.0), (-hl, -hw, 0.0), (-hl, hw, 0.0)])
     if pts:
-        out.append((pts, final(SHADOW, d)))
+        out.append((pts, final(_contact_shadow(cloud), d)))
     # Under-body darkness between the wheels (seen from any side below the sills).
     r = _wheel_radius(actor)
     ul, uw = 0.5 * actor.length - 0.1, 0.5 * actor.width - 0.05

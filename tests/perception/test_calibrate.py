@@ -81,6 +81,31 @@ def test_fit_sees_the_rear_front_difference() -> None:
     assert gap == pytest.approx(2 * 0.8, abs=0.35)
 
 
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_fit_finds_the_direction_of_the_colour_terms(sign: float) -> None:
+    """Synthetic frames whose detection rises (or falls) with the body's contrast against
+    road and sky, and falls (or rises) with its contrast against the car's dark parts:
+    the fitted colour terms have those signs and about that size."""
+    from sitcov.perception._colors import PALETTE, color_features
+
+    true = PEMParams(bias=-0.2, size_gain=1.0, contrast_gain=1.2 * sign,
+                     detail_gain=-0.8 * sign, noise_sigma=0.5)  # fmt: skip
+    rng = np.random.default_rng(11)
+    colours = [color_features(rgb, None) for rgb, _ in PALETTE.values()]
+    samples = []
+    for smp in _synthetic(3000, rng, PEMParams(noise_sigma=0.5)):
+        contrast, detail = colours[int(rng.integers(len(colours)))]
+        feats = smp.features._replace(contrast=contrast, detail=detail)
+        z = pem_logit(feats, true) + true.noise_sigma * rng.normal()
+        score = 1 / (1 + math.exp(-z))
+        samples.append(Sample("clear", 0.0, 10.0, 0.0, 0.0, feats.width_px, feats,
+                              score if score >= 0.05 else 0.0, None))  # fmt: skip
+    fit = fit_pem(samples)
+    assert sign * fit.contrast_gain > 0.6 and sign * fit.detail_gain < -0.3
+    assert fit.contrast_gain == pytest.approx(true.contrast_gain, abs=0.5)
+    assert fit.detail_gain == pytest.approx(true.detail_gain, abs=0.4)
+
+
 def test_fit_refuses_too_few_frames() -> None:
     from sitcov.errors import SitcovError
 

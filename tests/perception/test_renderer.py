@@ -80,7 +80,8 @@ def test_weather_effects_on_light_and_road(tjunction_geometry) -> None:
     geometry, ego = tjunction_geometry
     clear = _render(geometry, ego).astype(float)
     cloudy = _render(geometry, ego, values={"cloudiness": 100}).astype(float)
-    assert cloudy.mean() < 0.8 * clear.mean()  # darker
+    # auto-exposure keeps the overall brightness (tests/perception/test_exposure.py)
+    assert cloudy.mean() == pytest.approx(clear.mean(), rel=0.1)
     assert cloudy.std() < clear.std()  # flatter
     road = (slice(400, 450), slice(300, 500))  # road just ahead of the ego
     wet = _render(geometry, ego, values={"wetness": 100}).astype(float)

@@ -21,6 +21,7 @@ import numpy as np
 
 from sitcov.av._base import EgoState, Observation, RunInfo
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
+from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
 from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
 from sitcov.sim.carla._geometry import plan_route, to_sitcov
@@ -285,10 +286,10 @@ class CarlaBackend(Backend):
                 self._transform(ego_sp.x, ego_sp.y, ego_sp.z, ego_sp.yaw),
             )
             actors.append(ego)
-            ov = world.spawn_actor(
-                library.find(spec.ov_blueprint),
-                self._transform(ov_sp.x, ov_sp.y, ov_sp.z, ov_sp.yaw),
-            )
+            ov_bp = library.find(spec.ov_blueprint)
+            if ov_bp.has_attribute("color"):  # the same colour the embedded backend draws
+                ov_bp.set_attribute("color", ",".join(map(str, ov_color(situation.values, seed))))
+            ov = world.spawn_actor(ov_bp, self._transform(ov_sp.x, ov_sp.y, ov_sp.z, ov_sp.yaw))
             actors.append(ov)
             friction = self._apply_friction(world, library, (ego, ov), scale, actors)
             if friction.get("error"):

@@ -23,6 +23,7 @@ import numpy as np
 from sitcov.av._base import EgoState, Observation, RunInfo
 from sitcov.errors import ConfigError
 from sitcov.perception._base import ActorView, CameraSpec, Pose, Sensor
+from sitcov.perception._colors import ov_color
 from sitcov.sim._adversary import (
     AdversaryController,
     AdversaryParams,
@@ -77,6 +78,7 @@ _PERCEPTION_EFFECTS = {
     "fog_distance": "distance at which the fog starts [m]",
     "cloudiness": "scene illumination (Kasten-Czeplak), lowers image contrast",
     "intsit": "ego and OV routes and their conflict point",
+    "ov_color": "the OV's body colour (camera image; PEM contrast term); default: drawn per run",
 }
 #: What each element does, per physics profile (``docs/weather.md`` has the table).
 ELEMENT_EFFECTS: dict[str, dict[str, str]] = {
@@ -285,7 +287,9 @@ class EmbeddedBackend(Backend):
         intsit = self._intsit(situation)
         wind_direction = float(rng.uniform(-math.pi, math.pi))
         cond = conditions_from_values(values, wind_direction=wind_direction, profile=self.physics)
+        ov_rgb = ov_color(values, seed)  # own random stream: shifts no other draw
         vp = self.vehicle
+        ov_dims = (vp.length, vp.width, vp.height)
         scen = self.map.scenario(intsit["ego"], intsit["ov"], vp.width, vp.width)
         er, orr = scen.ego_route, scen.ov_route
         ov_curv = orr.max_curvature
@@ -375,7 +379,7 @@ class EmbeddedBackend(Backend):
             detections = image = None
             if k % self.sensor_every == 0 and not latched:
                 actors = (
-                    (ActorView(Pose(ov.x, ov.y, ov.yaw), vp.length, vp.width, vp.height, ov.speed),)
+                    (ActorView(Pose(ov.x, ov.y, ov.yaw), *ov_dims, ov.speed, ov_rgb),)
                     if ov_active
                     else ()
                 )

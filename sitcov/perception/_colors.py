@@ -1,0 +1,157 @@
+"""Body colours of the other vehicle (OV): a palette with real-world shares, and contrast.
+
+The OV's colour is drawn once per run from :data:`PALETTE`, whose shares are the global
+colour distribution of new light vehicles in the BASF Color Report 2021 for Automotive
+OEM Coatings (global overview: white 37 %, black 17 %, grey 15 %, blue 9 %, red 6 %,
+brown 2 %, beige, gold, orange, green and yellow about 1 % each; silver is the rest,
+9 %). A hyperspace that declares an ``ov_color`` element fixes it instead (a palette
+name or an ``[R, G, B]`` list).
+
+The draw has its own random stream, ``default_rng(SeedSequence(seed,
+spawn_key=(OV_COLOR_KEY,)))``: adding it shifts no other stream of the run, and it
+cannot coincide with the per-frame streams ``default_rng([seed, k])`` (a spawn key is
+mixed in after the seed's zero-padded entropy pool; plain entropy lists never are).
+
+:func:`body_contrast` is the PEM's colour feature: the Michelson luminance contrast of
+the body against the scene behind and around it (road below the horizon, sky above),
+under the scene's light; :func:`detail_contrast` is that of the body against the car's own
+dark parts (glass, tyres, trim), which outline it.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from sitcov.errors import ConfigError
+
+if TYPE_CHECKING:
+    from sitcov.sim import Conditions
+
+RGB = tuple[int, int, int]
+
+#: name -> (RGB body colour, share of new vehicles [-]); shares sum to 1.
+PALETTE: dict[str, tuple[RGB, float]] = {
+    "white": ((226, 226, 222), 0.37),
+    "black": ((24, 24, 27), 0.17),
+    "grey": ((96, 99, 104), 0.15),
+    "silver": ((168, 171, 175), 0.09),
+    "blue": ((35, 62, 128), 0.09),
+    "red": ((150, 30, 35), 0.06),
+    "brown": ((96, 66, 46), 0.02),
+    "beige": ((192, 177, 146), 0.01),
+    "gold": ((180, 150, 82), 0.01),
+    "orange": ((210, 100, 30), 0.01),
+    "green": ((40, 86, 56), 0.01),
+    "yellow": ((222, 190, 40), 0.01),
+}
+#: Spawn key of the OV colour's random stream (see the module docstring). "COL" in ASCII.
+OV_COLOR_KEY = 0x434F4C
+#: The colour of an actor that declares none (the OV of earlier versions).
+DEFAULT_COLOR: RGB = PALETTE["red"][0]
+
+#: Relative luminance of the road (asphalt) and of the sky (clear, overcast) the body is
+#: seen against, in the renderer's units (linear 0..1); see sitcov/perception/_texture.py.
+ROAD_LUMINANCE = 0.10
+SKY_CLEAR_LUMINANCE = 0.55
+SKY_OVERCAST_LUMINANCE = 0.40
+#: Relative luminance of the car's dark parts (glass, tyres, trim; _vehicle.GLASS).
+DARK_PARTS_LUMINANCE = 0.027
+
+
+def palette_names() -> tuple[str, ...]:
+    """The palette's colour names, most common first."""
+    return tuple(PALETTE)
+
+
+def color_rng(seed: int) -> np.random.Generator:
+    """The OV colour's own random stream of run ``seed``."""
+    return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(OV_COLOR_KEY,)))
+
+
+def draw_color(rng: np.random.Generator) -> str:
+    """A palette name drawn by the palette's shares."""
+    names = list(PALETTE)
+    shares = np.asarray([PALETTE[n][1] for n in names])
+    return names[int(rng.choice(len(names), p=shares / shares.sum()))]
+
+
+def resolve_color(value: Any, *, field: str = "ov_color") -> RGB:
+    """An RGB triple from a palette name or an ``[R, G, B]`` list (0..255 each)."""
+    if isinstance(value, str):
+        key = value.strip().lower().replace("gray", "grey")
+        if key in PALETTE:
+            return PALETTE[key][0]
+    elif isinstance(value, Sequence) and len(value) == 3:
+        try:
+            rgb = tuple(int(v) for v in value)
+        except (TypeError, ValueError):
+            rgb = ()
+        if len(rgb) == 3 and all(0 <= v <= 255 for v in rgb):
+            return rgb  # type: ignore[return-value]
+    raise ConfigError(
+        field=field,
+        value=value,
+        expected=f"a colour name ({', '.join(PALETTE)}) or [R, G, B] with 0..255",
+    )
+
+
+def ov_color(values: Mapping[str, Any], seed: int) -> RGB:
+    """The OV's colour in a run: the situation's ``ov_color`` if any, else drawn by shares."""
+    declared = values.get("ov_color")
+    if declared is not None:
+        return resolve_color(declared)
+    return PALETTE[draw_color(color_rng(seed))][0]
+
+
+def luminance(rgb: Sequence[float]) -> float:
+    """Relative luminance (Rec. 709 weights) of an sRGB colour 0..255, linearised."""
+    lin = [(max(0.0, float(c)) / 255.0) ** 2.2 for c in rgb]
+    return 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+
+
+def body_contrast(rgb: Sequence[float] | None, conditions: Conditions | None) -> float:
+    """Michelson contrast in [0, 1] of the body against its surroundings under the light.
+
+    The body is lit by the sun and the sky (its direct part fades with cloud, as in the
+    renderer's shading); the background is half road (darkened when wet) and half sky
+    (greyer under cloud). Overall light level cancels out, as it does under the camera's
+    auto-exposure; what remains is the colour's own contrast and the share of direct light.
+    """
+    cloud = wet = 0.0
+    if conditions is not None:
+        raw = conditions.raw
+        cloud = _unit(raw.get("cloudiness", 0.0))
+        wet = max(_unit(raw.get("wetness", 0.0)), 0.6 * _unit(raw.get("precipitation", 0.0)))
+    body = luminance(rgb if rgb is not None else DEFAULT_COLOR) * (0.75 + 0.35 * (1 - 0.8 * cloud))
+    road = ROAD_LUMINANCE * (1.0 - 0.4 * wet)
+    sky = SKY_CLEAR_LUMINANCE * (1 - cloud) + SKY_OVERCAST_LUMINANCE * cloud
+    back = 0.5 * (road + sky)
+    return abs(body - back) / (body + back)
+
+
+def detail_contrast(rgb: Sequence[float] | None) -> float:
+    """Signed Michelson contrast in [-1, 1] of the body against the car's own dark parts
+    (glass, tyres, trim): the contrast that outlines windows, wheels and bumpers. Black
+    and dark bodies lose it (negative or near 0); light bodies keep it (near 1)."""
+    body = luminance(rgb if rgb is not None else DEFAULT_COLOR)
+    return (body - DARK_PARTS_LUMINANCE) / (body + DARK_PARTS_LUMINANCE)
+
+
+def color_features(
+    rgb: Sequence[float] | None, conditions: Conditions | None
+) -> tuple[float, float]:
+    """The PEM's colour features of a body colour under ``conditions``:
+    (:func:`body_contrast`, :func:`detail_contrast`)."""
+    return body_contrast(rgb, conditions), detail_contrast(rgb)
+
+
+def _unit(value: Any) -> float:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return 0.0
+    return 0.0 if math.isnan(v) else min(100.0, max(0.0, v)) / 100.0
