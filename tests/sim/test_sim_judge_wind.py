@@ -20,6 +20,7 @@ from sitcov.sim import Judge
 PAIRS = 300
 SEED = 11
 
+
 def _with_wind(situation: Situation, level: str) -> Situation:
     bins = {**situation.bins, "wind_intensity": level}
     values = {**situation.values, "wind_intensity": float(level)}
