@@ -10,21 +10,10 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK
+from campaign_helpers import run_cli as sitcov
 from needs import need_module
 
-from sitcov.cli import main
-
 FAKE = ["--generator", GENERATOR, "--backend", BACKEND, "--av", STACK, "--executor", "serial"]
-
-
-def sitcov(capsys, *args: str) -> tuple[int, str, str]:
-    try:
-        main(list(args))
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 @pytest.fixture

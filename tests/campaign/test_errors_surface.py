@@ -7,22 +7,11 @@ import sqlite3
 
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK
+from campaign_helpers import run_cli as sitcov
 
 from sitcov.campaign._executors import TRACEBACK_CHARS, error_message
-from sitcov.cli import main
 
 FAKE = ["--generator", GENERATOR, "--backend", BACKEND, "--av", STACK, "--executor", "serial"]
-
-
-def sitcov(capsys, *args: str) -> tuple[int, str, str]:
-    """Run the CLI in-process: (exit code, stdout, stderr)."""
-    try:
-        main(list(args))
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def stored_messages(path) -> list[str]:

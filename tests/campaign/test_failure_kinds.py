@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK, fake_outcome
 from campaign_helpers import fake_config
+from campaign_helpers import run_cli as sitcov
 from judge_fakes import DEPARTING, departing_outcome
 
 from sitcov._seeding import ask_rng, run_seed
@@ -20,22 +21,10 @@ from sitcov.campaign._build import build_backend
 from sitcov.campaign._export import export
 from sitcov.campaign._sqlite import SCHEMA_VERSION
 from sitcov.campaign._summary import summarize_store, summary_table
-from sitcov.cli import main
 from sitcov.errors import ConfigError
 from sitcov.generation import make_generator
 from sitcov.hyperspace import load_hyperspace
 from sitcov.sim import WORLD_MODEL_VERSION, Judge
-
-
-def sitcov(capsys, *args: str) -> tuple[int, str, str]:
-    try:
-        main(list(args))
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
-
 
 # --- the judge is configuration; the facts are not -------------------------------------------
 

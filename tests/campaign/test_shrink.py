@@ -7,11 +7,11 @@ import json
 import pytest
 from campaign_fakes import STACK
 from campaign_helpers import fake_config
+from campaign_helpers import run_cli as cli
 from shrink_fakes import BACKEND
 
 from sitcov.campaign import open_store, run_campaign
 from sitcov.campaign._shrink import benign_bins, ddmin, derived_seeds, shrink_run
-from sitcov.cli import main
 from sitcov.hyperspace import load_hyperspace
 
 
@@ -72,16 +72,6 @@ def test_ddmin_is_one_minimal():
 def test_derived_seeds_are_stable_and_distinct():
     assert derived_seeds(7, 2, 5) == derived_seeds(7, 2, 5)
     assert len(set(derived_seeds(7, 2, 5) + derived_seeds(7, 3, 5))) == 10
-
-
-def cli(capsys, *args):
-    try:
-        main(list(args))
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
 
 
 def test_cli_shrink_json_and_replay_line(db, capsys):
