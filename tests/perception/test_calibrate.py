@@ -146,8 +146,8 @@ def test_fit_finds_the_direction_of_the_hue_terms(sign: float) -> None:
     fit_gaps = [logit(fit, a) - logit(fit, b) for a, b in pairs]
     assert all(sign * gap > 0.5 for gap in true_gaps)
     assert all(sign * gap > 0.2 for gap in fit_gaps), fit_gaps
-    # probit units (P(score >= 0.5) = Phi(logit / noise_sigma)); the ridge and the
-    # collinear colour features shrink the fitted gap (by 5-40 % over seeds 12-16)
+    # probit units (P(score >= 0.5) = Phi(logit / noise_sigma)); the fitted gap comes out
+    # smaller than the true one (by 5-40 % over rng seeds 12-16: ridge, collinear features)
     assert 0.5 < np.mean(fit_gaps) / np.mean(true_gaps) < 1.15
 
 
