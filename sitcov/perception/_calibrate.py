@@ -183,6 +183,9 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
         -f[:, 7],
         f[:, 9],
         f[:, 10],
+        f[:, 11],
+        f[:, 12],
+        f[:, 13],
     ]
     return np.stack(cols, axis=1)
 
@@ -204,6 +207,9 @@ _LINEAR = (
     "edge_gain",
     "contrast_gain",
     "detail_gain",
+    "chroma_gain",
+    "red_green_gain",
+    "yellow_blue_gain",
 )
 #: Ridge penalty on the probit coefficients (not the intercept).
 _RIDGE = 1.0

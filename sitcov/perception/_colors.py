@@ -15,7 +15,11 @@ mixed in after the seed's zero-padded entropy pool; plain entropy lists never ar
 :func:`body_contrast` is the PEM's colour feature: the Michelson luminance contrast of
 the body against the scene behind and around it (road below the horizon, sky above),
 under the scene's light; :func:`detail_contrast` is that of the body against the car's own
-dark parts (glass, tyres, trim), which outline it.
+dark parts (glass, tyres, trim), which outline it. Both are luminance contrasts; the
+detector also prefers some hues to others at the same luminance (saturated red and blue
+over beige and gold, docs/camera.md), which :func:`chroma_features` carries: the body's
+CIELAB chroma and its two opponent axes (red-green ``a*``, yellow-blue ``b*``), defined
+for any RGB colour, so a custom ``ov_color`` gets a value as well as a palette one.
 """
 
 from __future__ import annotations
@@ -147,6 +151,34 @@ def color_features(
     """The PEM's colour features of a body colour under ``conditions``:
     (:func:`body_contrast`, :func:`detail_contrast`)."""
     return body_contrast(rgb, conditions), detail_contrast(rgb)
+
+
+def srgb_to_lab(rgb: Sequence[float]) -> tuple[float, float, float]:
+    """CIELAB (L*, a*, b*) of an sRGB colour 0..255 (D65 white, IEC 61966-2-1 transfer)."""
+    lin = []
+    for c in rgb:
+        v = min(max(float(c), 0.0), 255.0) / 255.0
+        lin.append(v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4)
+    r, g, b = lin
+    x = (0.4124 * r + 0.3576 * g + 0.1805 * b) / 0.95047
+    y = 0.2126 * r + 0.7152 * g + 0.0722 * b
+    z = (0.0193 * r + 0.1192 * g + 0.9505 * b) / 1.08883
+    fx, fy, fz = _lab_f(x), _lab_f(y), _lab_f(z)
+    return 116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)
+
+
+def _lab_f(t: float) -> float:
+    eps = (6.0 / 29.0) ** 3
+    return t ** (1.0 / 3.0) if t > eps else t / (3.0 * (6.0 / 29.0) ** 2) + 4.0 / 29.0
+
+
+def chroma_features(rgb: Sequence[float] | None) -> tuple[float, float, float]:
+    """The PEM's hue features of a body colour: (chroma, red_green, yellow_blue), the
+    CIELAB ``C*``, ``a*`` and ``b*`` over 100 (greys are (0, 0, 0); red is about
+    (0.57, 0.49, 0.29), blue (0.43, 0.14, -0.40), gold (0.40, 0.03, 0.40)). They let the
+    fit tell hues of equal luminance apart, which the contrast features cannot."""
+    _, a, b = srgb_to_lab(rgb if rgb is not None else DEFAULT_COLOR)
+    return math.hypot(a, b) / 100.0, a / 100.0, b / 100.0
 
 
 def _unit(value: Any) -> float:

@@ -15,6 +15,8 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + aspect_gain * ln(clamp(w / h, 0.25, 4))                             box shape
         - edge_gain  * offset                                                 off-centre
         + contrast_gain * contrast + detail_gain * detail                     body colour
+        + chroma_gain * chroma + red_green_gain * red_green
+        + yellow_blue_gain * yellow_blue                                      body hue
     score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * n_t)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
@@ -22,7 +24,8 @@ actor's heading relative to the line of sight (+1 rear view, -1 front view), ``o
 distance of the box centre from the image centre as a fraction of half the image width
 (clamped to [0, 1]), ``contrast`` the luminance contrast of the body colour against the
 road and sky under the scene's light and ``detail`` its contrast against the car's own
-dark parts (:mod:`sitcov.perception._colors`), and ``n_t`` a unit-variance noise,
+dark parts, ``chroma``, ``red_green`` and ``yellow_blue`` the body colour's CIELAB C*, a*
+and b* over 100 (:mod:`sitcov.perception._colors`), and ``n_t`` a unit-variance noise,
 optionally correlated in time:
 
     n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share) * u_t
@@ -54,7 +57,7 @@ import yaml
 from sitcov.errors import ConfigError
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
 from sitcov.perception._camera import project_raw
-from sitcov.perception._colors import color_features
+from sitcov.perception._colors import chroma_features, color_features
 
 if TYPE_CHECKING:
     import numpy as np
@@ -104,6 +107,9 @@ class PEMParams:
             sky (Michelson, 0..1) [-].
         detail_gain: logit per unit of the body's contrast against the car's dark parts
             (signed Michelson, -1..1) [-].
+        chroma_gain: logit per unit of the body's CIELAB chroma C*/100 (saturation) [-].
+        red_green_gain: logit per unit of the body's CIELAB a*/100 (red +, green -) [-].
+        yellow_blue_gain: logit per unit of the body's CIELAB b*/100 (yellow +, blue -) [-].
     """
 
     bias: float = 0.5
@@ -133,6 +139,9 @@ class PEMParams:
     facing2_gain: float = 0.0
     contrast_gain: float = 0.0
     detail_gain: float = 0.0
+    chroma_gain: float = 0.0
+    red_green_gain: float = 0.0
+    yellow_blue_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -209,6 +218,8 @@ def _read(path: Path) -> PEMParams:
 
 #: Colour features of an actor without a colour (dark red) in clear weather.
 DEFAULT_CONTRAST, DEFAULT_DETAIL = color_features(None, None)
+#: Hue features of an actor without a colour (dark red).
+DEFAULT_CHROMA, DEFAULT_RED_GREEN, DEFAULT_YELLOW_BLUE = chroma_features(None)
 
 
 class PEMFeatures(NamedTuple):
@@ -229,6 +240,7 @@ class PEMFeatures(NamedTuple):
         contrast: the body's luminance contrast against road and sky under the scene's
             light, in [0, 1] [-] (default: the dark red of earlier versions, clear noon).
         detail: the body's contrast against the car's dark parts, in [-1, 1] [-].
+        chroma, red_green, yellow_blue: the body colour's CIELAB C*, a*, b* over 100 [-].
     """
 
     height_px: float
@@ -242,6 +254,9 @@ class PEMFeatures(NamedTuple):
     facing: float = 0.0
     contrast: float = DEFAULT_CONTRAST
     detail: float = DEFAULT_DETAIL
+    chroma: float = DEFAULT_CHROMA
+    red_green: float = DEFAULT_RED_GREEN
+    yellow_blue: float = DEFAULT_YELLOW_BLUE
 
 
 _TINY = 1e-9  # floor inside logarithms [-]
@@ -265,6 +280,9 @@ def _logit(
     facing: float = 0.0,
     contrast: float = DEFAULT_CONTRAST,
     detail: float = DEFAULT_DETAIL,
+    chroma: float = DEFAULT_CHROMA,
+    red_green: float = DEFAULT_RED_GREEN,
+    yellow_blue: float = DEFAULT_YELLOW_BLUE,
 ) -> float:
     h = min(max(height_px, p.size_min_px), p.size_max_px)
     size = math.log(h / p.size_ref_px)
@@ -287,6 +305,9 @@ def _logit(
         - p.edge_gain * offset
         + p.contrast_gain * contrast
         + p.detail_gain * detail
+        + p.chroma_gain * chroma
+        + p.red_green_gain * red_green
+        + p.yellow_blue_gain * yellow_blue
     )
 
 
@@ -361,7 +382,13 @@ class PEMSensor(Sensor):
         self._tracks: dict[int, _Track] = {}
         self._frame = 0
         self._color_key: Any = None
-        self._color_value = (DEFAULT_CONTRAST, DEFAULT_DETAIL)
+        self._color_value: tuple[float, ...] = (
+            DEFAULT_CONTRAST,
+            DEFAULT_DETAIL,
+            DEFAULT_CHROMA,
+            DEFAULT_RED_GREEN,
+            DEFAULT_YELLOW_BLUE,
+        )
 
     def reset(self, frame_dt: float | None = None) -> None:
         """Start a new run: forget every actor's noise state (optionally set ``frame_dt`` [s])."""
@@ -377,7 +404,6 @@ class PEMSensor(Sensor):
         if proj is None or not proj[6]:
             return None
         raw = proj[1]
-        contrast, detail = self._colors(actor.color, conditions)
         return PEMFeatures(
             raw[3] - raw[1],
             proj[5],
@@ -388,17 +414,16 @@ class PEMSensor(Sensor):
             raw[2] - raw[0],
             _offset(self.camera, raw),
             proj[7],
-            contrast,
-            detail,
+            *self._colors(actor.color, conditions),
         )
 
-    def _colors(self, color: Any, conditions: Conditions) -> tuple[float, float]:
-        """:func:`color_features`, cached for the last (colour, conditions) pair: both are
-        constant over a run."""
+    def _colors(self, color: Any, conditions: Conditions) -> tuple[float, ...]:
+        """:func:`color_features` then :func:`chroma_features`, cached for the last
+        (colour, conditions) pair: both are constant over a run."""
         key = self._color_key
         if key is None or key[0] != color or key[1] is not conditions:
             self._color_key = (color, conditions)  # holds conditions: no id reuse
-            self._color_value = color_features(color, conditions)
+            self._color_value = (*color_features(color, conditions), *chroma_features(color))
         return self._color_value
 
     def _phi(self) -> float:

@@ -10,6 +10,7 @@ from sitcov.errors import ConfigError
 from sitcov.perception._colors import (
     PALETTE,
     body_contrast,
+    chroma_features,
     color_rng,
     detail_contrast,
     draw_color,
@@ -82,6 +83,21 @@ def test_colour_features_have_the_documented_ranges_and_order() -> None:
     assert body_contrast(PALETTE["black"][0], clear) > body_contrast(PALETTE["silver"][0], clear)
 
 
+def test_hue_features_separate_hues_and_vanish_for_greys() -> None:
+    """Greys have no hue; the opponent axes point the documented ways; any RGB colour (a
+    custom ov_color) gets features, close to those of the palette colour it is close to."""
+    for name in ("white", "black", "grey", "silver"):
+        assert max(abs(v) for v in chroma_features(PALETTE[name][0])) < 0.05, name
+    red, blue = chroma_features(PALETTE["red"][0]), chroma_features(PALETTE["blue"][0])
+    gold, yellow = chroma_features(PALETTE["gold"][0]), chroma_features(PALETTE["yellow"][0])
+    assert red[1] > 0.3 and blue[2] < -0.3 < 0.3 < gold[2] < yellow[2]
+    for c, a, b in (red, blue, gold, chroma_features((0, 255, 0))):
+        assert c == pytest.approx(np.hypot(a, b)) and 0.0 <= c <= 1.5
+    near_red = chroma_features(tuple(v + 4 for v in PALETTE["red"][0]))
+    assert np.allclose(near_red, red, atol=0.03)
+    assert chroma_features(None) == red  # the default body colour is the old red
+
+
 def test_the_embedded_backend_gives_the_colour_to_the_sensor() -> None:
     from sitcov.av import ReferenceStack
     from sitcov.hyperspace import Situation
@@ -131,3 +147,22 @@ def test_the_renderer_paints_the_actor_in_its_colour(tjunction_geometry) -> None
     white, black, red = box_mean("white"), box_mean("black"), box_mean("red")
     assert white.mean() > black.mean() + 20  # box mean: body, glass, wheels, background
     assert red[0] - red[1] > white[0] - white[1] + 8  # the red body shows as red
+
+
+def test_a_pem_file_without_the_hue_names_loads_with_no_hue_term(tmp_path) -> None:
+    """Files written before the hue term (no chroma_gain, red_green_gain,
+    yellow_blue_gain) still load; the missing gains are 0, so hue changes no score."""
+    import yaml
+
+    from sitcov.perception import PEMFeatures, load_pem_params, pem_logit
+
+    old = {n: v for n, v in load_pem_params().to_dict().items() if "green" not in n
+           and "blue" not in n and n != "chroma_gain"}  # fmt: skip
+    path = tmp_path / "pem.yaml"
+    path.write_text(yaml.safe_dump({"meta": {"source": "test"}, "params": old}))
+    params = load_pem_params(path)
+    assert (params.chroma_gain, params.red_green_gain, params.yellow_blue_gain) == (0, 0, 0)
+    base = PEMFeatures(40.0, 0.3, 0.0, width_px=70.0)
+    logits = {pem_logit(base._replace(chroma=c, red_green=a, yellow_blue=b), params)
+              for c, a, b in (chroma_features(rgb) for rgb, _ in PALETTE.values())}  # fmt: skip
+    assert len(logits) == 1
