@@ -71,6 +71,8 @@ class ActorView:
         speed: [m/s].
         color: body colour (R, G, B), 0..255 each; None = the renderer's default
             (sitcov.perception._colors.DEFAULT_COLOR).
+        kind: the road user's kind: ``car``, ``truck``, ``cyclist`` or ``pedestrian``
+            (sensors report it as the detection's class label).
     """
 
     pose: Pose
@@ -79,6 +81,7 @@ class ActorView:
     height: float
     speed: float = 0.0
     color: tuple[int, int, int] | None = None
+    kind: str = "car"
 
 
 class Sensor(abc.ABC):
