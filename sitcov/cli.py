@@ -769,8 +769,9 @@ def export_xosc_cmd(
     map_name: str = typer.Option("Town03", "--map", help="CARLA map file (name or YAML)."),
 ) -> None:
     """Write OpenSCENARIO 1.0 files (one per situation) for ScenarioRunner / esmini."""
+    from sitcov.campaign._replay import failing_situations
     from sitcov.errors import ConfigError
-    from sitcov.sim.carla import export_xosc, failing_situations, situations_from_json
+    from sitcov.sim.carla import export_xosc, situations_from_json
 
     if (situation_json is None) == (db is None):
         raise ConfigError(field="export-xosc", expected="exactly one of --situation-json, --db")

@@ -23,7 +23,7 @@ from sitcov.campaign._config import CampaignConfig
 from sitcov.campaign._executors import execute
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._runner import judge_of
-from sitcov.campaign._store import Store, StoreError
+from sitcov.campaign._store import Store, StoreError, open_store
 from sitcov.errors import ConfigError
 from sitcov.sim import Judge, Outcome
 
@@ -145,3 +145,20 @@ def replay_run(
         written = str(render)
     diffs = outcome_differences(run.outcome, outcome)
     return ReplayResult(run, outcome, same, name, options, diffs, written)
+
+
+def failing_situations(db: str | Path, campaign: str | None = None) -> list[Any]:
+    """The situations of the failing runs stored in a campaign database.
+
+    Raises:
+        ConfigError: the database file does not exist.
+    """
+    if not Path(db).exists():
+        raise ConfigError(field="--db", value=str(db), expected="an existing campaign database")
+    store = open_store(db)
+    try:
+        if campaign is not None:
+            store.campaign(campaign)  # a clear error naming the known campaigns
+        return [run.situation for run in store.runs(campaign=campaign, status="fail")]
+    finally:
+        store.close()

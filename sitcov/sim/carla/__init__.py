@@ -11,7 +11,6 @@ from sitcov.sim.carla._options import backend_for_worker, carla_backend_options,
 from sitcov.sim.carla._surface import SURFACE
 from sitcov.sim.carla._xosc import (
     export_xosc,
-    failing_situations,
     situation_scenario,
     situations_from_json,
 )
@@ -24,7 +23,6 @@ __all__ = [
     "backend_for_worker",
     "carla_backend_options",
     "export_xosc",
-    "failing_situations",
     "friction_scale",
     "image_to_rgb",
     "load_carla_map",

@@ -325,22 +325,3 @@ def situations_from_json(text: str) -> list[Any]:
         except (TypeError, ValueError) as exc:
             raise ConfigError(f"{source}: [{i}]: {exc}") from None
     return out
-
-
-def failing_situations(db: str | Path, campaign: str | None = None) -> list[Any]:
-    """The situations of the failing runs stored in a campaign database.
-
-    Raises:
-        ConfigError: the database file does not exist.
-    """
-    from sitcov.campaign import open_store
-
-    if not Path(db).exists():
-        raise ConfigError(field="--db", value=str(db), expected="an existing campaign database")
-    store = open_store(db)
-    try:
-        if campaign is not None:
-            store.campaign(campaign)  # a clear error naming the known campaigns
-        return [run.situation for run in store.runs(campaign=campaign, status="fail")]
-    finally:
-        store.close()
