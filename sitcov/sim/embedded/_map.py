@@ -27,6 +27,12 @@ MAPS_DIR = FsPath(__file__).parent / "maps"
 ROUTE_STEP = 1.0
 #: Spacing used to find swept-path overlaps [m].
 CONFLICT_STEP = 0.25
+#: Sidewalk width when a map file gives none [m] (a common urban footway).
+DEFAULT_SIDEWALK_WIDTH = 2.0
+#: Cyclists ride this far right of the lane centre when a map file gives none [m]: on a
+#: 3.5 m lane the bike (0.6 m wide) keeps 0.25 m to the kerb and clears a car (1.61 m) on
+#: the lane centre, as a cyclist keeping right does.
+DEFAULT_BIKE_OFFSET = 1.2
 
 
 @dataclass(frozen=True)
@@ -38,12 +44,27 @@ class Leg:
         heading: direction pointing away from the junction centre [rad].
         length: from the centre to the end of the leg [m].
         mouth: from the centre to where the leg's straight lanes meet the junction [m].
+        crosswalk: the leg's pedestrian crossing, or None if it has none.
     """
 
     name: str
     heading: float
     length: float
     mouth: float
+    crosswalk: Crosswalk | None = None
+
+
+@dataclass(frozen=True)
+class Crosswalk:
+    """A pedestrian crossing across both lanes of a leg.
+
+    Attributes:
+        offset: from the leg's mouth outwards to the crossing's near edge [m].
+        width: along the leg [m]; pedestrians walk on its centre line.
+    """
+
+    offset: float
+    width: float
 
 
 @dataclass(frozen=True)
@@ -84,6 +105,11 @@ def _number(data: dict[str, Any], key: str, file: str, where: str, lo: float = -
     return float(value)
 
 
+def _optional(data: dict[str, Any], key: str, default: float, file: str) -> float:
+    """An optional positive number: ``default`` when the key is absent."""
+    return default if key not in data else _number(data, key, file, "", 0.0)
+
+
 class JunctionMap:
     """A junction built from a map file's data.
 
@@ -95,58 +121,71 @@ class JunctionMap:
         ConfigError: naming the file, the field, the value and what was expected.
     """
 
+    #: The map's ``layout`` (subclasses: ``roundabout``, ``merge``).
+    LAYOUT = "junction"
+    #: Top-level keys every layout accepts; a layout adds its own section (``roundabout``...).
+    KEYS = (
+        "format",
+        "name",
+        "description",
+        "layout",
+        "lane_width",
+        "sidewalk_width",
+        "bike_offset",
+        "legs",
+        "spawns",
+        "goal_distance",
+        "switch_distances",
+    )
+
+    def __new__(cls, data: Any = None, source: str = "<map>") -> JunctionMap:
+        """Pick the class of the file's ``layout`` (so ``JunctionMap(data)`` builds any map)."""
+        if cls is JunctionMap and isinstance(data, dict):
+            cls = layout_classes().get(data.get("layout", "junction"), cls)
+        return super().__new__(cls)
+
     def __init__(self, data: Any, source: str = "<map>") -> None:
         if not isinstance(data, dict):
             raise ConfigError(
                 file=source, field="(top level)", value=type(data).__name__, expected="a mapping"
             )
-        unknown = set(data) - {
-            "format",
-            "name",
-            "description",
-            "lane_width",
-            "legs",
-            "spawns",
-            "goal_distance",
-            "switch_distances",
-        }
+        keys = self.KEYS + ((self.LAYOUT,) if self.LAYOUT != "junction" else ())
+        unknown = set(data) - set(keys)
         if unknown:
             raise ConfigError(
-                file=source,
-                field=sorted(unknown)[0],
-                value=None,
-                expected="one of format, name, description, lane_width, legs, "
-                "spawns, goal_distance, switch_distances",
+                file=source, field=sorted(unknown)[0], value=None, expected="one of " + ", ".join(keys)
             )
-        if data.get("format", 1) != 1:
-            raise ConfigError(file=source, field="format", value=data.get("format"), expected="1")
+        if data.get("format", 1) not in (1, 2):
+            raise ConfigError(
+                file=source, field="format", value=data.get("format"), expected="1 or 2"
+            )
+        if data.get("layout", "junction") != self.LAYOUT:
+            raise ConfigError(
+                file=source,
+                field="layout",
+                value=data.get("layout"),
+                expected=" | ".join(layout_classes()),
+            )
         name = data.get("name")
         if not isinstance(name, str) or not name:
             raise ConfigError(file=source, field="name", value=name, expected="a non-empty string")
         self.name = name
         self.source = source
         self.lane_width = _number(data, "lane_width", source, "", 0.0)
-        legs = data.get("legs")
-        if not isinstance(legs, dict) or len(legs) < 2:
+        self.sidewalk_width = _optional(data, "sidewalk_width", DEFAULT_SIDEWALK_WIDTH, source)
+        self.bike_offset = _optional(data, "bike_offset", DEFAULT_BIKE_OFFSET, source)
+        if not self.bike_offset < 0.5 * self.lane_width:
             raise ConfigError(
-                file=source, field="legs", value=legs, expected="a mapping of at least two legs"
+                file=source,
+                field="bike_offset",
+                value=self.bike_offset,
+                expected=f"a number in (0, {0.5 * self.lane_width:g}) (half the lane width)",
             )
-        self.legs: dict[str, Leg] = {}
-        for leg_name, leg in legs.items():
-            where = f"legs.{leg_name}."
-            if not isinstance(leg, dict):
-                raise ConfigError(
-                    file=source,
-                    field=f"legs.{leg_name}",
-                    value=leg,
-                    expected="a mapping with heading_deg, length, mouth",
-                )
-            heading = _number(leg, "heading_deg", source, where)
-            mouth = _number(leg, "mouth", source, where, self.lane_width)
-            length = _number(leg, "length", source, where, mouth + 10.0)
-            self.legs[str(leg_name)] = Leg(str(leg_name), math.radians(heading), length, mouth)
+        self.legs: dict[str, Leg] = self._parse_legs(data.get("legs"))
+        self._parse_layout(data.get(self.LAYOUT, {}))
         self.goal_distance = _number(data, "goal_distance", source, "", 0.0)
-        for leg in self.legs.values():
+        for leg_name in self.exit_legs:
+            leg = self.legs[leg_name]
             if not leg.mouth < self.goal_distance < leg.length:
                 raise ConfigError(
                     file=source,
@@ -154,22 +193,76 @@ class JunctionMap:
                     value=self.goal_distance,
                     expected=f"between leg {leg.name}'s mouth and length",
                 )
-        spawns = data.get("spawns")
+        self.spawns = self._parse_spawns(data.get("spawns"))
+        self._lanes = self._build_lanes()
+        self.graph: dict[str, tuple[str, ...]] = self._build_graph()
+        self.switch_distances = self._switch_distances(data.get("switch_distances", {}))
+
+    def _parse_legs(self, legs: Any) -> dict[str, Leg]:
+        source = self.source
+        if not isinstance(legs, dict) or len(legs) < 2:
+            raise ConfigError(
+                file=source, field="legs", value=legs, expected="a mapping of at least two legs"
+            )
+        out: dict[str, Leg] = {}
+        for leg_name, leg in legs.items():
+            where = f"legs.{leg_name}."
+            if not isinstance(leg, dict) or set(leg) - {"heading_deg", "length", "mouth", "crosswalk"}:
+                raise ConfigError(
+                    file=source,
+                    field=f"legs.{leg_name}",
+                    value=leg,
+                    expected="a mapping with heading_deg, length, mouth (optional crosswalk)",
+                )
+            heading = _number(leg, "heading_deg", source, where)
+            mouth = _number(leg, "mouth", source, where, self.lane_width)
+            length = _number(leg, "length", source, where, mouth + 10.0)
+            crosswalk = None
+            if "crosswalk" in leg:
+                cw = leg["crosswalk"]
+                if not isinstance(cw, dict) or set(cw) != {"offset", "width"}:
+                    raise ConfigError(
+                        file=source,
+                        field=f"{where}crosswalk",
+                        value=cw,
+                        expected="a mapping {offset: m outside the mouth, width: m}",
+                    )
+                crosswalk = Crosswalk(
+                    _number(cw, "offset", source, f"{where}crosswalk.", -1e-9),
+                    _number(cw, "width", source, f"{where}crosswalk.", 0.0),
+                )
+                if mouth + crosswalk.offset + crosswalk.width > length - 10.0:
+                    raise ConfigError(
+                        file=source,
+                        field=f"{where}crosswalk",
+                        value=cw,
+                        expected=f"a crossing ending at least 10 m before the leg's end ({length:g} m)",
+                    )
+            out[str(leg_name)] = Leg(str(leg_name), math.radians(heading), length, mouth, crosswalk)
+        return out
+
+    def _parse_layout(self, section: Any) -> None:
+        """Read the layout's own section (none for a junction); sets entry and exit legs."""
+        self.entry_legs: tuple[str, ...] = tuple(self.legs)
+        self.exit_legs: tuple[str, ...] = tuple(self.legs)
+
+    def _parse_spawns(self, spawns: Any) -> dict[str, dict[str, float]]:
+        source = self.source
         if not isinstance(spawns, dict) or set(spawns) != {"ego", "ov"}:
             raise ConfigError(
                 file=source, field="spawns", value=spawns, expected="a mapping with keys ego and ov"
             )
-        self.spawns: dict[str, dict[str, float]] = {}
+        out: dict[str, dict[str, float]] = {}
         for role, table in spawns.items():
-            if not isinstance(table, dict) or set(table) != set(self.legs):
+            if not isinstance(table, dict) or set(table) != set(self.entry_legs):
                 raise ConfigError(
                     file=source,
                     field=f"spawns.{role}",
                     value=table,
-                    expected=f"a distance for each leg {sorted(self.legs)}",
+                    expected=f"a distance for each entry leg {sorted(self.entry_legs)}",
                 )
-            self.spawns[role] = {}
-            for leg_name, _ in table.items():
+            out[role] = {}
+            for leg_name in table:
                 dist = _number(table, leg_name, source, f"spawns.{role}.", 0.0)
                 leg = self.legs[str(leg_name)]
                 if not leg.mouth < dist < leg.length:
@@ -179,10 +272,8 @@ class JunctionMap:
                         value=dist,
                         expected=f"a distance between {leg.mouth:g} and {leg.length:g} m",
                     )
-                self.spawns[role][str(leg_name)] = dist
-        self._lanes = self._build_lanes()
-        self.graph: dict[str, tuple[str, ...]] = self._build_graph()
-        self.switch_distances = self._switch_distances(data.get("switch_distances", {}))
+                out[role][str(leg_name)] = dist
+        return out
 
     def _switch_distances(self, table: Any) -> dict[str, float]:
         """Validate ``switch_distances``: ``"EGO/OV"`` (movements of this map) -> metres."""
@@ -195,15 +286,13 @@ class JunctionMap:
             )
         out: dict[str, float] = {}
         for key in table:
-            moves = [m.partition("-") for m in str(key).split("/")]
-            if len(moves) != 2 or any(
-                not sep or a not in self.legs or b not in self.legs or a == b for a, sep, b in moves
-            ):
+            moves = str(key).split("/")
+            if len(moves) != 2 or any(m not in self.movements for m in moves):
                 raise ConfigError(
                     file=self.source,
                     field=f"switch_distances.{key}",
                     value=key,
-                    expected=f'"EGO/OV" movements "X-Y" of legs {sorted(self.legs)}',
+                    expected=f'"EGO/OV" movements of this map {list(self.movements)}',
                 )
             out[str(key)] = _number(table, key, self.source, "switch_distances.", 0.0)
         return out
@@ -251,23 +340,21 @@ class JunctionMap:
 
     # --- queries --------------------------------------------------------------------------
 
-    @property
+    @functools.cached_property
     def movements(self) -> tuple[str, ...]:
-        """Every movement ``"X-Y"`` (from leg X to leg Y)."""
-        return tuple(f"{a}-{b}" for a in self.legs for b in self.legs if a != b)
+        """Every movement ``"X-Y"`` (from entry leg X to exit leg Y, X != Y)."""
+        return tuple(f"{a}-{b}" for a in self.entry_legs for b in self.exit_legs if a != b)
 
     def lane(self, lane_id: str) -> Path:
         """A lane's centre line: ``"B.in"``, ``"B.out"`` or a connector ``"B-L"``."""
         return self._lanes[lane_id]
 
     def _parse_move(self, move: str) -> tuple[str, str]:
-        a, sep, b = str(move).partition("-")
-        if not sep or a not in self.legs or b not in self.legs or a == b:
+        if move not in self.movements:
             raise ConfigError(
-                field="movement",
-                value=move,
-                expected=f"'X-Y' with X != Y legs of {sorted(self.legs)}",
+                field="movement", value=move, expected=f"a movement of {self.name}: {list(self.movements)}"
             )
+        a, _, b = str(move).partition("-")
         return a, b
 
     def lane_sequence(self, from_leg: str, to_leg: str) -> list[str]:
@@ -399,6 +486,13 @@ class JunctionMap:
         """Left and right extent of the drivable area around each point of ``route`` [m]
         (see ``sitcov.sim.embedded._monitors.route_clearance``)."""
         return route_clearance(self.drivable_area, route)
+
+
+def layout_classes() -> dict[str, type[JunctionMap]]:
+    """``layout`` name -> map class (the other layouts live in ``_layouts``)."""
+    from sitcov.sim.embedded._layouts import MergeMap, RoundaboutMap
+
+    return {"junction": JunctionMap, "roundabout": RoundaboutMap, "merge": MergeMap}
 
 
 def _straight(a: tuple[float, float], b: tuple[float, float]) -> Path:
