@@ -555,6 +555,26 @@ def _convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]
     return lower[:-1] + upper[:-1]
 
 
+def overlap_matrix(
+    e: np.ndarray, o: np.ndarray, gap: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Distances between the points of two sampled paths that can be closer than ``gap``.
+
+    Only points inside the other path's bounding box widened by ``gap`` are compared (the
+    rest cannot be close), which keeps long routes cheap. Returns (distances, close, ego
+    indices, other indices): the matrices are over the kept points only.
+    """
+
+    def inside(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        lo, hi = q.min(axis=0) - gap, q.max(axis=0) + gap
+        return np.flatnonzero(((p >= lo) & (p <= hi)).all(axis=1))
+
+    ie, io = inside(e, o), inside(o, e)
+    es, os_ = e[ie], o[io]
+    d = np.hypot(es[:, None, 0] - os_[None, :, 0], es[:, None, 1] - os_[None, :, 1])
+    return d, d < gap, ie, io
+
+
 def find_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
     """First overlap of two swept paths: centre lines closer than ``gap`` [m].
 
@@ -563,10 +583,9 @@ def find_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
     """
     e = np.asarray(ego.resampled(CONFLICT_STEP))
     o = np.asarray(ov.resampled(CONFLICT_STEP))
-    d = np.hypot(e[:, None, 0] - o[None, :, 0], e[:, None, 1] - o[None, :, 1])
-    close = d < gap
-    ego_hit = np.flatnonzero(close.any(axis=1))
-    ov_hit = np.flatnonzero(close.any(axis=0))
+    _, close, ie, io = overlap_matrix(e, o, gap)
+    ego_hit = ie[close.any(axis=1)]
+    ov_hit = io[close.any(axis=0)]
     if ego_hit.size == 0:
         return None
     se, so = ego.length / (len(e) - 1), ov.length / (len(o) - 1)

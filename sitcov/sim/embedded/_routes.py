@@ -1,0 +1,128 @@
+"""Routes per kind of road user: what path a car, cyclist or pedestrian follows on a map.
+
+Cars (and trucks) drive a movement ``"X-Y"`` on the lane centre line. Cyclists ride the same
+movement ``bike_offset`` metres right of the lane centre (the map's data). Pedestrians walk a
+crosswalk: ``"X<leg><side>"``, e.g. ``"XBL"`` = the crossing on leg B, starting from the kerb
+on the left as seen facing the junction from that leg, ``"XBR"`` the other direction. A
+pedestrian's path starts on the sidewalk a few metres out along the leg, walks to the
+crossing, crosses both lanes and ends on the far sidewalk the same distance out, so a
+pedestrian controller has room to approach and stop at the kerb (:func:`kerb_positions`).
+"""
+
+from __future__ import annotations
+
+import math
+
+from sitcov.errors import ConfigError
+from sitcov.sim.embedded._map import ROUTE_STEP, JunctionMap, Leg
+from sitcov.sim.embedded._path import Path, wrap_angle
+
+#: Kinds of road user and the kind whose routes they take.
+KINDS = ("car", "truck", "cyclist", "pedestrian")
+#: How far along the sidewalk a pedestrian's path starts before turning onto the crossing,
+#: and ends after it [m] ("a few metres before the kerb").
+PED_APPROACH = 3.0
+
+
+def route_names(jmap: JunctionMap, kind: str) -> tuple[str, ...]:
+    """Every route name an actor of ``kind`` can take on ``jmap``, in a fixed order.
+
+    Movements for cars, trucks and cyclists; ``X<leg>L``/``X<leg>R`` for pedestrians on
+    every leg that has a crosswalk (none on a map without crosswalks).
+    """
+    _check_kind(kind)
+    if kind == "pedestrian":
+        return tuple(
+            f"X{leg.name}{side}" for leg in jmap.legs.values() if leg.crosswalk for side in "LR"
+        )
+    return jmap.movements
+
+
+def actor_route(jmap: JunctionMap, kind: str, route: str) -> Path:
+    """The path an actor of ``kind`` follows for ``route`` on ``jmap`` (whole route).
+
+    Raises:
+        ConfigError: unknown kind, or a route name this map does not have for the kind.
+    """
+    _check_kind(kind)
+    if route not in route_names(jmap, kind):
+        raise ConfigError(
+            field=f"route ({kind})",
+            value=route,
+            expected=f"one of {list(route_names(jmap, kind))} on map {jmap.name}",
+        )
+    if kind == "pedestrian":
+        return _crosswalk_path(jmap, jmap.legs[route[1:-1]], route[-1])
+    path = jmap.route(*route.split("-", 1))
+    if kind == "cyclist":
+        return offset_path(path, -jmap.bike_offset)
+    return path
+
+
+def kerb_positions(jmap: JunctionMap, route: str) -> tuple[float, float]:
+    """Arc lengths [m] on a pedestrian route where it steps onto and off the road."""
+    actor_route(jmap, "pedestrian", route)  # validates the name
+    before = PED_APPROACH + 0.5 * jmap.sidewalk_width
+    return before, before + 2.0 * jmap.lane_width
+
+
+def start_key(kind: str, route: str) -> tuple[str, str]:
+    """Where an actor starts: two actors with the same key would spawn on each other.
+
+    Vehicles and cyclists start on their entry leg's lane, pedestrians at their kerb.
+    """
+    _check_kind(kind)
+    if kind == "pedestrian":
+        return kind, route
+    return ("car" if kind == "truck" else kind), route.split("-", 1)[0]
+
+
+def offset_path(path: Path, offset: float) -> Path:
+    """``path`` moved sideways by ``offset`` [m] (positive to the left), parallel at corners.
+
+    Each point moves along the bisector of its two segments' normals, scaled so that both
+    segments end up exactly ``offset`` away (a parallel curve of the polyline).
+    """
+    points = []
+    n = len(path.xs)
+    for i in range(n):
+        h_in = path.hs[i - 1] if i > 0 else path.hs[0]
+        h_out = path.hs[i] if i < n - 1 else path.hs[-1]
+        half = 0.5 * wrap_angle(h_out - h_in)
+        h = h_in + half
+        scale = offset / max(math.cos(half), 0.2)
+        points.append((path.xs[i] - scale * math.sin(h), path.ys[i] + scale * math.cos(h)))
+    return Path.from_points(points)
+
+
+def _crosswalk_path(jmap: JunctionMap, leg: Leg, side: str) -> Path:
+    """Sidewalk -> crosswalk centre line across both lanes -> far sidewalk."""
+    assert leg.crosswalk is not None
+    along = leg.mouth + leg.crosswalk.offset + 0.5 * leg.crosswalk.width
+    walk = jmap.lane_width + 0.5 * jmap.sidewalk_width  # the sidewalk's centre line
+    # left as seen facing the junction from the leg is the -normal side (normal = left of
+    # the outward heading)
+    sign = -1.0 if side == "L" else 1.0
+    dx, dy = math.cos(leg.heading), math.sin(leg.heading)
+    nx, ny = -dy, dx
+
+    def at(a: float, b: float) -> tuple[float, float]:
+        return dx * a + nx * b, dy * a + ny * b
+
+    corners = [
+        at(along + PED_APPROACH, sign * walk),
+        at(along, sign * walk),
+        at(along, -sign * walk),
+        at(along + PED_APPROACH, -sign * walk),
+    ]
+    points: list[tuple[float, float]] = []
+    for a, b in zip(corners, corners[1:], strict=False):
+        k = max(1, math.ceil(math.dist(a, b) / ROUTE_STEP))
+        points += [(a[0] + (b[0] - a[0]) * j / k, a[1] + (b[1] - a[1]) * j / k) for j in range(k)]
+    points.append(corners[-1])
+    return Path.from_points(points)
+
+
+def _check_kind(kind: str) -> None:
+    if kind not in KINDS:
+        raise ConfigError(field="kind", value=kind, expected=" | ".join(KINDS))
