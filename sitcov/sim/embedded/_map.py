@@ -397,16 +397,26 @@ class JunctionMap:
         self, ego_move: str, ov_move: str, width_ego: float = 1.61, width_ov: float = 1.61
     ) -> Scenario:
         """Ego route (spawn -> goal), OV route (spawn -> end of its exit leg) and their conflict."""
-        ea, eb = self._parse_move(ego_move)
-        oa, ob = self._parse_move(ov_move)
-        ego_full, ov_full = self.route(ea, eb), self.route(oa, ob)
-        e0 = self._s_at_distance(ego_full, self.legs[ea], self.spawns["ego"][ea], True)
-        e1 = self._s_at_distance(ego_full, self.legs[eb], self.goal_distance, False)
-        o0 = self._s_at_distance(ov_full, self.legs[oa], self.spawns["ov"][oa], True)
-        ego_route = ego_full.sub(e0, e1, ROUTE_STEP)
-        ov_route = ov_full.sub(o0, ov_full.length, ROUTE_STEP)
+        ego_route, ov_route = self.ego_path(ego_move), self.ov_path(ov_move)
         conflict = find_conflict(ego_route, ov_route, 0.5 * (width_ego + width_ov))
         return Scenario(ego_move, ov_move, ego_route, ov_route, conflict)
+
+    @functools.lru_cache(maxsize=64)  # noqa: B019
+    def ego_path(self, move: str) -> Path:
+        """The ego's route for ``move``: from its spawn to its goal."""
+        a, b = self._parse_move(move)
+        full = self.route(a, b)
+        s0 = self._s_at_distance(full, self.legs[a], self.spawns["ego"][a], True)
+        s1 = self._s_at_distance(full, self.legs[b], self.goal_distance, False)
+        return full.sub(s0, s1, ROUTE_STEP)
+
+    @functools.lru_cache(maxsize=64)  # noqa: B019
+    def ov_path(self, move: str) -> Path:
+        """The OV's route for ``move``: from its spawn to the end of its exit leg."""
+        a, b = self._parse_move(move)
+        full = self.route(a, b)
+        s0 = self._s_at_distance(full, self.legs[a], self.spawns["ov"][a], True)
+        return full.sub(s0, full.length, ROUTE_STEP)
 
     def switch_distance(self, scenario: Scenario) -> float | None:
         """Ego's distance to the conflict point [m] at which the OV stops synchronising.
