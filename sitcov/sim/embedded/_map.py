@@ -437,53 +437,69 @@ class JunctionMap:
         return max(scenario.conflict.s_ego - s_mouth, 0.0)
 
     def render_geometry(self) -> dict[str, Any]:
-        """Drawable geometry for renderers: road polygons, lane markings and kerbs [m]."""
-        half = self.lane_width
-        polygons: list[list[tuple[float, float]]] = []
-        mouth_corners: list[tuple[float, float]] = []
-        markings: list[dict[str, Any]] = []
-        kerbs: list[list[tuple[float, float]]] = []
-        for leg in self.legs.values():
-            dx, dy, nx, ny = self._axis(leg)
-
-            def at(along: float, side: float, dx=dx, dy=dy, nx=nx, ny=ny) -> tuple[float, float]:
-                return (dx * along + nx * side, dy * along + ny * side)
-
-            polygons.append(
-                [
-                    at(leg.mouth, -half),
-                    at(leg.length, -half),
-                    at(leg.length, half),
-                    at(leg.mouth, half),
-                ]
-            )
-            mouth_corners += [at(leg.mouth, -half), at(leg.mouth, half)]
-            markings.append(
-                {
-                    "points": [at(leg.mouth, 0.0), at(leg.length, 0.0)],
-                    "style": "dashed",
-                    "color": "white",
-                }
-            )
-            markings.append(
-                {
-                    "points": [at(leg.mouth, 0.0), at(leg.mouth, half)],
-                    "style": "solid",
-                    "color": "white",
-                }
-            )
-            kerbs.append([at(leg.mouth, half), at(leg.length, half)])
-            kerbs.append([at(leg.mouth, -half), at(leg.length, -half)])
+        """Drawable geometry for renderers [m]: ``road_polygons`` (convex, the drivable
+        area), ``markings``, ``kerbs``, and the pedestrian surfaces ``crosswalks`` and
+        ``sidewalks`` (convex polygons, not drivable)."""
+        geo = self._legs_geometry()
+        mouth_corners = geo.pop("mouth_corners")
         hull = _convex_hull(mouth_corners)
-        polygons.append(hull)
+        geo["road_polygons"].append(hull)
         # kerbs of the junction box: hull edges that are not a leg mouth
         mouths = {
             frozenset((a, b)) for a, b in zip(mouth_corners[::2], mouth_corners[1::2], strict=False)
         }
         for a, b in zip(hull, hull[1:] + hull[:1], strict=False):
             if frozenset((a, b)) not in mouths:
-                kerbs.append([a, b])
-        return {"road_polygons": polygons, "markings": markings, "kerbs": kerbs}
+                geo["kerbs"].append([a, b])
+        return geo
+
+    def _legs_geometry(self) -> dict[str, Any]:
+        """Every two-way leg's surface (mouth to end), markings, kerbs, crossing, sidewalks."""
+        half = self.lane_width
+        geo: dict[str, Any] = {
+            "road_polygons": [],
+            "markings": [],
+            "kerbs": [],
+            "crosswalks": [],
+            "sidewalks": [],
+            "mouth_corners": [],
+        }
+        for leg in self.legs.values():
+            dx, dy, nx, ny = self._axis(leg)
+
+            def at(along: float, side: float, dx=dx, dy=dy, nx=nx, ny=ny) -> tuple[float, float]:
+                return (dx * along + nx * side, dy * along + ny * side)
+
+            def box(a0: float, a1: float, b0: float, b1: float) -> list[tuple[float, float]]:
+                return [at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)]
+
+            geo["road_polygons"].append(box(leg.mouth, leg.length, -half, half))
+            geo["mouth_corners"] += [at(leg.mouth, -half), at(leg.mouth, half)]
+            geo["markings"].append(
+                {
+                    "points": [at(leg.mouth, 0.0), at(leg.length, 0.0)],
+                    "style": "dashed",
+                    "color": "white",
+                }
+            )
+            geo["markings"].append(
+                {
+                    "points": [at(leg.mouth, 0.0), at(leg.mouth, half)],
+                    "style": "solid",
+                    "color": "white",
+                }
+            )
+            geo["kerbs"].append([at(leg.mouth, half), at(leg.length, half)])
+            geo["kerbs"].append([at(leg.mouth, -half), at(leg.length, -half)])
+            walk = self.sidewalk_width
+            geo["sidewalks"].append(box(leg.mouth, leg.length, half, half + walk))
+            geo["sidewalks"].append(box(leg.mouth, leg.length, -half - walk, -half))
+            if leg.crosswalk is not None:
+                a0 = leg.mouth + leg.crosswalk.offset
+                geo["crosswalks"].append(box(a0, a0 + leg.crosswalk.width, -half, half))
+        for key in ("crosswalks", "sidewalks"):
+            geo[key] = [_ccw(p) for p in geo[key]]
+        return geo
 
     @functools.cached_property
     def drivable_area(self) -> DrivableArea:
@@ -543,6 +559,14 @@ def _connector(p0: tuple[float, float], h0: float, p1: tuple[float, float], h1: 
     if math.dist(end, p1) > 1e-6:
         points += _straight(end, p1).points[1:]
     return Path.from_points(points)
+
+
+def _ccw(polygon: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """``polygon`` in counter-clockwise order (shoelace sign)."""
+    area = sum(
+        a[0] * b[1] - b[0] * a[1] for a, b in zip(polygon, polygon[1:] + polygon[:1], strict=True)
+    )
+    return polygon if area >= 0 else polygon[::-1]
 
 
 def _convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
