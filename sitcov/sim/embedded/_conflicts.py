@@ -1,6 +1,6 @@
 """Typed conflicts between two routes, derived from their geometry.
 
-:func:`~sitcov.sim.embedded._map.find_conflict` says *where* two swept paths first overlap;
+:func:`~sitcov.sim.embedded._map.route_conflict` says *where* two routes conflict;
 :func:`conflict_type` says *how* they meet, from the headings along that overlap:
 
 - ``following``: one route starts inside the other's swept path and they run together to
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sitcov.sim.embedded._map import CONFLICT_STEP, Conflict, find_conflict, overlap_matrix
+from sitcov.sim.embedded._map import CONFLICT_STEP, Conflict, overlap_matrix, route_conflict
 from sitcov.sim.embedded._path import Path
 
 #: Width of each kind's box [m] for swept paths: the BMW 320i of the embedded world (cars),
@@ -69,7 +69,7 @@ def typed_conflict(
 ) -> TypedConflict | None:
     """Where and how an ego on ``ego`` meets an actor of ``kind`` on ``actor`` (None: never)."""
     gap = 0.5 * (width_ego + KIND_WIDTHS[kind])
-    conflict = find_conflict(ego, actor, gap)
+    conflict = route_conflict(ego, actor, gap)
     if conflict is None:
         return None
     if kind == "pedestrian":

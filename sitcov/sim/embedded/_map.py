@@ -136,6 +136,7 @@ class JunctionMap:
         "spawns",
         "goal_distance",
         "switch_distances",
+        "switch_distance_max",
     )
 
     def __new__(cls, data: Any = None, source: str = "<map>") -> JunctionMap:
@@ -197,6 +198,7 @@ class JunctionMap:
         self._lanes = self._build_lanes()
         self.graph: dict[str, tuple[str, ...]] = self._build_graph()
         self.switch_distances = self._switch_distances(data.get("switch_distances", {}))
+        self.switch_distance_max = _optional(data, "switch_distance_max", math.inf, source)
 
     def _parse_legs(self, legs: Any) -> dict[str, Leg]:
         source = self.source
@@ -398,7 +400,7 @@ class JunctionMap:
     ) -> Scenario:
         """Ego route (spawn -> goal), OV route (spawn -> end of its exit leg) and their conflict."""
         ego_route, ov_route = self.ego_path(ego_move), self.ov_path(ov_move)
-        conflict = find_conflict(ego_route, ov_route, 0.5 * (width_ego + width_ov))
+        conflict = route_conflict(ego_route, ov_route, 0.5 * (width_ego + width_ov))
         return Scenario(ego_move, ov_move, ego_route, ov_route, conflict)
 
     @functools.lru_cache(maxsize=64)  # noqa: B019
@@ -424,8 +426,9 @@ class JunctionMap:
         The map's ``switch_distances`` entry for the situation if it has one (the shipped
         maps list the paper's twelve situations, derived from its Town03 trigger boxes);
         otherwise the ego's remaining distance when it crosses the mouth of its start leg,
-        where the paper's boxes sit (just inside the junction entrance). None without a
-        conflict.
+        where the paper's boxes sit (just inside the junction entrance), at most the map's
+        ``switch_distance_max`` (a roundabout's conflicts lie far round the ring). None
+        without a conflict.
         """
         key = f"{scenario.ego_move}/{scenario.ov_move}"
         if key in self.switch_distances:
@@ -434,7 +437,7 @@ class JunctionMap:
             return None
         leg = self._parse_move(scenario.ego_move)[0]
         s_mouth = self.spawns["ego"][leg] - self.legs[leg].mouth
-        return max(scenario.conflict.s_ego - s_mouth, 0.0)
+        return min(max(scenario.conflict.s_ego - s_mouth, 0.0), self.switch_distance_max)
 
     def render_geometry(self) -> dict[str, Any]:
         """Drawable geometry for renderers [m]: ``road_polygons`` (convex, the drivable
@@ -618,18 +621,49 @@ def find_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
     e = np.asarray(ego.resampled(CONFLICT_STEP))
     o = np.asarray(ov.resampled(CONFLICT_STEP))
     _, close, ie, io = overlap_matrix(e, o, gap)
-    ego_hit = ie[close.any(axis=1)]
-    ov_hit = io[close.any(axis=0)]
-    if ego_hit.size == 0:
+    rows = np.flatnonzero(close.any(axis=1))
+    if rows.size == 0:
         return None
+    # the first overlapping stretch along the ego's route, and the OV points close to it
+    # (routes that meet twice, as on a roundabout, pair the same encounter on both)
+    first = last = int(rows[0])
+    while last + 1 < len(ie) and ie[last + 1] == ie[last] + 1 and close[last + 1].any():
+        last += 1
+    ov_hit = io[close[first : last + 1].any(axis=0)]
     se, so = ego.length / (len(e) - 1), ov.length / (len(o) - 1)
-    i = int(ego_hit[0])
+    i = int(ie[first])
     return Conflict(
         point=(float(e[i, 0]), float(e[i, 1])),
         s_ego=i * se,
-        s_ego_end=float(ego_hit[-1]) * se,
+        s_ego_end=float(ie[last]) * se,
         s_ov=float(ov_hit[0]) * so,
         s_ov_end=float(ov_hit[-1]) * so,
+    )
+
+
+def route_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
+    """The conflict the adversary times its arrival at: :func:`find_conflict`, except when
+    one route starts inside the other's swept path (both on the same lane: a following or
+    diverging pair). There the first overlap is the OV's own spawn point, where nothing can
+    be timed; the conflict is instead where the ego leaves the shared stretch (where the
+    routes split, or the ego's goal if they never do), so an OV that arrives there with
+    the ego is one the ego runs into from behind.
+    """
+    conflict = find_conflict(ego, ov, gap)
+    if conflict is None or (conflict.s_ov > CONFLICT_STEP and conflict.s_ego > CONFLICT_STEP):
+        return conflict
+    e = np.asarray(ego.resampled(CONFLICT_STEP))
+    o = np.asarray(ov.resampled(CONFLICT_STEP))
+    d, close, ie, io = overlap_matrix(e, o, gap)
+    rows = np.flatnonzero(close.any(axis=1))
+    last = int(rows[0])
+    while last + 1 < len(ie) and ie[last + 1] == ie[last] + 1 and close[last + 1].any():
+        last += 1
+    j = int(io[np.argmin(np.where(close[last], d[last], np.inf))])
+    i = int(ie[last])
+    s_e, s_o = i * ego.length / (len(e) - 1), j * ov.length / (len(o) - 1)
+    return Conflict(
+        point=(float(e[i, 0]), float(e[i, 1])), s_ego=s_e, s_ego_end=s_e, s_ov=s_o, s_ov_end=s_o
     )
 
 
