@@ -59,24 +59,22 @@ def _checked_connector(
 
 
 def _strip(path: Path, half: float) -> list[list[tuple[float, float]]]:
-    """Convex quadrilaterals covering ``half`` either side of ``path``, ~PIECE long each."""
+    """Convex quadrilaterals covering ``half`` either side of ``path``, ~PIECE long each.
+
+    Neighbouring pieces share the edge between them (along the bisector of their
+    directions), so a curve is covered without gaps on its outer side.
+    """
     n = max(1, math.ceil(path.length / PIECE))
-    marks = [path.point_at(path.length * k / n) for k in range(n + 1)]
-    pieces = []
-    for (x0, y0, _), (x1, y1, _) in zip(marks, marks[1:], strict=False):
-        h = math.atan2(y1 - y0, x1 - x0)
-        nx0, ny0 = -math.sin(h), math.cos(h)
-        pieces.append(
-            _ccw(
-                [
-                    (x0 - half * nx0, y0 - half * ny0),
-                    (x1 - half * nx0, y1 - half * ny0),
-                    (x1 + half * nx0, y1 + half * ny0),
-                    (x0 + half * nx0, y0 + half * ny0),
-                ]
-            )
-        )
-    return pieces
+    marks = [path.point_at(path.length * k / n)[:2] for k in range(n + 1)]
+    dirs = [math.atan2(b[1] - a[1], b[0] - a[0]) for a, b in zip(marks, marks[1:], strict=False)]
+    edges = []
+    for k, (x, y) in enumerate(marks):
+        h_in, h_out = dirs[max(k - 1, 0)], dirs[min(k, len(dirs) - 1)]
+        half_turn = 0.5 * wrap_angle(h_out - h_in)
+        h = h_in + half_turn
+        r = half / math.cos(half_turn)
+        edges.append(((x + r * math.sin(h), y - r * math.cos(h)), (x - r * math.sin(h), y + r * math.cos(h))))
+    return [_ccw([a[0], b[0], b[1], a[1]]) for a, b in zip(edges, edges[1:], strict=False)]
 
 
 def _arc(radius: float, phi0: float, phi1: float) -> Path:
@@ -398,9 +396,9 @@ class MergeMap(JunctionMap):
             _ccw([f(-accel, half), f(0.0, half), f(0.0, lw + half), f(-accel, lw + half)]),
         ]
         ramp_in, ramp_move = self._lanes[f"{m.name}.in"], self._lanes[f"{m.name}-{e.name}"]
-        polygons += _strip(ramp_in, half)
         curve_end = ramp_move.project(*f(-accel, lw), hint=-1)[0]
-        polygons += _strip(ramp_move.sub(0.0, max(curve_end, 0.5)), half)
+        curve = ramp_move.sub(0.0, max(curve_end, 0.5), 0.5 * ROUTE_STEP)
+        polygons += _strip(Path.from_points(ramp_in.points + curve.points), half)
         n = max(1, math.ceil(self.taper_length / PIECE))
         outer = [
             (self.taper_length * k / n, lw * 0.5 * (1 + math.cos(math.pi * k / n)) + half)
