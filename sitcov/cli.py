@@ -114,7 +114,7 @@ def hyperspace_derive_cmd(
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text, encoding="utf-8")
     n = len(doc["axes"][1]["elements"][0]["bins"])
-    err_console.print(f"wrote {out}: {n} intersection situations", highlight=False)
+    err_console.print(f"wrote {out}: {n} intersection situations", highlight=False, soft_wrap=True)
 
 
 @app.command("generate")
