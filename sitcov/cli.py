@@ -99,7 +99,9 @@ def hyperspace_derive_cmd(
     conflicts: Optional[str] = typer.Option(  # noqa: UP045
         None, "--conflicts", help="Keep only these conflict types, comma-separated."
     ),
-    out: Optional[Path] = typer.Option(None, "--out", help="Write the YAML here (default: stdout)."),  # noqa: UP045
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the YAML here (default: stdout)."
+    ),
 ) -> None:
     """Write a hyperspace whose intsit lists every route pair of the map that conflicts."""
     from sitcov.sim.embedded._derive import derive_command, derive_hyperspace, dump_derived

@@ -19,8 +19,10 @@ from sitcov.sim.embedded import EmbeddedBackend
 
 DERIVED = Path(__file__).resolve().parents[2] / "sitcov" / "hyperspace" / "data" / "derived"
 SMALL = ("t-junction", "merge")
-MAPS = [m if m in SMALL else pytest.param(m, marks=pytest.mark.slow) for m in
-        ("t-junction", "crossroads", "skewed-cross", "roundabout", "merge")]
+MAPS = [
+    m if m in SMALL else pytest.param(m, marks=pytest.mark.slow)
+    for m in ("t-junction", "crossroads", "skewed-cross", "roundabout", "merge")
+]
 #: Kinds the embedded backend can put in a situation's ``intsit``. Cyclists and pedestrians
 #: need the N-actor backend (issue 12's world of actors): add them here once it is merged.
 BACKEND_KINDS = ("car",)

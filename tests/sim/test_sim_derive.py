@@ -49,7 +49,9 @@ def test_every_derived_situation_really_conflicts_with_its_type(name: str) -> No
     assert len({b["label"] for b in bins}) == len(bins)
     for b in bins[:: max(1, len(bins) // 40)]:  # a spread sample: the re-derivation checks all
         v = b["value"]
-        actor = jmap.ov_path(v["ov"]) if v["kind"] == "car" else actor_route(jmap, v["kind"], v["ov"])
+        actor = (
+            jmap.ov_path(v["ov"]) if v["kind"] == "car" else actor_route(jmap, v["kind"], v["ov"])
+        )
         assert conflict_type(jmap.ego_path(v["ego"]), actor, v["kind"]) == v["type"], b["label"]
 
 
@@ -61,7 +63,11 @@ def test_shipped_derived_hyperspace_is_reproduced(name: str) -> None:
     text = path.read_text()
     header = text.splitlines()[1].strip("# ").strip()
     assert header == derive_command(
-        name, ["car", "cyclist", "pedestrian"], 2, None, f"sitcov/hyperspace/data/derived/{name}.yaml"
+        name,
+        ["car", "cyclist", "pedestrian"],
+        2,
+        None,
+        f"sitcov/hyperspace/data/derived/{name}.yaml",
     )
     doc = derive_hyperspace(name, ["car", "cyclist", "pedestrian"], 2)
     assert yaml.safe_load(text) == doc
@@ -113,8 +119,14 @@ def _sitcov(*args: str) -> subprocess.CompletedProcess:
 def test_cli_derive_writes_a_loadable_hyperspace(tmp_path) -> None:
     out = tmp_path / "t.yaml"
     result = _sitcov(
-        "hyperspace", "derive", "--map", "t-junction", "--conflicts", "crossing,merging",
-        "--out", str(out),
+        "hyperspace",
+        "derive",
+        "--map",
+        "t-junction",
+        "--conflicts",
+        "crossing,merging",
+        "--out",
+        str(out),
     )
     assert result.returncode == 0, result.stderr
     assert "12 intersection situations" in result.stderr

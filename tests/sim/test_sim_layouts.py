@@ -58,7 +58,11 @@ def _edit(tmp_path, name: str, edit) -> str:
     [
         ("t-junction", lambda d: d["legs"]["B"]["crosswalk"].pop("width"), "legs.B.crosswalk"),
         ("t-junction", lambda d: d["legs"]["B"]["crosswalk"].update(width=-1), "crosswalk.width"),
-        ("t-junction", lambda d: d["legs"]["B"]["crosswalk"].update(offset=200), "legs.B.crosswalk"),
+        (
+            "t-junction",
+            lambda d: d["legs"]["B"]["crosswalk"].update(offset=200),
+            "legs.B.crosswalk",
+        ),
         ("t-junction", lambda d: d.update(bike_offset=2.0), "bike_offset"),
         ("t-junction", lambda d: d.update(sidewalk_width="wide"), "sidewalk_width"),
         ("t-junction", lambda d: d.update(layout="spiral"), "layout"),
@@ -70,7 +74,11 @@ def _edit(tmp_path, name: str, edit) -> str:
         ("merge", lambda d: d["legs"]["W"].update(heading_deg=170), "legs.W.heading_deg"),
         ("merge", lambda d: d["merge"].update(ramp="E"), "merge"),
         ("merge", lambda d: d["legs"]["M"].update(mouth=10), "legs.M.mouth"),
-        ("merge", lambda d: d["legs"]["W"].update(crosswalk={"offset": 1, "width": 3}), "crosswalk"),
+        (
+            "merge",
+            lambda d: d["legs"]["W"].update(crosswalk={"offset": 1, "width": 3}),
+            "crosswalk",
+        ),
         ("merge", lambda d: d["spawns"]["ov"].update(E=40), "spawns.ov"),
         ("roundabout", lambda d: d.update(merge={}), "merge"),
     ],

@@ -13,9 +13,9 @@ intersection situations, which keep their labels and conflict names (:data:`PAPE
 from __future__ import annotations
 
 import copy
-from importlib import resources
 from collections.abc import Sequence
 from dataclasses import dataclass
+from importlib import resources
 from pathlib import Path as FsPath
 from typing import Any
 
@@ -156,7 +156,7 @@ def _constraints(
                     }
                 )
         for earlier in slots[:n]:
-            for key, labels in starts.items():
+            for labels in starts.values():
                 out.append(
                     {
                         "forbid": {earlier: labels, slot: labels},
@@ -259,7 +259,8 @@ def _actor_axis(slots: list[str], actors: list[tuple[str, str]]) -> dict[str, An
         "elements": [
             {
                 "name": slot,
-                "description": f"Road user {slot[5:]} besides the ego: none, or its kind and route.",
+                "description": f"Road user {slot[5:]} besides the ego: none, or its kind and "
+                "route.",
                 "bins": slot_bins,
             }
             for slot in slots

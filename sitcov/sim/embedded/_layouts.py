@@ -17,7 +17,6 @@ from sitcov.errors import ConfigError
 from sitcov.sim.embedded._map import (
     ROUTE_STEP,
     JunctionMap,
-    Leg,
     _ccw,
     _connector,
     _number,
@@ -73,7 +72,9 @@ def _strip(path: Path, half: float) -> list[list[tuple[float, float]]]:
         half_turn = 0.5 * wrap_angle(h_out - h_in)
         h = h_in + half_turn
         r = half / math.cos(half_turn)
-        edges.append(((x + r * math.sin(h), y - r * math.cos(h)), (x - r * math.sin(h), y + r * math.cos(h))))
+        edges.append(
+            ((x + r * math.sin(h), y - r * math.cos(h)), (x - r * math.sin(h), y + r * math.cos(h)))
+        )
     return [_ccw([a[0], b[0], b[1], a[1]]) for a, b in zip(edges, edges[1:], strict=False)]
 
 
@@ -83,8 +84,10 @@ def _arc(radius: float, phi0: float, phi1: float) -> Path:
     n = max(2, math.ceil((phi1 - phi0) * radius / (0.5 * ROUTE_STEP)))
     return Path.from_points(
         [
-            (radius * math.cos(phi0 + (phi1 - phi0) * k / n),
-             radius * math.sin(phi0 + (phi1 - phi0) * k / n))
+            (
+                radius * math.cos(phi0 + (phi1 - phi0) * k / n),
+                radius * math.sin(phi0 + (phi1 - phi0) * k / n),
+            )
             for k in range(n + 1)
         ]
     )
@@ -206,9 +209,14 @@ class RoundaboutMap(JunctionMap):
             for lane in (f"{leg}.enter", f"{leg}.leave"):
                 geo["road_polygons"] += _strip(self._lanes[lane], half)
                 path = self._lanes[lane]
-                geo["kerbs"].append(list(_offset_points(path, half if lane.endswith("enter") else -half)))
+                geo["kerbs"].append(
+                    list(_offset_points(path, half if lane.endswith("enter") else -half))
+                )
         island = [
-            (r_in * math.cos(2 * math.pi * k / RING_SECTORS), r_in * math.sin(2 * math.pi * k / RING_SECTORS))
+            (
+                r_in * math.cos(2 * math.pi * k / RING_SECTORS),
+                r_in * math.sin(2 * math.pi * k / RING_SECTORS),
+            )
             for k in range(RING_SECTORS + 1)
         ]
         geo["kerbs"].append(island)
@@ -272,7 +280,8 @@ class MergeMap(JunctionMap):
                 file=self.source,
                 field="merge",
                 value=roles,
-                expected=f"main_in, main_out and ramp naming the legs {sorted(self.legs)} once each",
+                expected=f"main_in, main_out and ramp naming the legs {sorted(self.legs)} "
+                "once each",
             )
         spec = _section(
             {k: v for k, v in section.items() if k not in names},
@@ -363,8 +372,12 @@ class MergeMap(JunctionMap):
         far = (mouth_pt[0] + (m.length - m.mouth) * ux, mouth_pt[1] + (m.length - m.mouth) * uy)
         lanes[f"{m.name}.in"] = _straight(far, mouth_pt)
         curve = _checked_connector(
-            mouth_pt, m.heading + math.pi, self._frame(-accel, lw), e.heading,
-            f"legs.{m.name} (ramp curve)", self.source,
+            mouth_pt,
+            m.heading + math.pi,
+            self._frame(-accel, lw),
+            e.heading,
+            f"legs.{m.name} (ramp curve)",
+            self.source,
         )
         n = max(2, math.ceil(self.taper_length / (0.5 * ROUTE_STEP)))
         taper = [

@@ -154,7 +154,10 @@ class JunctionMap:
         unknown = set(data) - set(keys)
         if unknown:
             raise ConfigError(
-                file=source, field=sorted(unknown)[0], value=None, expected="one of " + ", ".join(keys)
+                file=source,
+                field=sorted(unknown)[0],
+                value=None,
+                expected="one of " + ", ".join(keys),
             )
         if data.get("format", 1) not in (1, 2):
             raise ConfigError(
@@ -209,7 +212,12 @@ class JunctionMap:
         out: dict[str, Leg] = {}
         for leg_name, leg in legs.items():
             where = f"legs.{leg_name}."
-            if not isinstance(leg, dict) or set(leg) - {"heading_deg", "length", "mouth", "crosswalk"}:
+            if not isinstance(leg, dict) or set(leg) - {
+                "heading_deg",
+                "length",
+                "mouth",
+                "crosswalk",
+            }:
                 raise ConfigError(
                     file=source,
                     field=f"legs.{leg_name}",
@@ -238,7 +246,8 @@ class JunctionMap:
                         file=source,
                         field=f"{where}crosswalk",
                         value=cw,
-                        expected=f"a crossing ending at least 10 m before the leg's end ({length:g} m)",
+                        expected="a crossing ending at least 10 m before the leg's end "
+                        f"({length:g} m)",
                     )
             out[str(leg_name)] = Leg(str(leg_name), math.radians(heading), length, mouth, crosswalk)
         return out
@@ -354,7 +363,9 @@ class JunctionMap:
     def _parse_move(self, move: str) -> tuple[str, str]:
         if move not in self.movements:
             raise ConfigError(
-                field="movement", value=move, expected=f"a movement of {self.name}: {list(self.movements)}"
+                field="movement",
+                value=move,
+                expected=f"a movement of {self.name}: {list(self.movements)}",
             )
         a, _, b = str(move).partition("-")
         return a, b
