@@ -15,6 +15,7 @@ from typing import Any
 
 from sitcov.errors import ConfigError
 from sitcov.sim.embedded._map import (
+    LAYOUTS,
     ROUTE_STEP,
     JunctionMap,
     _ccw,
@@ -438,3 +439,6 @@ class MergeMap(JunctionMap):
             "crosswalks": [],
             "sidewalks": [],
         }
+
+
+LAYOUTS.update(roundabout=RoundaboutMap, merge=MergeMap)

@@ -142,7 +142,7 @@ class JunctionMap:
     def __new__(cls, data: Any = None, source: str = "<map>") -> JunctionMap:
         """Pick the class of the file's ``layout`` (so ``JunctionMap(data)`` builds any map)."""
         if cls is JunctionMap and isinstance(data, dict):
-            cls = layout_classes().get(data.get("layout", "junction"), cls)
+            cls = LAYOUTS.get(data.get("layout", "junction"), cls)
         return super().__new__(cls)
 
     def __init__(self, data: Any, source: str = "<map>") -> None:
@@ -168,7 +168,7 @@ class JunctionMap:
                 file=source,
                 field="layout",
                 value=data.get("layout"),
-                expected=" | ".join(layout_classes()),
+                expected=" | ".join(LAYOUTS),
             )
         name = data.get("name")
         if not isinstance(name, str) or not name:
@@ -528,11 +528,10 @@ class JunctionMap:
         return route_clearance(self.drivable_area, route)
 
 
-def layout_classes() -> dict[str, type[JunctionMap]]:
-    """``layout`` name -> map class (the other layouts live in ``_layouts``)."""
-    from sitcov.sim.embedded._layouts import MergeMap, RoundaboutMap
-
-    return {"junction": JunctionMap, "roundabout": RoundaboutMap, "merge": MergeMap}
+#: ``layout`` name -> map class. ``_layouts`` registers the roundabout and the merge when
+#: the package is imported (``sitcov/sim/embedded/__init__.py``), so this module needs
+#: not import the subclasses built on it.
+LAYOUTS: dict[str, type[JunctionMap]] = {"junction": JunctionMap}
 
 
 def _straight(a: tuple[float, float], b: tuple[float, float]) -> Path:
