@@ -11,6 +11,7 @@ pedestrian controller has room to approach and stop at the kerb (:func:`kerb_pos
 
 from __future__ import annotations
 
+import functools
 import math
 
 from sitcov.errors import ConfigError
@@ -24,8 +25,8 @@ KINDS = ("car", "truck", "cyclist", "pedestrian")
 PED_APPROACH = 3.0
 
 
-def route_names(jmap: JunctionMap, kind: str) -> tuple[str, ...]:
-    """Every route name an actor of ``kind`` can take on ``jmap``, in a fixed order.
+def route_names(map: JunctionMap, kind: str) -> tuple[str, ...]:  # noqa: A002
+    """Every route name an actor of ``kind`` can take on ``map``, in a fixed order.
 
     Movements for cars, trucks and cyclists; ``X<leg>L``/``X<leg>R`` for pedestrians on
     every leg that has a crosswalk (none on a map without crosswalks).
@@ -33,29 +34,31 @@ def route_names(jmap: JunctionMap, kind: str) -> tuple[str, ...]:
     _check_kind(kind)
     if kind == "pedestrian":
         return tuple(
-            f"X{leg.name}{side}" for leg in jmap.legs.values() if leg.crosswalk for side in "LR"
+            f"X{leg.name}{side}" for leg in map.legs.values() if leg.crosswalk for side in "LR"
         )
-    return jmap.movements
+    return map.movements
 
 
-def actor_route(jmap: JunctionMap, kind: str, route: str) -> Path:
-    """The path an actor of ``kind`` follows for ``route`` on ``jmap`` (whole route).
+@functools.lru_cache(maxsize=512)
+def actor_route(map: JunctionMap, kind: str, route: str) -> Path:  # noqa: A002
+    """The path an actor of ``kind`` follows for ``route`` on ``map`` (whole route; cached:
+    maps live for the process and paths are immutable).
 
     Raises:
         ConfigError: unknown kind, or a route name this map does not have for the kind.
     """
     _check_kind(kind)
-    if route not in route_names(jmap, kind):
+    if route not in route_names(map, kind):
         raise ConfigError(
             field=f"route ({kind})",
             value=route,
-            expected=f"one of {list(route_names(jmap, kind))} on map {jmap.name}",
+            expected=f"one of {list(route_names(map, kind))} on map {map.name}",
         )
     if kind == "pedestrian":
-        return _crosswalk_path(jmap, jmap.legs[route[1:-1]], route[-1])
-    path = jmap.route(*route.split("-", 1))
+        return _crosswalk_path(map, map.legs[route[1:-1]], route[-1])
+    path = map.route(*route.split("-", 1))
     if kind == "cyclist":
-        return offset_path(path, -jmap.bike_offset)
+        return offset_path(path, -map.bike_offset)
     return path
 
 
