@@ -154,7 +154,7 @@ class Path:
         marks = [s0]
         inner = [s for s in self.ss if s0 < s < s1]
         for s in [*inner, s1]:
-            base = marks[-1]
+            base = marks[-1]  # fixed: a lazy generator would read the growing list
             gap = s - base
             n = max(1, math.ceil(gap / step - 1e-9))
             marks.extend([base + gap * k / n for k in range(1, n + 1)])
