@@ -9,7 +9,6 @@ import pytest
 from sitcov.errors import ConfigError
 from sitcov.sim.embedded import load_map
 from sitcov.sim.embedded._routes import (
-    PED_APPROACH,
     actor_route,
     kerb_positions,
     offset_path,
@@ -44,16 +43,20 @@ def test_pedestrian_starts_at_the_left_or_right_kerb_facing_the_junction() -> No
     left, right = actor_route(tmap, "pedestrian", "XBL"), actor_route(tmap, "pedestrian", "XBR")
     assert left.xs[0] < 0 < left.xs[-1]  # west (left) to east
     assert right.xs[0] > 0 > right.xs[-1]
-    walk = tmap.lane_width + 0.5 * tmap.sidewalk_width
+    reach = tmap.lane_width + tmap.sidewalk_width
     cw = tmap.legs["B"].crosswalk
     along = tmap.legs["B"].mouth + cw.offset + 0.5 * cw.width
-    # approach along the sidewalk, then straight across on the crosswalk centre line
-    assert left.points[0] == pytest.approx((-walk, -(along + PED_APPROACH)))
-    assert left.point_at(PED_APPROACH)[:2] == pytest.approx((-walk, -along))
-    assert left.length == pytest.approx(2 * PED_APPROACH + 2 * walk)
+    # from the outer edge of one sidewalk straight across to the other's, on the centre line
+    assert left.points[0] == pytest.approx((-reach, -along))
+    assert left.points[-1] == pytest.approx((reach, -along))
+    assert max(abs(y + along) for y in left.ys) < 1e-9
+    assert left.length == pytest.approx(2 * reach)
     s_on, s_off = kerb_positions(tmap, "XBL")
     assert left.point_at(s_on)[0] == pytest.approx(-tmap.lane_width)
     assert left.point_at(s_off)[0] == pytest.approx(tmap.lane_width)
+    area = tmap.drivable_area
+    assert not area.contains(*left.point_at(s_on - 0.1)[:2])
+    assert area.contains(*left.point_at(s_on + 0.1)[:2])
 
 
 def test_car_route_is_the_map_route_and_bad_names_fail() -> None:

@@ -4,9 +4,10 @@ Cars (and trucks) drive a movement ``"X-Y"`` on the lane centre line. Cyclists r
 movement ``bike_offset`` metres right of the lane centre (the map's data). Pedestrians walk a
 crosswalk: ``"X<leg><side>"``, e.g. ``"XBL"`` = the crossing on leg B, starting from the kerb
 on the left as seen facing the junction from that leg, ``"XBR"`` the other direction. A
-pedestrian's path starts on the sidewalk a few metres out along the leg, walks to the
-crossing, crosses both lanes and ends on the far sidewalk the same distance out, so a
-pedestrian controller has room to approach and stop at the kerb (:func:`kerb_positions`).
+pedestrian's path runs on the crosswalk's centre line from the outer edge of one sidewalk
+to the outer edge of the other: it crosses the sidewalk (``sidewalk_width``, the approach
+before the kerb), both lanes and the far sidewalk, so a pedestrian controller has room to
+approach and stop at the kerb (:func:`kerb_positions`).
 """
 
 from __future__ import annotations
@@ -20,9 +21,6 @@ from sitcov.sim.embedded._path import Path, wrap_angle
 
 #: Kinds of road user and the kind whose routes they take.
 KINDS = ("car", "truck", "cyclist", "pedestrian")
-#: How far along the sidewalk a pedestrian's path starts before turning onto the crossing,
-#: and ends after it [m] ("a few metres before the kerb").
-PED_APPROACH = 3.0
 
 
 def route_names(map: JunctionMap, kind: str) -> tuple[str, ...]:  # noqa: A002
@@ -62,11 +60,10 @@ def actor_route(map: JunctionMap, kind: str, route: str) -> Path:  # noqa: A002
     return path
 
 
-def kerb_positions(jmap: JunctionMap, route: str) -> tuple[float, float]:
+def kerb_positions(map: JunctionMap, route: str) -> tuple[float, float]:  # noqa: A002
     """Arc lengths [m] on a pedestrian route where it steps onto and off the road."""
-    actor_route(jmap, "pedestrian", route)  # validates the name
-    before = PED_APPROACH + 0.5 * jmap.sidewalk_width
-    return before, before + 2.0 * jmap.lane_width
+    actor_route(map, "pedestrian", route)  # validates the name
+    return map.sidewalk_width, map.sidewalk_width + 2.0 * map.lane_width
 
 
 def start_key(kind: str, route: str) -> tuple[str, str]:
@@ -98,32 +95,24 @@ def offset_path(path: Path, offset: float) -> Path:
     return Path.from_points(points)
 
 
-def _crosswalk_path(jmap: JunctionMap, leg: Leg, side: str) -> Path:
-    """Sidewalk -> crosswalk centre line across both lanes -> far sidewalk."""
+def _crosswalk_path(map: JunctionMap, leg: Leg, side: str) -> Path:  # noqa: A002
+    """Across the near sidewalk, both lanes and the far sidewalk on the crosswalk's centre
+    line, points :data:`ROUTE_STEP` apart."""
     assert leg.crosswalk is not None
     along = leg.mouth + leg.crosswalk.offset + 0.5 * leg.crosswalk.width
-    walk = jmap.lane_width + 0.5 * jmap.sidewalk_width  # the sidewalk's centre line
+    reach = map.lane_width + map.sidewalk_width  # the sidewalks' outer edges
     # left as seen facing the junction from the leg is the -normal side (normal = left of
     # the outward heading)
     sign = -1.0 if side == "L" else 1.0
     dx, dy = math.cos(leg.heading), math.sin(leg.heading)
     nx, ny = -dy, dx
-
-    def at(a: float, b: float) -> tuple[float, float]:
-        return dx * a + nx * b, dy * a + ny * b
-
-    corners = [
-        at(along + PED_APPROACH, sign * walk),
-        at(along, sign * walk),
-        at(along, -sign * walk),
-        at(along + PED_APPROACH, -sign * walk),
-    ]
-    points: list[tuple[float, float]] = []
-    for a, b in zip(corners, corners[1:], strict=False):
-        k = max(1, math.ceil(math.dist(a, b) / ROUTE_STEP))
-        points += [(a[0] + (b[0] - a[0]) * j / k, a[1] + (b[1] - a[1]) * j / k) for j in range(k)]
-    points.append(corners[-1])
-    return Path.from_points(points)
+    n = max(1, math.ceil(2.0 * reach / ROUTE_STEP))
+    return Path.from_points(
+        [
+            (dx * along + nx * b, dy * along + ny * b)
+            for b in (sign * reach * (1.0 - 2.0 * k / n) for k in range(n + 1))
+        ]
+    )
 
 
 def _check_kind(kind: str) -> None:
