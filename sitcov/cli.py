@@ -87,6 +87,38 @@ def hyperspace_show_cmd(
     )
 
 
+@hyperspace_app.command("derive")
+def hyperspace_derive_cmd(
+    map_name: str = typer.Option("t-junction", "--map", help="Built-in map name or map YAML."),
+    actors: str = typer.Option(
+        "car", "--actors", help="Kinds besides the ego, comma-separated: car,cyclist,pedestrian."
+    ),
+    max_actors: int = typer.Option(
+        1, "--max-actors", help="Road users besides the ego (slots actor2.. for more than 1)."
+    ),
+    conflicts: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--conflicts", help="Keep only these conflict types, comma-separated."
+    ),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the YAML here (default: stdout)."
+    ),
+) -> None:
+    """Write a hyperspace whose intsit lists every route pair of the map that conflicts."""
+    from sitcov.sim.embedded._derive import derive_command, derive_hyperspace, dump_derived
+
+    kinds = [k.strip() for k in actors.split(",") if k.strip()]
+    types = [t.strip() for t in conflicts.split(",") if t.strip()] if conflicts else None
+    doc = derive_hyperspace(map_name, kinds, max_actors, types)
+    text = dump_derived(doc, derive_command(map_name, kinds, max_actors, types, out))
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    n = len(doc["axes"][1]["elements"][0]["bins"])
+    err_console.print(f"wrote {out}: {n} intersection situations", highlight=False, soft_wrap=True)
+
+
 @app.command("generate")
 def generate_cmd(
     n: int = typer.Option(10, "-n", "--n", help="How many situations to print."),

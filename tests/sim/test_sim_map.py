@@ -77,7 +77,8 @@ def test_conflict_point_lies_on_both_routes(tmap: JunctionMap, ego, ov, label) -
 
 def test_render_geometry_shape(tmap: JunctionMap) -> None:
     geometry = tmap.render_geometry()
-    assert set(geometry) == {"road_polygons", "markings", "kerbs"}
+    assert set(geometry) == {"road_polygons", "markings", "kerbs", "crosswalks", "sidewalks"}
+    assert len(geometry["crosswalks"]) == 3 and len(geometry["sidewalks"]) == 6
     assert len(geometry["road_polygons"]) == 4  # three legs and the junction box
     for mark in geometry["markings"]:
         assert mark["style"] in ("solid", "dashed") and mark["color"] in ("white", "yellow")

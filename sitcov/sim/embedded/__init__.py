@@ -4,6 +4,7 @@ from sitcov.sim.embedded._backend import ELEMENT_EFFECTS, EmbeddedBackend
 from sitcov.sim.embedded._bench import bench
 from sitcov.sim.embedded._collision import box_distance, overlap, time_to_collision
 from sitcov.sim.embedded._dynamics import Vehicle, VehicleParams, bmw_320i, default_params
+from sitcov.sim.embedded._layouts import MergeMap, RoundaboutMap  # registers the layouts
 from sitcov.sim.embedded._map import Conflict, JunctionMap, Scenario, find_conflict, load_map
 from sitcov.sim.embedded._path import Path
 from sitcov.sim.embedded._render import render_topdown
@@ -13,7 +14,9 @@ __all__ = [
     "Conflict",
     "EmbeddedBackend",
     "JunctionMap",
+    "MergeMap",
     "Path",
+    "RoundaboutMap",
     "Scenario",
     "Vehicle",
     "VehicleParams",

@@ -27,6 +27,12 @@ MAPS_DIR = FsPath(__file__).parent / "maps"
 ROUTE_STEP = 1.0
 #: Spacing used to find swept-path overlaps [m].
 CONFLICT_STEP = 0.25
+#: Sidewalk width when a map file gives none [m] (a common urban footway).
+DEFAULT_SIDEWALK_WIDTH = 2.0
+#: Cyclists ride this far right of the lane centre when a map file gives none [m]: on a
+#: 3.5 m lane the bike (0.6 m wide) keeps 0.25 m to the kerb and clears a car (1.61 m) on
+#: the lane centre, as a cyclist keeping right does.
+DEFAULT_BIKE_OFFSET = 1.2
 
 
 @dataclass(frozen=True)
@@ -38,12 +44,27 @@ class Leg:
         heading: direction pointing away from the junction centre [rad].
         length: from the centre to the end of the leg [m].
         mouth: from the centre to where the leg's straight lanes meet the junction [m].
+        crosswalk: the leg's pedestrian crossing, or None if it has none.
     """
 
     name: str
     heading: float
     length: float
     mouth: float
+    crosswalk: Crosswalk | None = None
+
+
+@dataclass(frozen=True)
+class Crosswalk:
+    """A pedestrian crossing across both lanes of a leg.
+
+    Attributes:
+        offset: from the leg's mouth outwards to the crossing's near edge [m].
+        width: along the leg [m]; pedestrians walk on its centre line.
+    """
+
+    offset: float
+    width: float
 
 
 @dataclass(frozen=True)
@@ -84,6 +105,11 @@ def _number(data: dict[str, Any], key: str, file: str, where: str, lo: float = -
     return float(value)
 
 
+def _optional(data: dict[str, Any], key: str, default: float, file: str) -> float:
+    """An optional positive number: ``default`` when the key is absent."""
+    return default if key not in data else _number(data, key, file, "", 0.0)
+
+
 class JunctionMap:
     """A junction built from a map file's data.
 
@@ -95,58 +121,75 @@ class JunctionMap:
         ConfigError: naming the file, the field, the value and what was expected.
     """
 
+    #: The map's ``layout`` (subclasses: ``roundabout``, ``merge``).
+    LAYOUT = "junction"
+    #: Top-level keys every layout accepts; a layout adds its own section (``roundabout``...).
+    KEYS = (
+        "format",
+        "name",
+        "description",
+        "layout",
+        "lane_width",
+        "sidewalk_width",
+        "bike_offset",
+        "legs",
+        "spawns",
+        "goal_distance",
+        "switch_distances",
+        "switch_distance_max",
+    )
+
+    def __new__(cls, data: Any = None, source: str = "<map>") -> JunctionMap:
+        """Pick the class of the file's ``layout`` (so ``JunctionMap(data)`` builds any map)."""
+        if cls is JunctionMap and isinstance(data, dict):
+            cls = LAYOUTS.get(data.get("layout", "junction"), cls)
+        return super().__new__(cls)
+
     def __init__(self, data: Any, source: str = "<map>") -> None:
         if not isinstance(data, dict):
             raise ConfigError(
                 file=source, field="(top level)", value=type(data).__name__, expected="a mapping"
             )
-        unknown = set(data) - {
-            "format",
-            "name",
-            "description",
-            "lane_width",
-            "legs",
-            "spawns",
-            "goal_distance",
-            "switch_distances",
-        }
+        keys = self.KEYS + ((self.LAYOUT,) if self.LAYOUT != "junction" else ())
+        unknown = set(data) - set(keys)
         if unknown:
             raise ConfigError(
                 file=source,
                 field=sorted(unknown)[0],
                 value=None,
-                expected="one of format, name, description, lane_width, legs, "
-                "spawns, goal_distance, switch_distances",
+                expected="one of " + ", ".join(keys),
             )
-        if data.get("format", 1) != 1:
-            raise ConfigError(file=source, field="format", value=data.get("format"), expected="1")
+        if data.get("format", 1) not in (1, 2):
+            raise ConfigError(
+                file=source, field="format", value=data.get("format"), expected="1 or 2"
+            )
+        if data.get("layout", "junction") != self.LAYOUT:
+            raise ConfigError(
+                file=source,
+                field="layout",
+                value=data.get("layout"),
+                expected=" | ".join(LAYOUTS),
+            )
         name = data.get("name")
         if not isinstance(name, str) or not name:
             raise ConfigError(file=source, field="name", value=name, expected="a non-empty string")
         self.name = name
         self.source = source
         self.lane_width = _number(data, "lane_width", source, "", 0.0)
-        legs = data.get("legs")
-        if not isinstance(legs, dict) or len(legs) < 2:
+        self.sidewalk_width = _optional(data, "sidewalk_width", DEFAULT_SIDEWALK_WIDTH, source)
+        self.bike_offset = _optional(data, "bike_offset", DEFAULT_BIKE_OFFSET, source)
+        if not self.bike_offset < 0.5 * self.lane_width:
             raise ConfigError(
-                file=source, field="legs", value=legs, expected="a mapping of at least two legs"
+                file=source,
+                field="bike_offset",
+                value=self.bike_offset,
+                expected=f"a number in (0, {0.5 * self.lane_width:g}) (half the lane width)",
             )
-        self.legs: dict[str, Leg] = {}
-        for leg_name, leg in legs.items():
-            where = f"legs.{leg_name}."
-            if not isinstance(leg, dict):
-                raise ConfigError(
-                    file=source,
-                    field=f"legs.{leg_name}",
-                    value=leg,
-                    expected="a mapping with heading_deg, length, mouth",
-                )
-            heading = _number(leg, "heading_deg", source, where)
-            mouth = _number(leg, "mouth", source, where, self.lane_width)
-            length = _number(leg, "length", source, where, mouth + 10.0)
-            self.legs[str(leg_name)] = Leg(str(leg_name), math.radians(heading), length, mouth)
+        self.legs: dict[str, Leg] = self._parse_legs(data.get("legs"))
+        self._parse_layout(data.get(self.LAYOUT, {}))
         self.goal_distance = _number(data, "goal_distance", source, "", 0.0)
-        for leg in self.legs.values():
+        for leg_name in self.exit_legs:
+            leg = self.legs[leg_name]
             if not leg.mouth < self.goal_distance < leg.length:
                 raise ConfigError(
                     file=source,
@@ -154,22 +197,83 @@ class JunctionMap:
                     value=self.goal_distance,
                     expected=f"between leg {leg.name}'s mouth and length",
                 )
-        spawns = data.get("spawns")
+        self.spawns = self._parse_spawns(data.get("spawns"))
+        self._lanes = self._build_lanes()
+        self.graph: dict[str, tuple[str, ...]] = self._build_graph()
+        self.switch_distances = self._switch_distances(data.get("switch_distances", {}))
+        self.switch_distance_max = _optional(data, "switch_distance_max", math.inf, source)
+
+    def _parse_legs(self, legs: Any) -> dict[str, Leg]:
+        source = self.source
+        if not isinstance(legs, dict) or len(legs) < 2:
+            raise ConfigError(
+                file=source, field="legs", value=legs, expected="a mapping of at least two legs"
+            )
+        out: dict[str, Leg] = {}
+        for leg_name, leg in legs.items():
+            where = f"legs.{leg_name}."
+            if not isinstance(leg, dict) or set(leg) - {
+                "heading_deg",
+                "length",
+                "mouth",
+                "crosswalk",
+            }:
+                raise ConfigError(
+                    file=source,
+                    field=f"legs.{leg_name}",
+                    value=leg,
+                    expected="a mapping with heading_deg, length, mouth (optional crosswalk)",
+                )
+            heading = _number(leg, "heading_deg", source, where)
+            mouth = _number(leg, "mouth", source, where, self.lane_width)
+            length = _number(leg, "length", source, where, mouth + 10.0)
+            crosswalk = None
+            if "crosswalk" in leg:
+                cw = leg["crosswalk"]
+                if not isinstance(cw, dict) or set(cw) != {"offset", "width"}:
+                    raise ConfigError(
+                        file=source,
+                        field=f"{where}crosswalk",
+                        value=cw,
+                        expected="a mapping {offset: m outside the mouth, width: m}",
+                    )
+                crosswalk = Crosswalk(
+                    _number(cw, "offset", source, f"{where}crosswalk.", -1e-9),
+                    _number(cw, "width", source, f"{where}crosswalk.", 0.0),
+                )
+                if mouth + crosswalk.offset + crosswalk.width > length - 10.0:
+                    raise ConfigError(
+                        file=source,
+                        field=f"{where}crosswalk",
+                        value=cw,
+                        expected="a crossing ending at least 10 m before the leg's end "
+                        f"({length:g} m)",
+                    )
+            out[str(leg_name)] = Leg(str(leg_name), math.radians(heading), length, mouth, crosswalk)
+        return out
+
+    def _parse_layout(self, section: Any) -> None:
+        """Read the layout's own section (none for a junction); sets entry and exit legs."""
+        self.entry_legs: tuple[str, ...] = tuple(self.legs)
+        self.exit_legs: tuple[str, ...] = tuple(self.legs)
+
+    def _parse_spawns(self, spawns: Any) -> dict[str, dict[str, float]]:
+        source = self.source
         if not isinstance(spawns, dict) or set(spawns) != {"ego", "ov"}:
             raise ConfigError(
                 file=source, field="spawns", value=spawns, expected="a mapping with keys ego and ov"
             )
-        self.spawns: dict[str, dict[str, float]] = {}
+        out: dict[str, dict[str, float]] = {}
         for role, table in spawns.items():
-            if not isinstance(table, dict) or set(table) != set(self.legs):
+            if not isinstance(table, dict) or set(table) != set(self.entry_legs):
                 raise ConfigError(
                     file=source,
                     field=f"spawns.{role}",
                     value=table,
-                    expected=f"a distance for each leg {sorted(self.legs)}",
+                    expected=f"a distance for each entry leg {sorted(self.entry_legs)}",
                 )
-            self.spawns[role] = {}
-            for leg_name, _ in table.items():
+            out[role] = {}
+            for leg_name in table:
                 dist = _number(table, leg_name, source, f"spawns.{role}.", 0.0)
                 leg = self.legs[str(leg_name)]
                 if not leg.mouth < dist < leg.length:
@@ -179,10 +283,8 @@ class JunctionMap:
                         value=dist,
                         expected=f"a distance between {leg.mouth:g} and {leg.length:g} m",
                     )
-                self.spawns[role][str(leg_name)] = dist
-        self._lanes = self._build_lanes()
-        self.graph: dict[str, tuple[str, ...]] = self._build_graph()
-        self.switch_distances = self._switch_distances(data.get("switch_distances", {}))
+                out[role][str(leg_name)] = dist
+        return out
 
     def _switch_distances(self, table: Any) -> dict[str, float]:
         """Validate ``switch_distances``: ``"EGO/OV"`` (movements of this map) -> metres."""
@@ -195,15 +297,13 @@ class JunctionMap:
             )
         out: dict[str, float] = {}
         for key in table:
-            moves = [m.partition("-") for m in str(key).split("/")]
-            if len(moves) != 2 or any(
-                not sep or a not in self.legs or b not in self.legs or a == b for a, sep, b in moves
-            ):
+            moves = str(key).split("/")
+            if len(moves) != 2 or any(m not in self.movements for m in moves):
                 raise ConfigError(
                     file=self.source,
                     field=f"switch_distances.{key}",
                     value=key,
-                    expected=f'"EGO/OV" movements "X-Y" of legs {sorted(self.legs)}',
+                    expected=f'"EGO/OV" movements of this map {list(self.movements)}',
                 )
             out[str(key)] = _number(table, key, self.source, "switch_distances.", 0.0)
         return out
@@ -251,23 +351,23 @@ class JunctionMap:
 
     # --- queries --------------------------------------------------------------------------
 
-    @property
+    @functools.cached_property
     def movements(self) -> tuple[str, ...]:
-        """Every movement ``"X-Y"`` (from leg X to leg Y)."""
-        return tuple(f"{a}-{b}" for a in self.legs for b in self.legs if a != b)
+        """Every movement ``"X-Y"`` (from entry leg X to exit leg Y, X != Y)."""
+        return tuple(f"{a}-{b}" for a in self.entry_legs for b in self.exit_legs if a != b)
 
     def lane(self, lane_id: str) -> Path:
         """A lane's centre line: ``"B.in"``, ``"B.out"`` or a connector ``"B-L"``."""
         return self._lanes[lane_id]
 
     def _parse_move(self, move: str) -> tuple[str, str]:
-        a, sep, b = str(move).partition("-")
-        if not sep or a not in self.legs or b not in self.legs or a == b:
+        if move not in self.movements:
             raise ConfigError(
                 field="movement",
                 value=move,
-                expected=f"'X-Y' with X != Y legs of {sorted(self.legs)}",
+                expected=f"a movement of {self.name}: {list(self.movements)}",
             )
+        a, _, b = str(move).partition("-")
         return a, b
 
     def lane_sequence(self, from_leg: str, to_leg: str) -> list[str]:
@@ -310,16 +410,26 @@ class JunctionMap:
         self, ego_move: str, ov_move: str, width_ego: float = 1.61, width_ov: float = 1.61
     ) -> Scenario:
         """Ego route (spawn -> goal), OV route (spawn -> end of its exit leg) and their conflict."""
-        ea, eb = self._parse_move(ego_move)
-        oa, ob = self._parse_move(ov_move)
-        ego_full, ov_full = self.route(ea, eb), self.route(oa, ob)
-        e0 = self._s_at_distance(ego_full, self.legs[ea], self.spawns["ego"][ea], True)
-        e1 = self._s_at_distance(ego_full, self.legs[eb], self.goal_distance, False)
-        o0 = self._s_at_distance(ov_full, self.legs[oa], self.spawns["ov"][oa], True)
-        ego_route = ego_full.sub(e0, e1, ROUTE_STEP)
-        ov_route = ov_full.sub(o0, ov_full.length, ROUTE_STEP)
-        conflict = find_conflict(ego_route, ov_route, 0.5 * (width_ego + width_ov))
+        ego_route, ov_route = self.ego_path(ego_move), self.ov_path(ov_move)
+        conflict = route_conflict(ego_route, ov_route, 0.5 * (width_ego + width_ov))
         return Scenario(ego_move, ov_move, ego_route, ov_route, conflict)
+
+    @functools.lru_cache(maxsize=64)  # noqa: B019
+    def ego_path(self, move: str) -> Path:
+        """The ego's route for ``move``: from its spawn to its goal."""
+        a, b = self._parse_move(move)
+        full = self.route(a, b)
+        s0 = self._s_at_distance(full, self.legs[a], self.spawns["ego"][a], True)
+        s1 = self._s_at_distance(full, self.legs[b], self.goal_distance, False)
+        return full.sub(s0, s1, ROUTE_STEP)
+
+    @functools.lru_cache(maxsize=64)  # noqa: B019
+    def ov_path(self, move: str) -> Path:
+        """The OV's route for ``move``: from its spawn to the end of its exit leg."""
+        a, b = self._parse_move(move)
+        full = self.route(a, b)
+        s0 = self._s_at_distance(full, self.legs[a], self.spawns["ov"][a], True)
+        return full.sub(s0, full.length, ROUTE_STEP)
 
     def switch_distance(self, scenario: Scenario) -> float | None:
         """Ego's distance to the conflict point [m] at which the OV stops synchronising.
@@ -327,8 +437,9 @@ class JunctionMap:
         The map's ``switch_distances`` entry for the situation if it has one (the shipped
         maps list the paper's twelve situations, derived from its Town03 trigger boxes);
         otherwise the ego's remaining distance when it crosses the mouth of its start leg,
-        where the paper's boxes sit (just inside the junction entrance). None without a
-        conflict.
+        where the paper's boxes sit (just inside the junction entrance), at most the map's
+        ``switch_distance_max`` (a roundabout's conflicts lie far round the ring). None
+        without a conflict.
         """
         key = f"{scenario.ego_move}/{scenario.ov_move}"
         if key in self.switch_distances:
@@ -337,56 +448,72 @@ class JunctionMap:
             return None
         leg = self._parse_move(scenario.ego_move)[0]
         s_mouth = self.spawns["ego"][leg] - self.legs[leg].mouth
-        return max(scenario.conflict.s_ego - s_mouth, 0.0)
+        return min(max(scenario.conflict.s_ego - s_mouth, 0.0), self.switch_distance_max)
 
     def render_geometry(self) -> dict[str, Any]:
-        """Drawable geometry for renderers: road polygons, lane markings and kerbs [m]."""
-        half = self.lane_width
-        polygons: list[list[tuple[float, float]]] = []
-        mouth_corners: list[tuple[float, float]] = []
-        markings: list[dict[str, Any]] = []
-        kerbs: list[list[tuple[float, float]]] = []
-        for leg in self.legs.values():
-            dx, dy, nx, ny = self._axis(leg)
-
-            def at(along: float, side: float, dx=dx, dy=dy, nx=nx, ny=ny) -> tuple[float, float]:
-                return (dx * along + nx * side, dy * along + ny * side)
-
-            polygons.append(
-                [
-                    at(leg.mouth, -half),
-                    at(leg.length, -half),
-                    at(leg.length, half),
-                    at(leg.mouth, half),
-                ]
-            )
-            mouth_corners += [at(leg.mouth, -half), at(leg.mouth, half)]
-            markings.append(
-                {
-                    "points": [at(leg.mouth, 0.0), at(leg.length, 0.0)],
-                    "style": "dashed",
-                    "color": "white",
-                }
-            )
-            markings.append(
-                {
-                    "points": [at(leg.mouth, 0.0), at(leg.mouth, half)],
-                    "style": "solid",
-                    "color": "white",
-                }
-            )
-            kerbs.append([at(leg.mouth, half), at(leg.length, half)])
-            kerbs.append([at(leg.mouth, -half), at(leg.length, -half)])
+        """Drawable geometry for renderers [m]: ``road_polygons`` (convex, the drivable
+        area), ``markings``, ``kerbs``, and the pedestrian surfaces ``crosswalks`` and
+        ``sidewalks`` (convex polygons, not drivable)."""
+        geo = self._legs_geometry()
+        mouth_corners = geo.pop("mouth_corners")
         hull = _convex_hull(mouth_corners)
-        polygons.append(hull)
+        geo["road_polygons"].append(hull)
         # kerbs of the junction box: hull edges that are not a leg mouth
         mouths = {
             frozenset((a, b)) for a, b in zip(mouth_corners[::2], mouth_corners[1::2], strict=False)
         }
         for a, b in zip(hull, hull[1:] + hull[:1], strict=False):
             if frozenset((a, b)) not in mouths:
-                kerbs.append([a, b])
-        return {"road_polygons": polygons, "markings": markings, "kerbs": kerbs}
+                geo["kerbs"].append([a, b])
+        return geo
+
+    def _legs_geometry(self) -> dict[str, Any]:
+        """Every two-way leg's surface (mouth to end), markings, kerbs, crossing, sidewalks."""
+        half = self.lane_width
+        geo: dict[str, Any] = {
+            "road_polygons": [],
+            "markings": [],
+            "kerbs": [],
+            "crosswalks": [],
+            "sidewalks": [],
+            "mouth_corners": [],
+        }
+        for leg in self.legs.values():
+            dx, dy, nx, ny = self._axis(leg)
+
+            def at(along: float, side: float, dx=dx, dy=dy, nx=nx, ny=ny) -> tuple[float, float]:
+                return (dx * along + nx * side, dy * along + ny * side)
+
+            def box(a0: float, a1: float, b0: float, b1: float) -> list[tuple[float, float]]:
+                return [at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)]
+
+            geo["road_polygons"].append(box(leg.mouth, leg.length, -half, half))
+            geo["mouth_corners"] += [at(leg.mouth, -half), at(leg.mouth, half)]
+            geo["markings"].append(
+                {
+                    "points": [at(leg.mouth, 0.0), at(leg.length, 0.0)],
+                    "style": "dashed",
+                    "color": "white",
+                }
+            )
+            geo["markings"].append(
+                {
+                    "points": [at(leg.mouth, 0.0), at(leg.mouth, half)],
+                    "style": "solid",
+                    "color": "white",
+                }
+            )
+            geo["kerbs"].append([at(leg.mouth, half), at(leg.length, half)])
+            geo["kerbs"].append([at(leg.mouth, -half), at(leg.length, -half)])
+            walk = self.sidewalk_width
+            geo["sidewalks"].append(box(leg.mouth, leg.length, half, half + walk))
+            geo["sidewalks"].append(box(leg.mouth, leg.length, -half - walk, -half))
+            if leg.crosswalk is not None:
+                a0 = leg.mouth + leg.crosswalk.offset
+                geo["crosswalks"].append(box(a0, a0 + leg.crosswalk.width, -half, half))
+        for key in ("crosswalks", "sidewalks"):
+            geo[key] = [_ccw(p) for p in geo[key]]
+        return geo
 
     @functools.cached_property
     def drivable_area(self) -> DrivableArea:
@@ -399,6 +526,12 @@ class JunctionMap:
         """Left and right extent of the drivable area around each point of ``route`` [m]
         (see ``sitcov.sim.embedded._monitors.route_clearance``)."""
         return route_clearance(self.drivable_area, route)
+
+
+#: ``layout`` name -> map class. ``_layouts`` registers the roundabout and the merge when
+#: the package is imported (``sitcov/sim/embedded/__init__.py``), so this module needs
+#: not import the subclasses built on it.
+LAYOUTS: dict[str, type[JunctionMap]] = {"junction": JunctionMap}
 
 
 def _straight(a: tuple[float, float], b: tuple[float, float]) -> Path:
@@ -441,6 +574,14 @@ def _connector(p0: tuple[float, float], h0: float, p1: tuple[float, float], h1: 
     return Path.from_points(points)
 
 
+def _ccw(polygon: list[tuple[float, float]]) -> list[tuple[float, float]]:
+    """``polygon`` in counter-clockwise order (shoelace sign)."""
+    area = sum(
+        a[0] * b[1] - b[0] * a[1] for a, b in zip(polygon, polygon[1:] + polygon[:1], strict=True)
+    )
+    return polygon if area >= 0 else polygon[::-1]
+
+
 def _convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
     """Counter-clockwise convex hull (monotone chain)."""
     pts = sorted(set((round(x, 9), round(y, 9)) for x, y in points))
@@ -461,6 +602,26 @@ def _convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]
     return lower[:-1] + upper[:-1]
 
 
+def overlap_matrix(
+    e: np.ndarray, o: np.ndarray, gap: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Distances between the points of two sampled paths that can be closer than ``gap``.
+
+    Only points inside the other path's bounding box widened by ``gap`` are compared (the
+    rest cannot be close), which keeps long routes cheap. Returns (distances, close, ego
+    indices, other indices): the matrices are over the kept points only.
+    """
+
+    def inside(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+        lo, hi = q.min(axis=0) - gap, q.max(axis=0) + gap
+        return np.flatnonzero(((p >= lo) & (p <= hi)).all(axis=1))
+
+    ie, io = inside(e, o), inside(o, e)
+    es, os_ = e[ie], o[io]
+    d = np.hypot(es[:, None, 0] - os_[None, :, 0], es[:, None, 1] - os_[None, :, 1])
+    return d, d < gap, ie, io
+
+
 def find_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
     """First overlap of two swept paths: centre lines closer than ``gap`` [m].
 
@@ -469,20 +630,50 @@ def find_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
     """
     e = np.asarray(ego.resampled(CONFLICT_STEP))
     o = np.asarray(ov.resampled(CONFLICT_STEP))
-    d = np.hypot(e[:, None, 0] - o[None, :, 0], e[:, None, 1] - o[None, :, 1])
-    close = d < gap
-    ego_hit = np.flatnonzero(close.any(axis=1))
-    ov_hit = np.flatnonzero(close.any(axis=0))
-    if ego_hit.size == 0:
+    _, close, ie, io = overlap_matrix(e, o, gap)
+    rows = np.flatnonzero(close.any(axis=1))
+    if rows.size == 0:
         return None
+    # the first overlapping stretch along the ego's route, and the OV points close to it
+    # (routes that meet twice, as on a roundabout, pair the same encounter on both)
+    first = last = int(rows[0])
+    while last + 1 < len(ie) and ie[last + 1] == ie[last] + 1 and close[last + 1].any():
+        last += 1
+    ov_hit = io[close[first : last + 1].any(axis=0)]
     se, so = ego.length / (len(e) - 1), ov.length / (len(o) - 1)
-    i = int(ego_hit[0])
+    i = int(ie[first])
     return Conflict(
         point=(float(e[i, 0]), float(e[i, 1])),
         s_ego=i * se,
-        s_ego_end=float(ego_hit[-1]) * se,
+        s_ego_end=float(ie[last]) * se,
         s_ov=float(ov_hit[0]) * so,
         s_ov_end=float(ov_hit[-1]) * so,
+    )
+
+
+def route_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
+    """The conflict the adversary times its arrival at: :func:`find_conflict`, except when
+    one route starts inside the other's swept path (both on the same lane: a following or
+    diverging pair). There the first overlap is the OV's own spawn point, where nothing can
+    be timed; the conflict is instead where the ego leaves the shared stretch (where the
+    routes split, or the ego's goal if they never do), so an OV that arrives there with
+    the ego is one the ego runs into from behind.
+    """
+    conflict = find_conflict(ego, ov, gap)
+    if conflict is None or (conflict.s_ov > CONFLICT_STEP and conflict.s_ego > CONFLICT_STEP):
+        return conflict
+    e = np.asarray(ego.resampled(CONFLICT_STEP))
+    o = np.asarray(ov.resampled(CONFLICT_STEP))
+    d, close, ie, io = overlap_matrix(e, o, gap)
+    rows = np.flatnonzero(close.any(axis=1))
+    last = int(rows[0])
+    while last + 1 < len(ie) and ie[last + 1] == ie[last] + 1 and close[last + 1].any():
+        last += 1
+    j = int(io[np.argmin(np.where(close[last], d[last], np.inf))])
+    i = int(ie[last])
+    s_e, s_o = i * ego.length / (len(e) - 1), j * ov.length / (len(o) - 1)
+    return Conflict(
+        point=(float(e[i, 0]), float(e[i, 1])), s_ego=s_e, s_ego_end=s_e, s_ov=s_o, s_ov_end=s_o
     )
 
 

@@ -71,6 +71,11 @@ def render_topdown(
             ax.add_patch(
                 Polygon(poly, closed=True, facecolor="#bdbdbd", edgecolor="none", zorder=1)
             )
+        for key, color in (("sidewalks", "#9e9e9e"), ("crosswalks", "#eeeeee")):
+            for poly in geometry.get(key, ()):
+                ax.add_patch(
+                    Polygon(poly, closed=True, facecolor=color, edgecolor="none", zorder=1)
+                )
         for mark in geometry["markings"]:
             xs, ys = zip(*mark["points"], strict=False)
             ax.plot(
