@@ -32,9 +32,16 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from sitcov.perception._base import ActorView, CameraSpec, Pose
-from sitcov.perception._camera import project_box
+from sitcov.perception._camera import NEAR, project_box
+from sitcov.perception._cyclist import cyclist_polygons
+from sitcov.perception._person import person_polygons
 from sitcov.perception._texture import ground_texture
-from sitcov.perception._vehicle import BODY, draw_supersampled, vehicle_polygons
+from sitcov.perception._vehicle import (
+    BODY,
+    contact_shadow,
+    draw_supersampled,
+    vehicle_polygons,
+)
 
 if TYPE_CHECKING:
     from sitcov.sim import Conditions
@@ -180,24 +187,48 @@ def render_frame(
     ops: list[tuple[list[tuple[float, float]], tuple[int, int, int]]] = []
     fog_c = tuple(float(v) for v in _fog_color(w, hor))
     for i in order:
-        body = colors[i] if i < len(colors) else (actors[i].color or BODY)
-        ops.extend(vehicle_polygons(camera, ego_pose, actors[i], body, w, fog_c, FAR))
+        ops.extend(
+            _actor_polygons(
+                camera, ego_pose, actors[i], colors[i] if i < len(colors) else None, w, fog_c
+            )
+        )
     if ops:
+        g_l, o_l = gain.tolist(), offset.tolist()
         lit = [
             (
-                pts,
+                op[0],
                 tuple(
                     int(min(255.0, max(0.0, c * g + o)))
-                    for c, g, o in zip(col, gain.tolist(), offset.tolist(), strict=True)
+                    for c, g, o in zip(op[1], g_l, o_l, strict=True)
                 ),
+                *op[2:],
             )
-            for pts, col in ops
+            for op in ops
         ]
         draw_supersampled(pil, lit)  # type: ignore[arg-type]
     # --- rain ---
     if w["rain"] > 0:
         pil = _rain(pil, w, rng)
     return np.asarray(pil, dtype=np.uint8)
+
+
+def _actor_polygons(
+    camera: CameraSpec,
+    ego_pose: Pose,
+    actor: ActorView,
+    color: tuple[int, int, int] | None,
+    w: dict[str, float],
+    fog_c: tuple[float, ...],
+) -> list[Any]:
+    """One actor's screen polygons by its kind: a person, a cyclist or a vehicle."""
+    if actor.kind == "pedestrian":
+        view = actor if color is None else replace(actor, color=color)
+        return person_polygons(camera, ego_pose, view, w, fog_c, FAR, contact_shadow, NEAR)
+    if actor.kind == "cyclist":
+        view = actor if color is None else replace(actor, color=color)
+        return cyclist_polygons(camera, ego_pose, view, w, fog_c, FAR, contact_shadow, NEAR)
+    body = color or actor.color or BODY
+    return vehicle_polygons(camera, ego_pose, actor, body, w, fog_c, FAR)
 
 
 def _background(
