@@ -92,7 +92,7 @@ def rider_parts(
     sx, _, sz = b["seat"]
     bx, _, bz = b["bars"]
     hip_z = sz + 0.08
-    sh_x, sh_z = sx + 0.32 * s, hip_z + 0.5 * s
+    sh_x, sh_z = sx + 0.32 * s, actor.height - 0.32 * s  # the hair's top at the box top
     crank = 0.17
     parts: list[tuple[list[Sphere], tuple[int, int, int]]] = []
     for sign, ph in ((1.0, phase), (-1.0, phase + math.pi)):
@@ -114,7 +114,7 @@ def rider_parts(
         ((sh_x, 0.15 * s, sh_z - 0.02), 0.09 * s), ((sh_x, -0.15 * s, sh_z - 0.02), 0.09 * s),
         ((sx, 0.09 * s, hip_z + 0.05), 0.1 * s), ((sx, -0.09 * s, hip_z + 0.05), 0.1 * s),
     ]  # fmt: skip
-    head = (sh_x + 0.1 * s, 0.0, sh_z + 0.2 * s)
+    head = (sh_x + 0.1 * s, 0.0, sh_z + 0.17 * s)
     parts += [
         (torso, col["shirt"]),
         ([((sh_x + 0.02, 0.0, sh_z + 0.05), 0.05 * s), (head, 0.05 * s)], col["skin"]),

@@ -85,8 +85,8 @@ def skeleton(height: float, phase: float, amplitude: float) -> dict[str, Vec3]:
     """Joint positions [m] in the person's frame (x forward, y left, z up, feet at z=0)."""
     s = height / 1.75
     hip_z, shoulder_z, neck_z = 0.93 * s, 1.42 * s, 1.52 * s
-    thigh, shin, upper, fore = 0.45 * s, 0.44 * s, 0.29 * s, 0.27 * s
-    j: dict[str, Vec3] = {"neck": (0.0, 0.0, neck_z), "head": (0.02 * s, 0.0, 1.64 * s)}
+    thigh, shin, upper, fore = 0.45 * s, 0.41 * s, 0.29 * s, 0.27 * s
+    j: dict[str, Vec3] = {"neck": (0.0, 0.0, neck_z), "head": (0.02 * s, 0.0, 1.6 * s)}
     for side, sign in (("l", 1.0), ("r", -1.0)):
         ph = phase + (0.0 if sign > 0 else math.pi)
         swing = 0.45 * amplitude * math.sin(ph)

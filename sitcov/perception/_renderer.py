@@ -402,17 +402,51 @@ def _rain(img: Image.Image, w: dict[str, float], rng: np.random.Generator) -> Im
 MIN_VISIBLE_PX = 2.0
 
 
+#: ActorView kinds that are vehicles: the stack's ``min_box_width`` gate applies to them.
+VEHICLE_KINDS = frozenset({"car", "truck"})
+#: ActorView kind -> the detector's class label it is reported as.
+KIND_CLASS = {"car": "car", "truck": "car", "pedestrian": "person", "cyclist": "bicycle"}
+
+
+def actors_in_view(
+    camera: CameraSpec,
+    ego_pose: Pose,
+    actors: Sequence[ActorView],
+    min_px: float = MIN_VISIBLE_PX,
+    min_sizes: Mapping[str, tuple[float, float]] | None = None,
+) -> bool:
+    """Whether any actor's box is big enough in the image to matter to the stack.
+
+    Camera-mode backends use this to skip rendering and detection of frames that can hold
+    no relevant road user (the stack then gets an empty detection list), which roughly
+    halves the cost of a run; see docs/camera.md for the measured false-positive rate it
+    ignores.
+
+    Args:
+        min_px: the narrowest vehicle box [px] that counts (the stack's ``min_box_width``
+            gate); it applies to cars and trucks only.
+        min_sizes: per class label (``car``, ``person``, ``bicycle``): the smallest box
+            (width, height) [px] that counts for actors reported as that class; a class
+            missing here counts at :data:`MIN_VISIBLE_PX` (any visible pedestrian or
+            cyclist is rendered, so a car-width gate never hides a person). An entry for
+            ``car`` overrides ``min_px``.
+    """
+    sizes = min_sizes or {}
+    for actor in actors:
+        proj = project_box(camera, ego_pose, actor)
+        if proj is None or not proj.visible:
+            continue
+        label = KIND_CLASS.get(actor.kind, "car")
+        default = min_px if actor.kind in VEHICLE_KINDS else MIN_VISIBLE_PX
+        min_w, min_h = sizes.get(label, (default, 0.0))
+        if proj.width >= max(min_w, MIN_VISIBLE_PX) and proj.height >= min_h:
+            return True
+    return False
+
+
 def vehicles_in_view(
     camera: CameraSpec, ego_pose: Pose, actors: Sequence[ActorView], min_px: float = MIN_VISIBLE_PX
 ) -> bool:
-    """Whether any actor's box is in the image at least ``min_px`` wide.
-
-    Camera-mode backends use this to skip rendering and detection of frames that can hold
-    no vehicle (the stack then gets an empty detection list), which roughly halves the
-    cost of a run; see docs/camera.md for the measured false-positive rate it ignores.
-    """
-    for actor in actors:
-        proj = project_box(camera, ego_pose, actor)
-        if proj is not None and proj.visible and proj.width >= min_px:
-            return True
-    return False
+    """:func:`actors_in_view` with the vehicle gate only (the backends' call): vehicles
+    count from ``min_px`` wide, pedestrians and cyclists whenever visible."""
+    return actors_in_view(camera, ego_pose, actors, min_px)
