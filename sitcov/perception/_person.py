@@ -38,6 +38,10 @@ TROUSERS = ((35, 45, 80), (30, 30, 35), (90, 80, 70), (60, 70, 95), (140, 130, 1
 SKIN = ((235, 195, 165), (200, 150, 115), (150, 100, 70), (95, 65, 45))
 HAIR = ((25, 20, 18), (70, 45, 25), (150, 110, 60), (110, 105, 100))
 SHOE = (30, 28, 28)
+#: Each part is drawn over a slightly larger, darker copy of itself [px], its outline:
+#: the shading at a limb's edge where it turns away from the light.
+OUTLINE_PX = 1.5
+OUTLINE_SHADE = 0.45
 #: Direction towards the sun (as the vehicles'), for the lit side of each part.
 SUN_XY = (0.35, 0.45)
 
@@ -218,9 +222,10 @@ class ActorFrame:
         return tuple(int(min(255.0, color[k]) * t + fc[k] * (1 - t)) for k in range(3))  # type: ignore[return-value]
 
     def hull(
-        self, spheres: Sequence[Sphere], near: float
+        self, spheres: Sequence[Sphere], near: float, pad: float = 0.0
     ) -> tuple[list[tuple[float, float]], float] | None:
-        """Screen hull of projected sphere discs and the mean distance, or None if behind."""
+        """Screen hull of projected sphere discs (radii + ``pad`` px) and the mean distance,
+        or None if behind."""
         pts: list[tuple[float, float]] = []
         dist = 0.0
         for centre, r in spheres:
@@ -228,7 +233,7 @@ class ActorFrame:
             if q[0] < near + r:
                 return None
             u, v = self.screen(q)
-            rp = self.f * r / q[0]
+            rp = self.f * r / q[0] + pad
             pts.extend(_disc(u, v, rp, 12 if rp > 3 else 6))
             dist += math.sqrt(q[0] ** 2 + q[1] ** 2)
         return convex_hull(pts), dist / len(spheres)
@@ -257,7 +262,11 @@ def parts_polygons(
         if got is None or len(got[0]) < 3:
             continue
         pts, d = got
-        out.append((d, pts, frame.final(_part_shade(frame, spheres, color, cloud), d)))
+        shaded = _part_shade(frame, spheres, color, cloud)
+        rim = frame.hull(spheres, near, OUTLINE_PX)
+        if rim is not None:
+            out.append((d + 1e-6, rim[0], frame.final([c * OUTLINE_SHADE for c in shaded], d)))
+        out.append((d, pts, frame.final(shaded, d)))
     return out
 
 
