@@ -74,10 +74,10 @@ def walk_phase(actor: ActorView) -> float:
 
 
 def _leg(
-    hip: Vec3, swing: float, lift: float, thigh: float, shin: float
+    hip: Vec3, swing: float, knee_bend: float, thigh: float, shin: float
 ) -> tuple[Vec3, Vec3, Vec3]:
-    """Knee, ankle and toe of a leg swung forward by ``swing`` [rad] (x forward, z up)."""
-    knee_bend = lift
+    """Knee, ankle and toe of a leg swung forward by ``swing`` with the shin bent back by
+    ``knee_bend`` [rad] (x forward, z up)."""
     kx = hip[0] + thigh * math.sin(swing)
     kz = hip[2] - thigh * math.cos(swing)
     a = swing - knee_bend
@@ -86,7 +86,8 @@ def _leg(
 
 
 def skeleton(height: float, phase: float, amplitude: float) -> dict[str, Vec3]:
-    """Joint positions [m] in the person's frame (x forward, y left, z up, feet at z=0)."""
+    """Joint positions [m] in the person's frame (x forward, y left, z up from the ground):
+    ``amplitude`` 0 stands, 1 walks at full stride; the lower ankle is 0.07 m up."""
     s = height / 1.75
     hip_z, shoulder_z, neck_z = 0.93 * s, 1.42 * s, 1.52 * s
     thigh, shin, upper, fore = 0.45 * s, 0.41 * s, 0.29 * s, 0.27 * s
@@ -97,12 +98,8 @@ def skeleton(height: float, phase: float, amplitude: float) -> dict[str, Vec3]:
         lift = 0.5 * amplitude * max(0.0, math.cos(ph))  # knee bends while the leg swings
         hip = (0.0, sign * 0.1 * s, hip_z)
         knee, ankle, toe = _leg(hip, swing, lift, thigh, shin)
-        j[f"hip_{side}"], j[f"knee_{side}"], j[f"ankle_{side}"], j[f"toe_{side}"] = (
-            hip,
-            knee,
-            ankle,
-            toe,
-        )
+        j.update({f"hip_{side}": hip, f"knee_{side}": knee, f"ankle_{side}": ankle})
+        j[f"toe_{side}"] = toe
         arm = -0.4 * amplitude * math.sin(ph)  # arms swing against the legs
         sh = (0.0, sign * 0.2 * s, shoulder_z)
         el = (sh[0] + upper * math.sin(arm), sign * 0.22 * s, sh[2] - upper * math.cos(arm))
