@@ -19,10 +19,11 @@ within +-40 deg, any heading, a random shirt colour and height; clear weather in
 frames, otherwise one weather element at a random level) are rendered and run through the
 SSD; the score of the best detection of an accepted class (pedestrian: person; cyclist:
 bicycle or person) overlapping the true box (IoU >= 0.3) is the frame's outcome. The
-logit of that score is modelled as ``z(features) + noise_sigma * N(0, 1)``, censored below
-the sweep's detector threshold (0.05: weaker or missing detections only say "below"),
-and fitted by maximum likelihood (a Tobit model). ``size_min_px`` is the 2nd percentile of
-the box heights detected at >= 0.3.
+score's logit is ``z(features) + noise_sigma * N(0, 1)``; the fit works at the decision
+threshold, as the car PEM's does: a probit model of "score >= 0.5" (the reference AEB's
+threshold) gives ``z / noise_sigma``, then ``noise_sigma`` is the maximum-likelihood scale
+for the event "score >= 0.3" (the reporting floor) given that shape. ``size_min_px`` is the
+1st percentile of the box heights detected at >= 0.3.
 """
 
 from __future__ import annotations
@@ -56,6 +57,8 @@ CLEAR_FRACTION = 0.35
 WEATHER_VALUES = (20.0, 40.0, 60.0, 80.0, 100.0)
 SWEEP_MIN_SCORE = 0.05
 USE_FLOOR = 0.3
+#: The reference AEB's score threshold: the event the fit reproduces first.
+THRESHOLD = 0.5
 MATCH_IOU = 0.3
 #: Fitted coefficients: design column -> (parameter, sign).
 _COLUMNS = (
@@ -184,42 +187,67 @@ def _design(feats: Sequence[PEMFeatures], ref: float, lo: float, hi: float) -> n
     return np.asarray(rows, dtype=np.float64)
 
 
-def fit_class(samples: Sequence[tuple[PEMFeatures, float]], base: PEMParams) -> PEMParams:
-    """Tobit fit of the PEM logit to the samples (module doc); other fields from ``base``."""
+def _probit(x: np.ndarray, event: np.ndarray) -> np.ndarray:
+    """Probit coefficients of ``event`` on ``x`` (P = Phi(x @ g)), by maximum likelihood
+    with a tiny ridge on the non-constant terms."""
     from scipy.optimize import minimize
+    from scipy.stats import norm
+
+    sign = np.where(event, 1.0, -1.0)
+
+    def nll(g: np.ndarray) -> tuple[float, np.ndarray]:
+        m = sign * (x @ g)
+        ll = norm.logcdf(m)
+        ratio = np.exp(norm.logpdf(m) - ll)  # d log Phi(m) / dm
+        ridge = 1e-3 * float(g[1:] @ g[1:])
+        grad = -(x.T @ (sign * ratio)) + 2e-3 * np.concatenate(([0.0], g[1:]))
+        return -float(ll.sum()) + ridge, grad
+
+    return minimize(nll, np.zeros(x.shape[1]), jac=True, method="L-BFGS-B").x
+
+
+def fit_class(samples: Sequence[tuple[PEMFeatures, float]], base: PEMParams) -> PEMParams:
+    """Fit the PEM at the decision threshold (module doc); other fields from ``base``.
+
+    A probit of "score >= THRESHOLD" gives ``z / noise_sigma``; ``noise_sigma`` then makes
+    "score >= floor" as frequent as the detector's reports (1-D maximum likelihood), so the
+    PEM reproduces both the AEB's event and the reporting rate.
+    """
+    from scipy.optimize import minimize_scalar
     from scipy.stats import norm
 
     feats = [f for f, _ in samples]
     scores = np.asarray([s for _, s in samples])
     hit = scores >= USE_FLOOR
-    if hit.sum() < 10:
+    if hit.sum() < 10 or (scores >= THRESHOLD).sum() < 10:
         raise ValueError(f"only {int(hit.sum())} frames detected at >= {USE_FLOOR}: too few to fit")
     heights = np.asarray([f.height_px for f in feats])
-    lo = float(np.percentile(heights[hit], 2))
+    lo = float(np.percentile(heights[hit], 1))
     hi = float(np.percentile(heights[hit], 98))
     ref = float(np.exp(np.mean(np.log(heights[hit]))))
     keep = heights >= lo
     x = _design([f for f, k in zip(feats, keep, strict=True) if k], ref, lo, hi)
     s = scores[keep]
-    obs = s >= SWEEP_MIN_SCORE
-    y = np.log(np.clip(s, 1e-6, 1 - 1e-6) / (1 - np.clip(s, 1e-6, 1 - 1e-6)))
-    cut = math.log(SWEEP_MIN_SCORE / (1 - SWEEP_MIN_SCORE))
+    g = _probit(x, s >= THRESHOLD)
+    zg, gap = x @ g, _logit(THRESHOLD) - _logit(USE_FLOOR)
+    reported = np.where(s >= USE_FLOOR, 1.0, -1.0)
 
-    def nll(theta: np.ndarray) -> float:
-        beta, sigma = theta[:-1], math.exp(theta[-1])
-        z = x @ beta
-        ll = norm.logpdf((y[obs] - z[obs]) / sigma).sum() - obs.sum() * math.log(sigma)
-        ll += norm.logcdf((cut - z[~obs]) / sigma).sum()
-        return -float(ll) + 1e-3 * float(beta[1:] @ beta[1:])  # a whisper of ridge
+    def nll(sigma: float) -> float:
+        return -float(norm.logcdf(reported * (zg + gap / sigma)).sum())
 
-    res = minimize(nll, np.zeros(x.shape[1] + 1), method="L-BFGS-B")
-    beta, sigma = res.x[:-1], math.exp(res.x[-1])
+    sigma = float(minimize_scalar(nll, bounds=(0.05, 5.0), method="bounded").x)
+    beta = sigma * g
+    beta[0] += _logit(THRESHOLD)
     fitted = {name: float(sign * b) for (name, sign), b in zip(_COLUMNS, beta, strict=True)}
     fitted.update(size_ref_px=ref, size_min_px=lo, size_max_px=hi, noise_sigma=sigma,
                   rain_sigma=0.0, rain_miss=0.0, floor=USE_FLOOR, side_size_gain=0.0,
                   aspect_gain=0.0, contrast_gain=0.0, detail_gain=0.0, chroma_gain=0.0,
                   red_green_gain=0.0, yellow_blue_gain=0.0)  # fmt: skip
     return PEMParams.from_mapping({**base.to_dict(), **{k: round(v, 4) for k, v in fitted.items()}})
+
+
+def _logit(p: float) -> float:
+    return math.log(p / (1.0 - p))
 
 
 def summary(samples: Sequence[tuple[PEMFeatures, float]], camera: CameraSpec) -> dict[str, Any]:

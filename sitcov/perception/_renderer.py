@@ -7,9 +7,12 @@ The frame is built in three passes, each cheap enough for 10 Hz campaigns:
    camera and moved with the ego each frame. The road map (surface, markings, kerbs, grass,
    puddle field) is rasterised once per geometry into a top-down texture that the ground
    pixels sample.
-2. Vehicles, as flat-shaded convex solids (body, cabin, wheels) with decals (windows,
-   lights, plate), clipped at the near plane, depth-sorted (painter's algorithm) and filled
-   with Pillow. The projection is the one of :func:`sitcov.perception.project_box`.
+2. Road users, by ``ActorView.kind``: vehicles as flat-shaded convex solids (body, cabin,
+   wheels) with decals (windows, lights, plate), pedestrians as an articulated walking body
+   (:mod:`sitcov.perception._person`), cyclists as a bicycle with a seated rider
+   (:mod:`sitcov.perception._cyclist`); clipped at the near plane, depth-sorted far to near
+   (painter's algorithm: actors by distance, then their parts) and filled with Pillow. The
+   projection is the one of :func:`sitcov.perception.project_box`.
 3. Weather: fog by the extinction law per pixel depth, light level and contrast from the
    illumination, wet-road darkening and sky reflections in puddles, rain streaks.
 4. Auto-exposure, as CARLA's RGB camera does by default (``exposure_mode`` histogram): the
@@ -155,7 +158,7 @@ def render_frame(
     Args:
         camera: the camera (size, field of view, mount).
         ego_pose: the ego's pose (vehicle centre) [m, rad].
-        actors: other vehicles.
+        actors: other road users (cars, trucks, pedestrians, cyclists by ``kind``).
         conditions: weather quantities (None = clear noon).
         road_geometry: the map's ``render_geometry()`` (road polygons, markings, kerbs);
             None renders plain grass.
@@ -178,7 +181,7 @@ def render_frame(
     pil = Image.fromarray(np.clip(img, 0, 255).astype(np.uint8)).resize(
         (camera.width, camera.height), Image.BILINEAR
     )
-    # --- vehicles ---
+    # --- road users, far to near ---
     colors = list(body_colors) if body_colors is not None else []
     order = sorted(
         range(len(actors)),

@@ -70,7 +70,8 @@ def test_bad_class_file_is_one_config_error(tmp_path) -> None:
 
 def test_fit_recovers_a_known_model_from_censored_scores() -> None:
     """Synthetic frames from known coefficients, censored below 0.05 as the sweep is: the
-    fitted model's probability of a score >= 0.5 matches the truth's within 0.06 on average
+    fitted model's probability of a score >= 0.5 (and >= 0.3) matches the truth's within
+    0.06 on average
     over fresh frames (2000 frames; the fit's reference size differs, so coefficients are
     compared through their predictions)."""
     rng = np.random.default_rng(7)
@@ -95,11 +96,12 @@ def test_fit_recovers_a_known_model_from_censored_scores() -> None:
     fitted = fit_class([(f, draw(f)) for f in train], truth)
     from scipy.stats import norm
 
-    def p_half(f: PEMFeatures, p: PEMParams) -> float:
-        z = math.log(pem_score(f, p) / (1 - pem_score(f, p)))
+    def p_above(f: PEMFeatures, p: PEMParams, t: float) -> float:
+        z = math.log(pem_score(f, p) / (1 - pem_score(f, p))) - math.log(t / (1 - t))
         return float(norm.cdf(z / p.noise_sigma))
 
     test = [f for f in frames(500) if f.height_px >= fitted.size_min_px]
-    err = np.mean([abs(p_half(f, fitted) - p_half(f, truth)) for f in test])
-    assert err < 0.06, err
+    for t in (0.5, 0.3):  # the AEB's threshold, the reporting floor
+        err = np.mean([abs(p_above(f, fitted, t) - p_above(f, truth, t)) for f in test])
+        assert err < 0.06, (t, err)
     assert fitted.noise_sigma == pytest.approx(0.6, rel=0.25)
