@@ -28,8 +28,25 @@ OIDV4_LABELS = (
     "Computer mouse", "Computer monitor", "Box", "Mug", "Coffee cup", "Stationary bicycle",
     "Table", "Bottle", "High heels", "Vehicle", "Footwear", "Dog", "Book", "Camera", "Car",
 )  # fmt: skip
-#: Our output label -> the model's classes that count as it.
+#: Our output label -> the model's classes that count as it: vehicles only.
 CAR_CLASSES: Mapping[str, tuple[str, ...]] = {"car": ("Car", "Vehicle")}
+#: Every road user (the default): the OIDv4 map of this model has one person class
+#: ("Person"; no Man/Woman/Boy/Girl/Human body here) and "Bicycle". "Stationary bicycle"
+#: (an exercise bike) and the clothing classes (Footwear, Boot, High heels) are parts or
+#: look-alikes, not road users, so they are not mapped. docs/camera.md#classes.
+ROAD_USER_CLASSES: Mapping[str, tuple[str, ...]] = {
+    "car": ("Car", "Vehicle"),
+    "person": ("Person",),
+    "bicycle": ("Bicycle",),
+}
+#: The class label a detector reports for each ActorView kind (a cyclist counts as found
+#: when either its bicycle or its rider is detected).
+KIND_LABELS: Mapping[str, tuple[str, ...]] = {
+    "car": ("car",),
+    "truck": ("car",),
+    "pedestrian": ("person",),
+    "cyclist": ("bicycle", "person"),
+}
 
 
 class Detector(abc.ABC):
@@ -65,8 +82,10 @@ class SSDDetector(Detector):
         min_score: detections below this score [0, 1] are dropped. Low by default so the
             AEB's own threshold (0.5, or 0.95 with fault f1) is what decides.
         iou_threshold: NMS overlap above which the lower-scoring box is suppressed.
-        classes: output label -> model class names merged into it (default: Car and
-            Vehicle both count as ``"car"``).
+        classes: output label -> model class names merged into it (default
+            :data:`ROAD_USER_CLASSES`: Car and Vehicle count as ``"car"``, Person as
+            ``"person"``, Bicycle as ``"bicycle"``). NMS runs within each output label, so
+            a rider and their bicycle both survive.
         max_detections: at most this many detections per frame.
 
     Raises:
@@ -105,7 +124,7 @@ class SSDDetector(Detector):
             raise SitcovError(f"{self.model}: missing output tensor {exc}") from exc
         self.anchors = ssd_anchors()
         names = _load_labels(self.model)
-        wanted = CAR_CLASSES if classes is None else classes
+        wanted = ROAD_USER_CLASSES if classes is None else classes
         self._groups: list[tuple[str, list[int]]] = []
         for label, members in wanted.items():
             idx = [names.index(m) for m in members if m in names]

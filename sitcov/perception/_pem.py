@@ -381,6 +381,7 @@ class PEMSensor(Sensor):
         self._rng: Any = None
         self._tracks: dict[int, _Track] = {}
         self._frame = 0
+        self._classes: dict[str, tuple[str, PEMParams]] | None = None  # per kind, lazily
         self._color_key: Any = None
         self._color_value: tuple[float, ...] = (
             DEFAULT_CONTRAST,
@@ -426,6 +427,19 @@ class PEMSensor(Sensor):
             self._color_value = (*color_features(color, conditions), *chroma_features(color))
         return self._color_value
 
+    def _class_params(self, kind: str) -> tuple[PEMParams, str]:
+        """The PEM parameters and detection label for an actor kind: vehicles use
+        ``self.params`` ("car"); pedestrians and cyclists their own (data/pem_classes.yaml,
+        :mod:`sitcov.perception._pem_classes`)."""
+        if kind in ("car", "truck"):
+            return self.params, "car"
+        if self._classes is None:
+            from sitcov.perception._pem_classes import load_class_params
+
+            self._classes = load_class_params()
+        label, params = self._classes.get(kind, ("car", self.params))
+        return params, label
+
     def _phi(self) -> float:
         tau = self.params.noise_tau
         return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
@@ -464,6 +478,7 @@ class PEMSensor(Sensor):
         camera = self.camera
         out = []
         for key, actor in enumerate(actors):
+            p, label = self._class_params(actor.kind)
             proj = project_raw(camera, ego, actor)
             if proj is None or not proj[6]:
                 continue
@@ -501,5 +516,5 @@ class PEMSensor(Sensor):
             y1 = min(max(y1 + sy * n4, 0.0), h)
             if x1 <= x0 or y1 <= y0:
                 continue
-            out.append(Detection((x0, y0, x1, y1), score, "car"))
+            out.append(Detection((x0, y0, x1, y1), score, label))
         return tuple(out)

@@ -7,9 +7,12 @@ The frame is built in three passes, each cheap enough for 10 Hz campaigns:
    camera and moved with the ego each frame. The road map (surface, markings, kerbs, grass,
    puddle field) is rasterised once per geometry into a top-down texture that the ground
    pixels sample.
-2. Vehicles, as flat-shaded convex solids (body, cabin, wheels) with decals (windows,
-   lights, plate), clipped at the near plane, depth-sorted (painter's algorithm) and filled
-   with Pillow. The projection is the one of :func:`sitcov.perception.project_box`.
+2. Road users, by ``ActorView.kind``: vehicles as flat-shaded convex solids (body, cabin,
+   wheels) with decals (windows, lights, plate), pedestrians as an articulated walking body
+   (:mod:`sitcov.perception._person`), cyclists as a bicycle with a seated rider
+   (:mod:`sitcov.perception._cyclist`); clipped at the near plane, depth-sorted far to near
+   (painter's algorithm: actors by distance, then their parts) and filled with Pillow. The
+   projection is the one of :func:`sitcov.perception.project_box`.
 3. Weather: fog by the extinction law per pixel depth, light level and contrast from the
    illumination, wet-road darkening and sky reflections in puddles, rain streaks.
 4. Auto-exposure, as CARLA's RGB camera does by default (``exposure_mode`` histogram): the
@@ -32,9 +35,16 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from sitcov.perception._base import ActorView, CameraSpec, Pose
-from sitcov.perception._camera import project_box
+from sitcov.perception._camera import NEAR, project_box
+from sitcov.perception._cyclist import cyclist_polygons
+from sitcov.perception._person import person_polygons
 from sitcov.perception._texture import ground_texture
-from sitcov.perception._vehicle import BODY, draw_supersampled, vehicle_polygons
+from sitcov.perception._vehicle import (
+    BODY,
+    contact_shadow,
+    draw_supersampled,
+    vehicle_polygons,
+)
 
 if TYPE_CHECKING:
     from sitcov.sim import Conditions
@@ -148,7 +158,7 @@ def render_frame(
     Args:
         camera: the camera (size, field of view, mount).
         ego_pose: the ego's pose (vehicle centre) [m, rad].
-        actors: other vehicles.
+        actors: other road users (cars, trucks, pedestrians, cyclists by ``kind``).
         conditions: weather quantities (None = clear noon).
         road_geometry: the map's ``render_geometry()`` (road polygons, markings, kerbs);
             None renders plain grass.
@@ -171,7 +181,7 @@ def render_frame(
     pil = Image.fromarray(np.clip(img, 0, 255).astype(np.uint8)).resize(
         (camera.width, camera.height), Image.BILINEAR
     )
-    # --- vehicles ---
+    # --- road users, far to near ---
     colors = list(body_colors) if body_colors is not None else []
     order = sorted(
         range(len(actors)),
@@ -180,24 +190,48 @@ def render_frame(
     ops: list[tuple[list[tuple[float, float]], tuple[int, int, int]]] = []
     fog_c = tuple(float(v) for v in _fog_color(w, hor))
     for i in order:
-        body = colors[i] if i < len(colors) else (actors[i].color or BODY)
-        ops.extend(vehicle_polygons(camera, ego_pose, actors[i], body, w, fog_c, FAR))
+        ops.extend(
+            _actor_polygons(
+                camera, ego_pose, actors[i], colors[i] if i < len(colors) else None, w, fog_c
+            )
+        )
     if ops:
+        g_l, o_l = gain.tolist(), offset.tolist()
         lit = [
             (
-                pts,
+                op[0],
                 tuple(
                     int(min(255.0, max(0.0, c * g + o)))
-                    for c, g, o in zip(col, gain.tolist(), offset.tolist(), strict=True)
+                    for c, g, o in zip(op[1], g_l, o_l, strict=True)
                 ),
+                *op[2:],
             )
-            for pts, col in ops
+            for op in ops
         ]
         draw_supersampled(pil, lit)  # type: ignore[arg-type]
     # --- rain ---
     if w["rain"] > 0:
         pil = _rain(pil, w, rng)
     return np.asarray(pil, dtype=np.uint8)
+
+
+def _actor_polygons(
+    camera: CameraSpec,
+    ego_pose: Pose,
+    actor: ActorView,
+    color: tuple[int, int, int] | None,
+    w: dict[str, float],
+    fog_c: tuple[float, ...],
+) -> list[Any]:
+    """One actor's screen polygons by its kind: a person, a cyclist or a vehicle."""
+    if actor.kind == "pedestrian":
+        view = actor if color is None else replace(actor, color=color)
+        return person_polygons(camera, ego_pose, view, w, fog_c, FAR, contact_shadow, NEAR)
+    if actor.kind == "cyclist":
+        view = actor if color is None else replace(actor, color=color)
+        return cyclist_polygons(camera, ego_pose, view, w, fog_c, FAR, contact_shadow, NEAR)
+    body = color or actor.color or BODY
+    return vehicle_polygons(camera, ego_pose, actor, body, w, fog_c, FAR)
 
 
 def _background(
@@ -371,17 +405,51 @@ def _rain(img: Image.Image, w: dict[str, float], rng: np.random.Generator) -> Im
 MIN_VISIBLE_PX = 2.0
 
 
+#: ActorView kinds that are vehicles: the stack's ``min_box_width`` gate applies to them.
+VEHICLE_KINDS = frozenset({"car", "truck"})
+#: ActorView kind -> the detector's class label it is reported as.
+KIND_CLASS = {"car": "car", "truck": "car", "pedestrian": "person", "cyclist": "bicycle"}
+
+
+def actors_in_view(
+    camera: CameraSpec,
+    ego_pose: Pose,
+    actors: Sequence[ActorView],
+    min_px: float = MIN_VISIBLE_PX,
+    min_sizes: Mapping[str, tuple[float, float]] | None = None,
+) -> bool:
+    """Whether any actor's box is big enough in the image to matter to the stack.
+
+    Camera-mode backends use this to skip rendering and detection of frames that can hold
+    no relevant road user (the stack then gets an empty detection list), which roughly
+    halves the cost of a run; see docs/camera.md for the measured false-positive rate it
+    ignores.
+
+    Args:
+        min_px: the narrowest vehicle box [px] that counts (the stack's ``min_box_width``
+            gate); it applies to cars and trucks only.
+        min_sizes: per class label (``car``, ``person``, ``bicycle``): the smallest box
+            (width, height) [px] that counts for actors reported as that class; a class
+            missing here counts at :data:`MIN_VISIBLE_PX` (any visible pedestrian or
+            cyclist is rendered, so a car-width gate never hides a person). An entry for
+            ``car`` overrides ``min_px``.
+    """
+    sizes = min_sizes or {}
+    for actor in actors:
+        proj = project_box(camera, ego_pose, actor)
+        if proj is None or not proj.visible:
+            continue
+        label = KIND_CLASS.get(actor.kind, "car")
+        default = min_px if actor.kind in VEHICLE_KINDS else MIN_VISIBLE_PX
+        min_w, min_h = sizes.get(label, (default, 0.0))
+        if proj.width >= max(min_w, MIN_VISIBLE_PX) and proj.height >= min_h:
+            return True
+    return False
+
+
 def vehicles_in_view(
     camera: CameraSpec, ego_pose: Pose, actors: Sequence[ActorView], min_px: float = MIN_VISIBLE_PX
 ) -> bool:
-    """Whether any actor's box is in the image at least ``min_px`` wide.
-
-    Camera-mode backends use this to skip rendering and detection of frames that can hold
-    no vehicle (the stack then gets an empty detection list), which roughly halves the
-    cost of a run; see docs/camera.md for the measured false-positive rate it ignores.
-    """
-    for actor in actors:
-        proj = project_box(camera, ego_pose, actor)
-        if proj is not None and proj.visible and proj.width >= min_px:
-            return True
-    return False
+    """:func:`actors_in_view` with the vehicle gate only (the backends' call): vehicles
+    count from ``min_px`` wide, pedestrians and cyclists whenever visible."""
+    return actors_in_view(camera, ego_pose, actors, min_px)

@@ -135,7 +135,7 @@ def _tint(color: Sequence[float], k: float) -> tuple[int, int, int]:
     return (int(min(255, color[0] * k)), int(min(255, color[1] * k)), int(min(255, color[2] * k)))
 
 
-def _contact_shadow(cloud: float) -> tuple[float, float, float]:
+def contact_shadow(cloud: float) -> tuple[float, float, float]:
     """The ground under the car: a hard, dark sun shadow in clear weather, a softer
     ambient-occlusion shade (half-way to lit asphalt) under a full overcast."""
     k = 0.5 * cloud
@@ -188,7 +188,7 @@ def vehicle_polygons(
     hl, hw = 0.5 * actor.length + 0.15, 0.5 * actor.width + 0.08
     pts, d = project([(hl, hw, 0.0), (hl, -hw, 0.0), (-hl, -hw, 0.0), (-hl, hw, 0.0)])
     if pts:
-        out.append((pts, final(_contact_shadow(cloud), d)))
+        out.append((pts, final(contact_shadow(cloud), d)))
     # Under-body darkness between the wheels (seen from any side below the sills).
     r = _wheel_radius(actor)
     ul, uw = 0.5 * actor.length - 0.1, 0.5 * actor.width - 0.05
@@ -262,9 +262,13 @@ def _clip(pts: list[Vec3]) -> list[Vec3]:
 
 
 def draw_supersampled(image: Image.Image, polys: list[Poly], factor: int = SUPERSAMPLE) -> None:
-    """Fill ``polys`` into ``image`` in place, anti-aliased by supersampling their region."""
-    xs = [x for pts, _ in polys for x, _ in pts]
-    ys = [y for pts, _ in polys for _, y in pts]
+    """Fill ``polys`` into ``image`` in place, anti-aliased by supersampling their region.
+
+    An entry ``(points, colour)`` is a filled polygon; ``(points, colour, width)`` with a
+    width [px] is a closed outline of that width (a wheel's tyre).
+    """
+    xs = [x for item in polys for x, _ in item[0]]
+    ys = [y for item in polys for _, y in item[0]]
     x0 = max(0, int(math.floor(min(xs))) - 1)
     y0 = max(0, int(math.floor(min(ys))) - 1)
     x1 = min(image.width, int(math.ceil(max(xs))) + 1)
@@ -274,6 +278,12 @@ def draw_supersampled(image: Image.Image, polys: list[Poly], factor: int = SUPER
     region = image.crop((x0, y0, x1, y1))
     big = region.resize((region.width * factor, region.height * factor), Image.NEAREST)
     draw = ImageDraw.Draw(big)
-    for pts, color in polys:
-        draw.polygon([((x - x0) * factor, (y - y0) * factor) for x, y in pts], fill=color)
+    for item in polys:
+        pts = [((x - x0) * factor, (y - y0) * factor) for x, y in item[0]]
+        width = item[2] if len(item) > 2 else 0.0  # type: ignore[misc]
+        if width > 0:
+            draw.line([*pts, pts[0], pts[1]], fill=item[1], width=max(1, round(width * factor)),
+                      joint="curve")  # fmt: skip
+        else:
+            draw.polygon(pts, fill=item[1])
     image.paste(big.reduce(factor), (x0, y0))
