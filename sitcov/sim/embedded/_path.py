@@ -154,9 +154,10 @@ class Path:
         marks = [s0]
         inner = [s for s in self.ss if s0 < s < s1]
         for s in [*inner, s1]:
-            gap = s - marks[-1]
+            base = marks[-1]  # fixed: a lazy generator would read the growing list
+            gap = s - base
             n = max(1, math.ceil(gap / step - 1e-9))
-            marks.extend(marks[-1] + gap * k / n for k in range(1, n + 1))
+            marks.extend([base + gap * k / n for k in range(1, n + 1)])
         return Path.from_points([self.point_at(s)[:2] for s in marks])
 
     def resampled(self, step: float) -> list[tuple[float, float]]:

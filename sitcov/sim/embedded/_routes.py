@@ -26,6 +26,8 @@ KINDS = ("car", "truck", "cyclist", "pedestrian")
 #: A cyclist rides this far right of the lane centre [m] (a 3.5 m lane leaves ~0.45 m
 #: between a 0.6 m wide bicycle and the kerb).
 CYCLIST_OFFSET = 1.0
+#: Offset points closer than this to the previous one are dropped (no kinks) [m].
+MIN_SPACING = 0.3
 #: Crosswalk centre line: this far outside the leg's mouth [m].
 CROSSWALK_OUTSIDE = 2.0
 #: A crosswalk route starts and ends this far beyond the kerb, on the sidewalk [m].
@@ -48,11 +50,16 @@ def actor_route(map: JunctionMap, kind: str, route: str) -> Path:  # noqa: A002 
 
 
 def _offset(path: Path, lateral: float) -> Path:
-    """``path`` shifted ``lateral`` metres to its left (negative: right) along its normals."""
-    pts = [
-        (x - lateral * math.sin(h), y + lateral * math.cos(h))
-        for x, y, h in zip(path.xs, path.ys, path.hs, strict=True)
-    ]
+    """``path`` shifted ``lateral`` metres to its left (negative: right) along its normals
+    (at a point, the normal of the mean of the headings arriving and leaving)."""
+    pts = []
+    hs = path.hs
+    for i, (x, y) in enumerate(zip(path.xs, path.ys, strict=True)):
+        h_in, h_out = hs[max(i - 1, 0)], hs[i]
+        h = math.atan2(math.sin(h_in) + math.sin(h_out), math.cos(h_in) + math.cos(h_out))
+        px, py = x - lateral * math.sin(h), y + lateral * math.cos(h)
+        if not pts or math.hypot(px - pts[-1][0], py - pts[-1][1]) > MIN_SPACING:
+            pts.append((px, py))
     full = Path.from_points(pts)
     return full.sub(0.0, full.length, ROUTE_STEP)
 
