@@ -247,7 +247,8 @@ class CrossingController:
         self.s_ego, self.s_kerb, self.speed = s_ego, s_kerb, float(speed)
         self.started = False
         self.paused_since: float | None = None
-        self.past_kerb = not self.pause  # no pause: nothing stops it at the kerb
+        # a pause of 0 means no stop at the kerb; None means a stop for good
+        self.past_kerb = self.pause is not None and self.pause <= 0.0
         self.brake = 0.0
 
     def _target(self, actor: Actor, world: Any) -> float:
