@@ -36,8 +36,8 @@ class Actor:
 
     Attributes set by the world each step: ``s`` and ``hint`` (arc length and segment on
     its route), ``dx``, ``dy``, ``gap`` (position relative to the ego and centre
-    distance; ``gap`` is inf while inactive), ``active`` (False once it left the map at
-    the end of its route), ``crashed`` (it hit another actor: it brakes to a stop).
+    distance; ``gap`` is inf while inactive; ``prev_gap`` one step earlier), ``active``
+    (False once it left the map at the end of its route), ``crashed`` (it hit another actor: it brakes to a stop).
     """
 
     __slots__ = (
@@ -62,6 +62,7 @@ class Actor:
         "dx",
         "dy",
         "gap",
+        "prev_gap",
     )
 
     def __init__(
@@ -90,6 +91,7 @@ class Actor:
         self.rows: list[Row] = []
         self.dx = self.dy = 0.0  # position relative to the ego [m]
         self.gap = math.inf  # centre distance to the ego [m] (inf while inactive)
+        self.prev_gap = math.inf  # the same one step earlier [m]
 
     def box(self) -> tuple[float, float, float, float, float]:
         """The footprint box (x, y, yaw, half length, half width)."""

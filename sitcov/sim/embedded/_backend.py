@@ -400,12 +400,14 @@ class EmbeddedBackend(Backend):
 
 def run_loop(world: World, monitors: list[Any], n_max: int, record: bool) -> str:
     """Step the world until a monitor ends the run or ``n_max`` steps passed; the end reason."""
+    updates = [m.update for m in monitors]
+    step = world.step
     while True:
         if record:
             world.record()
-        world.step()
-        for monitor in monitors:
-            reason = monitor.update(world)
+        step()
+        for update in updates:
+            reason = update(world)
             if reason is not None:
                 return reason
         if world.k >= n_max:
@@ -418,7 +420,7 @@ def scene_metrics(world: World, per_actor: dict[str, Any]) -> dict[str, Any]:
     hit = world.collision
     return {
         "actors": {a.name: {"kind": a.kind, **a.info, **per_actor[a.name]} for a in world.actors},
-        "actor_collisions": per_actor["_actor_collisions"],
+        "actor_collisions": per_actor.get("_actor_collisions", []),
         "collision_actor": hit.name if hit is not None else None,
         "collision_kind": hit.kind if hit is not None else None,
     }

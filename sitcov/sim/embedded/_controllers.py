@@ -22,6 +22,7 @@ drive and the world (``world.ego``, ``world.ego_speed``, ``world.actors``, ``wor
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -46,22 +47,45 @@ def steer_on_route(actor: Actor, lookahead: float) -> float:
     Cars and bicycles: pure pursuit of the route point ``lookahead`` metres ahead, from the
     rear axle; a pedestrian turns towards that point at its turn rate.
     """
-    body = actor.body
-    tx, ty, _ = actor.route.point_at(actor.s + lookahead)
+    return lateral_controller(actor)(lookahead)
+
+
+def lateral_controller(actor: Actor, dt: float = 0.05) -> Callable[[float], float]:
+    """``lookahead -> steer`` for ``actor`` (see :func:`steer_on_route`), its constants bound
+    once: controllers call it every step."""
+    body, point_at = actor.body, actor.route.point_at
+    cos, sin = math.cos, math.sin
     if actor.kind == "car":
-        p = body.p
-        c, s = math.cos(body.yaw), math.sin(body.yaw)
-        delta = pure_pursuit(body.x - p.lr * c, body.y - p.lr * s, body.yaw, tx, ty, p.wheelbase)
-        return delta / p.steer_max
+        lr, wb, steer_max = body.p.lr, body.p.wheelbase, body.p.steer_max
+
+        def car(lookahead: float) -> float:
+            tx, ty, _ = point_at(actor.s + lookahead)
+            yaw = body.yaw
+            c, s = cos(yaw), sin(yaw)
+            return pure_pursuit(body.x - lr * c, body.y - lr * s, yaw, tx, ty, wb) / steer_max
+
+        return car
     spec = body.spec
     if actor.kind == "cyclist":
-        half = 0.5 * spec.wheelbase
-        c, s = math.cos(body.yaw), math.sin(body.yaw)
-        delta = pure_pursuit(body.x - half * c, body.y - half * s, body.yaw, tx, ty, spec.wheelbase)
-        return max(-1.0, min(1.0, delta / spec.steer_max))
-    err = math.atan2(ty - body.y, tx - body.x) - body.yaw
-    err = math.atan2(math.sin(err), math.cos(err))
-    return max(-1.0, min(1.0, err / (spec.turn_rate * 0.05)))
+        half, wb, steer_max = 0.5 * spec.wheelbase, spec.wheelbase, spec.steer_max
+
+        def bicycle(lookahead: float) -> float:
+            tx, ty, _ = point_at(actor.s + lookahead)
+            yaw = body.yaw
+            c, s = cos(yaw), sin(yaw)
+            delta = pure_pursuit(body.x - half * c, body.y - half * s, yaw, tx, ty, wb)
+            return max(-1.0, min(1.0, delta / steer_max))
+
+        return bicycle
+    turn = spec.turn_rate * dt
+
+    def walker(lookahead: float) -> float:
+        tx, ty, _ = point_at(actor.s + lookahead)
+        err = math.atan2(ty - body.y, tx - body.x) - body.yaw
+        err = math.atan2(sin(err), cos(err))
+        return max(-1.0, min(1.0, err / turn))
+
+    return walker
 
 
 def _speed_command(actor: Actor, target: float, dt: float) -> tuple[float, float]:
@@ -109,18 +133,20 @@ class TimingController:
         self.switch_time: float | None = None
         self.switch_gap: float | None = None
         self.brake = 0.0
+        self._steer: Callable[[float], float] | None = None
 
     def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
         """(throttle, brake, steer) for this step."""
         speed = actor.body.speed
         law = self.law
-        thr, brk = law.command(
-            self.s_ego - world.ego.s, world.ego_speed, self.s_self - actor.s, speed
-        )
+        s_ego = world.ego.s
+        thr, brk = law.command(self.s_ego - s_ego, world.ego_speed, self.s_self - actor.s, speed)
         if self.switch_time is None and law.phase == "cruise":
-            self.switch_time, self.switch_gap = world.t, self.s_ego - world.ego.s
+            self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
         self.brake = brk
-        return thr, brk, steer_on_route(actor, law.lookahead(speed))
+        if self._steer is None:
+            self._steer = lateral_controller(actor, world.dt)
+        return thr, brk, self._steer(law.lookahead(speed))
 
     def reach_speed(self, actor: Actor) -> float:
         """The speed the actor may still reach [m/s] (for the early end)."""
@@ -147,6 +173,8 @@ class ScriptedController:
         self.speed, self.stop_at, self.wait = float(speed), stop_at, wait
         self.stopped_since: float | None = None
         self.done_stop = stop_at is None
+        self.brake = 0.0
+        self._steer: Callable[[float], float] | None = None
 
     def _target(self, actor: Actor, world: Any) -> float:
         target = self.speed
@@ -172,7 +200,9 @@ class ScriptedController:
         target = self._target(actor, world)
         thr, brk = _speed_command(actor, target, world.dt)
         self.brake = brk
-        return thr, brk, steer_on_route(actor, _lookahead(actor, actor.body.speed))
+        if self._steer is None:
+            self._steer = lateral_controller(actor, world.dt)
+        return thr, brk, self._steer(_lookahead(actor, actor.body.speed))
 
     def reach_speed(self, actor: Actor) -> float:
         """The speed the actor may still reach [m/s]."""
@@ -250,6 +280,7 @@ class CrossingController:
         # a pause of 0 means no stop at the kerb; None means a stop for good
         self.past_kerb = self.pause is not None and self.pause <= 0.0
         self.brake = 0.0
+        self._steer: Callable[[float], float] | None = None
 
     def _target(self, actor: Actor, world: Any) -> float:
         if not self.started:
@@ -275,7 +306,9 @@ class CrossingController:
         target = self._target(actor, world)
         thr, brk = _speed_command(actor, target, world.dt)
         self.brake = brk
-        return thr, brk, steer_on_route(actor, _lookahead(actor, actor.body.speed))
+        if self._steer is None:
+            self._steer = lateral_controller(actor, world.dt)
+        return thr, brk, self._steer(_lookahead(actor, actor.body.speed))
 
     def reach_speed(self, actor: Actor) -> float:
         """The speed the actor may still reach [m/s]."""

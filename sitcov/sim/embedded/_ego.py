@@ -57,9 +57,7 @@ class EgoDriver:
         self.aeb_time: float | None = None
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
-        """(detections, image) captured at step ``k`` (None, None between frames)."""
-        if k % self.every or self.latched:
-            return None, None
+        """(detections, image) captured at step ``k`` (a frame step)."""
         ego = world.ego.body
         actors = tuple(a.view() for a in world.actors if a.active)
         pose = Pose(ego.x, ego.y, ego.yaw)
@@ -76,7 +74,10 @@ class EgoDriver:
 
     def command(self, world: Any, k: int, t: float) -> tuple[float, float, float]:
         """(throttle, brake, steer) of the ego for step ``k`` at time ``t``."""
-        detections, image = self._perceive(world, k)
+        if k % self.every or self.latched:
+            detections = image = None
+        else:
+            detections, image = self._perceive(world, k)
         if self.delay_p:
             if detections is not None or image is not None:
                 self.frames.append((k + self.delay_p, detections, image))

@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 
-from sitcov.sim._metrics import PET_ZONE, ZoneClock, post_encroachment_time, time_to_collision
+from sitcov.sim._metrics import PET_ZONE, post_encroachment_time, time_to_collision
 from sitcov.sim.embedded._collision import box_distance, corridor_gap, overlap
 from sitcov.sim.embedded._dynamics import G
 
@@ -239,38 +239,52 @@ class EgoRouteMonitor:
 
 
 class PETMonitor:
-    """Post-encroachment time per actor at its conflict zone with the ego."""
+    """Post-encroachment time per actor at its conflict zone with the ego.
+
+    Zone entry and exit as :class:`~sitcov.sim._metrics.ZoneClock` defines them (the front
+    reaches the zone's start, the rear passes its end), kept as plain numbers here because
+    this runs every step.
+    """
 
     def __init__(self, world: Any) -> None:
         ego = world.ego
-        self.clocks = []
+        # per actor: [ego start, ego end, actor start, actor end, 4 times]
+        self.zones: list[list[Any]] = []
         for a in world.actors:
             c = a.conflict
             if c is None:
-                pair = (
-                    ZoneClock(math.inf, math.inf, ego.half_l),
-                    ZoneClock(math.inf, math.inf, a.half_l),
-                )
+                zone = [math.inf, math.inf, math.inf, math.inf]
             else:
-                pair = (
-                    ZoneClock(c.s_ego, min(c.s_ego_end, c.s_ego + PET_ZONE), ego.half_l),
-                    ZoneClock(c.s_ov, min(c.s_ov_end, c.s_ov + PET_ZONE), a.half_l),
-                )
-            self.clocks.append(pair)
+                zone = [
+                    c.s_ego,
+                    min(c.s_ego_end, c.s_ego + PET_ZONE),
+                    c.s_ov,
+                    min(c.s_ov_end, c.s_ov + PET_ZONE),
+                ]
+            self.zones.append([*zone, None, None, None, None])
+        self.half_e = ego.half_l
 
     def update(self, world: Any) -> None:
         """Entry and exit times of the ego and each active actor."""
-        t, s_e = world.t, world.ego.s
-        for a, (ce, ca) in zip(world.actors, self.clocks, strict=True):
-            ce.update(t, s_e)
-            if a.active:
-                ca.update(t, a.s)
+        t, s_e, hl = world.t, world.ego.s, self.half_e
+        for a, z in zip(world.actors, self.zones, strict=True):
+            if z[5] is None:
+                if z[4] is None and s_e + hl >= z[0]:
+                    z[4] = t
+                if s_e - hl > z[1]:
+                    z[5] = t
+            if a.active and z[7] is None:
+                s, ha = a.s, a.half_l
+                if z[6] is None and s + ha >= z[2]:
+                    z[6] = t
+                if s - ha > z[3]:
+                    z[7] = t
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """``pet`` per actor (0 for the actor the ego collided with)."""
         hit = world.collision
-        for a, (ce, ca) in zip(world.actors, self.clocks, strict=True):
-            actors[a.name]["pet"] = post_encroachment_time(ce, ca, hit is a)
+        for a, z in zip(world.actors, self.zones, strict=True):
+            actors[a.name]["pet"] = post_encroachment_time((z[4], z[5]), (z[6], z[7]), hit is a)
 
 
 class DistanceMonitor:
@@ -288,14 +302,13 @@ class DistanceMonitor:
         """Box distance to each active actor when it may be a new minimum."""
         ego = world.ego
         far_step = world.k & 3 == 0
+        best = self.best
         for i, a in enumerate(world.actors):
-            if not a.active:
-                continue
-            gap = a.gap
-            if gap - (ego.radius + a.radius) < self.best[i] and (gap < FAR or far_step):
+            gap = a.gap  # inf while inactive
+            if gap - (ego.radius + a.radius) < best[i] and (gap < FAR or far_step):
                 d = box_distance(ego.box(), a.box())
-                if d < self.best[i]:
-                    self.best[i] = d
+                if d < best[i]:
+                    best[i] = d
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """``min_distance`` per actor (None if never measured)."""
@@ -312,14 +325,21 @@ class TTCMonitor:
     def update(self, world: Any) -> None:
         """TTC of each active actor relative to the ego now."""
         ego = world.ego
-        evx, evy = ego.velocity()
+        e = ego.body
+        cos, sin = math.cos, math.sin
+        ce, se = cos(e.yaw), sin(e.yaw)
+        evx, evy = e.vx * ce - e.vy * se, e.vx * se + e.vy * ce
+        best = self.best
         for i, a in enumerate(world.actors):
             if not a.active:
                 continue
-            vx, vy = a.velocity()
-            ttc = time_to_collision(a.dx, a.dy, vx - evx, vy - evy, ego.disc + a.disc)
-            if ttc is not None and (self.best[i] is None or ttc < self.best[i]):
-                self.best[i] = ttc
+            b = a.body
+            c, s = cos(b.yaw), sin(b.yaw)
+            rvx = (b.vx * c - b.vy * s) - evx
+            rvy = (b.vx * s + b.vy * c) - evy
+            ttc = time_to_collision(a.dx, a.dy, rvx, rvy, ego.disc + a.disc)
+            if ttc is not None and (best[i] is None or ttc < best[i]):
+                best[i] = ttc
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """``min_ttc`` per actor."""
@@ -336,8 +356,9 @@ class CollisionMonitor:
     def update(self, world: Any) -> str | None:
         """``"collision"`` on the first overlap (sets ``world.collision``)."""
         ego = world.ego
+        r = ego.radius
         for a in world.actors:
-            if a.active and a.gap < ego.radius + a.radius and overlap(ego.box(), a.box()):
+            if a.gap < r + a.radius and overlap(ego.box(), a.box()):  # gap: inf if inactive
                 evx, evy = ego.velocity()
                 vx, vy = a.velocity()
                 self.speed = math.hypot(vx - evx, vy - evy)
@@ -394,10 +415,13 @@ class ActorCollisionMonitor:
 class LeaveMapRule:
     """An actor within :data:`GOAL_TOLERANCE` of its route's end leaves the world."""
 
+    def __init__(self, world: Any) -> None:
+        self.ends = [a.route.length - GOAL_TOLERANCE for a in world.actors]
+
     def update(self, world: Any) -> None:
         """Deactivate actors at the end of their routes."""
-        for a in world.actors:
-            if a.active and a.s >= a.route.length - GOAL_TOLERANCE:
+        for a, end in zip(world.actors, self.ends, strict=True):
+            if a.active and a.s >= end:
                 a.active = False
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
@@ -407,10 +431,12 @@ class LeaveMapRule:
 class GoalMonitor:
     """The ego is within :data:`GOAL_TOLERANCE` of its route's end: the run ends as ``goal``."""
 
+    def __init__(self, world: Any) -> None:
+        self.goal = world.ego.route.length - GOAL_TOLERANCE
+
     def update(self, world: Any) -> str | None:
         """``"goal"`` once reached."""
-        ego = world.ego
-        return "goal" if ego.s >= ego.route.length - GOAL_TOLERANCE else None
+        return "goal" if world.ego.s >= self.goal else None
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """Nothing to report."""
@@ -435,7 +461,6 @@ class EarlyEndMonitor:
     def __init__(self, world: Any, enabled: bool = True) -> None:
         self.enabled = enabled
         self.clear: list[bool | None] = [None] * len(world.actors)
-        self.prev_gap = [math.inf] * len(world.actors)
         self.zone_end = [
             math.inf if a.conflict is None else min(a.conflict.s_ov_end, a.conflict.s_ov + PET_ZONE)
             for a in world.actors
@@ -450,27 +475,20 @@ class EarlyEndMonitor:
 
     def update(self, world: Any) -> str | None:
         """``"stopped"`` when the ego stands latched and no actor can reach it."""
-        reason = None
-        if (
-            self.enabled
-            and world.driver.aeb_time is not None
-            and world.ego.body.speed < STOPPED_SPEED
-        ):
-            done = True
-            for i, a in enumerate(world.actors):
-                if self.clear[i] is None and a.active:
-                    self.clear[i] = self._clear(world, a)
-                if not a.active or self.clear[i]:
-                    continue
-                away = a.s - a.half_l > self.zone_end[i] and a.gap > self.prev_gap[i]
-                if not (away or (a.active and a.controller.stuck(a))):
-                    done = False
-            if done:
-                reason = "stopped"
-        if reason is None:
-            for i, a in enumerate(world.actors):
-                self.prev_gap[i] = a.gap
-        return reason
+        if not self.enabled or world.driver.aeb_time is None:
+            return None
+        if world.ego.body.speed >= STOPPED_SPEED:
+            return None
+        for i, a in enumerate(world.actors):
+            if self.clear[i] is None and a.active:
+                self.clear[i] = self._clear(world, a)
+        for i, a in enumerate(world.actors):
+            if not a.active or self.clear[i]:
+                continue
+            away = a.s - a.half_l > self.zone_end[i] and a.gap > a.prev_gap
+            if not (away or a.controller.stuck(a)):
+                return None
+        return "stopped"
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """Nothing to report."""
@@ -486,8 +504,8 @@ def default_monitors(
         DistanceMonitor(world),
         TTCMonitor(world),
         CollisionMonitor(world),
-        ActorCollisionMonitor(world),
-        LeaveMapRule(),
-        GoalMonitor(),
+        *([ActorCollisionMonitor(world)] if len(world.actors) > 1 else []),
+        LeaveMapRule(world),
+        GoalMonitor(world),
         EarlyEndMonitor(world, early_end),
     ]

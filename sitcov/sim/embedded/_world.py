@@ -104,21 +104,27 @@ class World:
         ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
         self.ego_speed = ego.body.speed
         throttle, brake, steer = self.driver.command(self, self.k, self.t)
-        wind.update(self.k)
-        lat_e = wind.lateral(ego)
+        windy = wind.mean > 0.0
+        if windy:
+            wind.update(self.k)
+        lat_e = wind.lateral(ego) if windy else 0.0
         for a in self.actors:
             if a.active:
                 cmd = (0.0, 1.0, 0.0) if a.crashed else a.controller.command(a, self)
-                a.body.step(cmd[0], cmd[1], cmd[2], mu, wind.lateral(a), dt)
-        ego.body.step(throttle, brake, steer, mu, lat_e, dt)
+                a.body.step(cmd[0], cmd[1], cmd[2], mu, wind.lateral(a) if windy else 0.0, dt)
+        eb = ego.body
+        eb.step(throttle, brake, steer, mu, lat_e, dt)
         self.k += 1
         self.t = self.k * dt
-        ego.track()
-        ex, ey = ego.body.x, ego.body.y
+        ex, ey = eb.x, eb.y
+        ego.s, ego.hint = ego.route.track(ex, ey, ego.hint)
+        hypot = math.hypot
         for a in self.actors:
+            a.prev_gap = a.gap
             if a.active:
-                a.track()
-                a.dx, a.dy = a.body.x - ex, a.body.y - ey
-                a.gap = math.hypot(a.dx, a.dy)
+                b = a.body
+                a.s, a.hint = a.route.track(b.x, b.y, a.hint)
+                a.dx, a.dy = dx, dy = b.x - ex, b.y - ey
+                a.gap = hypot(dx, dy)
             else:
                 a.gap = math.inf
