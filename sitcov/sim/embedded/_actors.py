@@ -37,7 +37,8 @@ class Actor:
     Attributes set by the world each step: ``s`` and ``hint`` (arc length and segment on
     its route), ``dx``, ``dy``, ``gap`` (position relative to the ego and centre
     distance; ``gap`` is inf while inactive; ``prev_gap`` one step earlier), ``active``
-    (False once it left the map at the end of its route), ``crashed`` (it hit another actor: it brakes to a stop).
+    (False once it left the map at the end of its route), ``crashed`` (it hit another
+    actor: it brakes to a stop).
     """
 
     __slots__ = (
