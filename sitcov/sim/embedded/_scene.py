@@ -19,6 +19,7 @@ exactly those of the two-car backend before actors existed (a golden test checks
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Mapping
@@ -38,7 +39,7 @@ from sitcov.sim.embedded._controllers import (
     ScriptedController,
     TimingController,
 )
-from sitcov.sim.embedded._map import JunctionMap, Scenario, find_conflict
+from sitcov.sim.embedded._map import Conflict, JunctionMap, Scenario, find_conflict
 from sitcov.sim.embedded._path import Path
 from sitcov.sim.embedded._routes import actor_route
 
@@ -179,6 +180,7 @@ def parse_scene(values: Mapping[str, Any]) -> ScenePlan:
 # --- building the actors ---------------------------------------------------------------------
 
 
+@functools.lru_cache(maxsize=256)
 def ego_route(map: JunctionMap, move: str) -> Path:  # noqa: A002
     """The ego's route for ``move``: from its spawn to its goal (as ``JunctionMap.scenario``)."""
     a, b = map._parse_move(move)
@@ -188,18 +190,39 @@ def ego_route(map: JunctionMap, move: str) -> Path:  # noqa: A002
     return full.sub(s0, s1, 1.0)
 
 
-def _spawned(map: JunctionMap, plan: ActorPlan, route: Path, queue: dict[str, int]) -> Path:  # noqa: A002
-    """A car's or cyclist's route from its spawn to the end of its exit leg."""
+def _start(map: JunctionMap, plan: ActorPlan, queue: dict[str, int]) -> float | None:  # noqa: A002
+    """Where a car or cyclist spawns [m from the centre] (None: a pedestrian's whole route)."""
     if plan.kind == "pedestrian":
-        return route
+        return None
     leg = plan.route.partition("-")[0]
+    if leg not in map.legs:
+        return None  # actor_route names the bad route
     n = queue.get(leg, 0)
     queue[leg] = n + 1
-    start = plan.start if plan.start is not None else map.spawns["ov"][leg] + QUEUE_SPACING * n
-    s0 = map.legs[leg].length - start
-    if not 0.0 <= s0 < route.length - 1.0:
-        raise ConfigError(field=f"{plan.name}.start", value=start, expected="a point on the leg")
-    return route.sub(s0, route.length, 1.0)
+    return plan.start if plan.start is not None else map.spawns["ov"][leg] + QUEUE_SPACING * n
+
+
+@functools.lru_cache(maxsize=1024)
+def _geometry(
+    map: JunctionMap,  # noqa: A002
+    ego_move: str,
+    name: str,
+    kind: str,
+    route_name: str,
+    start: float | None,
+) -> tuple[Path, Conflict | None, float]:
+    """An actor's route (spawn to end), its conflict with the ego and its kerb arc length:
+    the same for every run of the situation, so computed once."""
+    route = actor_route(map, kind, route_name)
+    if start is not None:
+        s0 = map.legs[route_name.partition("-")[0]].length - start
+        if not 0.0 <= s0 < route.length - 1.0:
+            raise ConfigError(field=f"{name}.start", value=start, expected="a point on the leg")
+        route = route.sub(s0, route.length, 1.0)
+    conflict = find_conflict(
+        ego_route(map, ego_move), route, 0.5 * (body_spec("car").width + body_spec(kind).width)
+    )
+    return route, conflict, _kerb(map, route) if kind == "pedestrian" else 0.0
 
 
 def _kerb(map: JunctionMap, route: Path) -> float:  # noqa: A002
@@ -218,6 +241,7 @@ def _controller(
     ego_move: str,
     ego: Path,
     adversary: AdversaryParams,
+    kerb: float,
 ) -> Any:
     c = actor.conflict
     spec = actor.spec
@@ -278,12 +302,13 @@ def build_actors(
     queue: dict[str, int] = {}
     for index, p in enumerate(plan.actors):
         spec = body_spec(p.kind)
+        kerb = 0.0
         if index == 0 and p.kind == "car":
             route, conflict = scen.ov_route, scen.conflict
             queue[p.route.partition("-")[0]] = 1
         else:
-            route = _spawned(map, p, actor_route(map, p.kind, p.route), queue)
-            conflict = find_conflict(er, route, 0.5 * (car.width + spec.width))
+            start = _start(map, p, queue)
+            route, conflict, kerb = _geometry(map, plan.ego, p.name, p.kind, p.route, start)
         x, y, h = route.point_at(0.0)
         info = {"route": p.route, "behaviour": p.behaviour, "conflict_type": p.conflict_type}
         actor = Actor(
@@ -297,6 +322,6 @@ def build_actors(
             _color(p, index, values, seed),
             info,
         )
-        actor.controller = _controller(map, p, actor, plan.ego, er, adversary)
+        actor.controller = _controller(map, p, actor, plan.ego, er, adversary, kerb)
         actors.append(actor)
     return ego, actors
