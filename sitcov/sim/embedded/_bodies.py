@@ -167,6 +167,8 @@ class Walker:
         """Advance by ``dt`` [s] under constant commands (see the class docstring)."""
         p = self.spec
         v0 = self.vx
+        if v0 == 0.0 and throttle <= 0.0 and steer == 0.0:
+            return  # standing, not starting, not turning: nothing changes
         accel = p.a_max * min(max(throttle, 0.0), 1.0) - p.b_max * min(max(brake, 0.0), 1.0)
         v1 = min(max(v0 + accel * dt, 0.0), p.v_max)
         yaw = self.yaw + min(max(steer, -1.0), 1.0) * p.turn_rate * dt

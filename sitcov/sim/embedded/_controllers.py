@@ -306,6 +306,8 @@ class CrossingController:
         target = self._target(actor, world)
         thr, brk = _speed_command(actor, target, world.dt)
         self.brake = brk
+        if thr == 0.0 and actor.body.speed == 0.0:
+            return thr, brk, 0.0  # waits standing: faces where it stands
         if self._steer is None:
             self._steer = lateral_controller(actor, world.dt)
         return thr, brk, self._steer(_lookahead(actor, actor.body.speed))
