@@ -57,12 +57,20 @@ if TYPE_CHECKING:
 GUST_INTENSITY = 0.3
 GUST_TIME = 2.0
 
+#: Highest actor slot (``actor2`` ... ``actor<MAX_ACTOR_SLOT>``) listed among the effects.
+MAX_ACTOR_SLOT = 32
 _PERCEPTION_EFFECTS = {
     "fog_density": "fog extinction coefficient (Koschmieder), lowers detection contrast",
     "fog_distance": "distance at which the fog starts [m]",
     "cloudiness": "scene illumination (Kasten-Czeplak), lowers image contrast",
-    "intsit": "ego and OV routes and their conflict point",
+    "intsit": "ego and OV routes and their conflict point; the OV's kind (car, cyclist, "
+    "pedestrian)",
     "ov_color": "the OV's body colour (camera image; PEM contrast term); default: drawn per run",
+    **{
+        f"actor{n}": "an extra road user: kind, route, behaviour (docs/embedded.md, "
+        "'Actors and the scene'); 'none' for no actor"
+        for n in range(2, MAX_ACTOR_SLOT + 1)
+    },
 }
 #: What each element does, per physics profile (``docs/weather.md`` has the table).
 ELEMENT_EFFECTS: dict[str, dict[str, str]] = {
