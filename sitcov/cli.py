@@ -183,7 +183,8 @@ def generate_cmd(
 _FAULT_HELP = (
     "Seeded fault: f1 = score threshold too high, relative to our detector (computed from "
     "the PEM; docs/reference-stack.md); f1-raw = the paper's raw 0.95 (our detector never "
-    "reaches it: no emergency brake); f2 = centering (0.3, 0.6); f3 = distance 0.35."
+    "reaches it: no emergency brake); f2 = centering (0.3, 0.6); f3 = distance 0.35; "
+    "f4 = the AEB ignores pedestrians (acts on cars and bicycles only)."
 )
 
 

@@ -25,6 +25,9 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "centering": (0.05, 0.98),  # open interval for the box centre / image width [-]
     "distance": 0.6,  # fire when round((1 - box width / image width)^4, 1) <= distance [-]
     "label": "car",  # detection class that counts as a vehicle
+    # detection classes the AEB acts on (the label above always counts); how closeness
+    # is judged per class: sitcov.av._reference.CLASS_SIZE, docs/embedded.md
+    "classes": ("car", "person", "bicycle"),
     # Route following (CARLA's local planner and PID controllers).
     "target_speed_kmh": 25.0,  # cruise speed [km/h]
     "lat_kp": 0.58,  # lateral P gain [1/rad]
@@ -49,6 +52,7 @@ FAULTS: dict[str, dict[str, Any]] = {
     "f1-raw": {"threshold": F1_RAW_THRESHOLD},
     "f2": {"centering": (0.3, 0.6)},
     "f3": {"distance": 0.35},
+    "f4": {"classes": ("car", "bicycle")},
 }
 
 #: One line per fault, for help texts and reports.
@@ -59,6 +63,7 @@ FAULT_DESCRIPTIONS: dict[str, str] = {
     "f1-raw": "the paper's raw threshold 0.95 (for our detector: no emergency brake at all)",
     "f2": "centering limits too narrow (0.3, 0.6): vehicles off the image centre are ignored",
     "f3": "distance threshold too low (0.35): the brake fires only when the vehicle is very close",
+    "f4": "the AEB ignores pedestrians: it acts on car and bicycle detections only (not 'person')",
 }
 
 
@@ -95,6 +100,16 @@ def _validate(name: str, value: Any) -> Any:
         if not isinstance(value, str) or not value:
             raise ConfigError(field="params.label", value=value, expected="a class name")
         return value
+    if name == "classes":
+        if (
+            not isinstance(value, list | tuple)
+            or not value
+            or not all(isinstance(c, str) and c for c in value)
+        ):
+            raise ConfigError(
+                field="params.classes", value=value, expected="a list of class names, e.g. [car]"
+            )
+        return tuple(value)
     if name == "centering":
         ok = isinstance(value, list | tuple) and len(value) == 2
         if ok:

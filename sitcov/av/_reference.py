@@ -2,15 +2,17 @@
 
 This is the stack of the paper (Tahir & Alexander): CARLA's local planner and PID
 controllers drive the route at 25 km/h; a camera-only perception stage feeds an emergency
-brake that fires when a car detection passes three tests (score, centering, apparent
-width) and then brakes fully until the run ends. The seeded faults change those tests'
+brake that fires when a detection of a road user (by default a car, a person or a bicycle:
+the ``classes`` parameter) passes three tests (score, centering, apparent size: the box
+width for a car, the scaled box height for a person or cyclist, :data:`CLASS_SIZE`) and
+then brakes fully until the run ends. The seeded faults change those tests'
 parameters (see :mod:`sitcov.av._faults`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from typing import Any, ClassVar
 
 from sitcov.av._base import AVStack, Control, Observation, RunInfo
@@ -24,28 +26,49 @@ Detector = Callable[[Any], Sequence[Detection]]
 _ARRIVED = 1.0
 
 
+#: How the distance test judges "close enough" per detection class: which extent of the
+#: box [px] stands for closeness, and the factor that makes it car-equivalent. A car's
+#: box WIDTH is the paper's measure. A person's box is tall and narrow, and its width
+#: hardly depends on the distance the way a car's does (0.5 m shoulders, arms swinging),
+#: so its HEIGHT is used, scaled by car width / person height (1.61 m / 1.75 m): a person
+#: then passes the test at the distance a car seen from behind would. A cyclist's width
+#: changes with its heading (0.6 m head-on, 1.8 m side-on) but its height (1.7 m) does
+#: not, so its height scaled by 1.61 / 1.7 is used. Other classes use the width.
+CLASS_SIZE: dict[str, tuple[str, float]] = {
+    "car": ("width", 1.0),
+    "person": ("height", 1.61 / 1.75),
+    "bicycle": ("height", 1.61 / 1.7),
+}
+
+
 def aeb_test(
     detection: Detection,
     image_width: float,
     threshold: float,
     centering: tuple[float, float],
     distance: float,
-    label: str = "car",
+    label: str | Collection[str] = "car",
 ) -> bool:
     """The paper's three tests on one detection; True means "brake now".
 
-    1. ``score >= threshold``;
+    1. ``score >= threshold`` (and the detection's class is ``label`` or in it);
     2. ``lo < mid_x < hi`` with mid_x the box centre over the image width;
-    3. ``round((1 - box_width / image_width) ** 4, 1) <= distance`` (a wider box means a
-       closer vehicle).
+    3. ``round((1 - size / image_width) ** 4, 1) <= distance`` (a bigger box means a
+       closer road user), ``size`` the box width for a car and the scaled box height for
+       a person or a cyclist (:data:`CLASS_SIZE`).
     """
-    if detection.label != label or detection.score < threshold:
+    cls = detection.label
+    if (cls != label if isinstance(label, str) else cls not in label) or (
+        detection.score < threshold
+    ):
         return False
-    x0, _, x1, _ = detection.box
+    x0, y0, x1, y1 = detection.box
     mid_x = 0.5 * (x0 + x1) / image_width
     if not centering[0] < mid_x < centering[1]:
         return False
-    ratio = (x1 - x0) / image_width
+    axis, scale = CLASS_SIZE.get(cls, ("width", 1.0))
+    size = (x1 - x0) if axis == "width" else (y1 - y0) * scale
+    ratio = size / image_width
     return round((1.0 - ratio) ** 4, 1) <= distance
 
 
@@ -64,7 +87,8 @@ class ReferenceStack(AVStack):
 
     Args:
         fault: ``None`` or a key of :data:`sitcov.av.FAULTS` (``"f1"``, ``"f1-raw"``, ``"f2"``,
-            ``"f3"``; F1 relative to the detector, see :mod:`sitcov.av._fault_map`).
+            ``"f3"``, ``"f4"``; F1 relative to the detector, see :mod:`sitcov.av._fault_map`;
+            F4: the AEB ignores pedestrians).
         params: overrides of :data:`sitcov.av.DEFAULT_PARAMS` (applied after the fault).
         aeb: False disables the emergency brake (the stack then ignores perception).
         detector: camera mode only: ``image -> detections``; defaults lazily to
@@ -94,6 +118,7 @@ class ReferenceStack(AVStack):
         self._distance = p["distance"]
         self.min_box_width = aeb_min_box_width(self._distance) if self.aeb else math.inf
         self._label = p["label"]
+        self._classes = frozenset((*p["classes"], p["label"]))
         self._target = p["target_speed_kmh"]
         self._la_base = p["lookahead_base"]
         self._la_gain = p["lookahead_gain"]
@@ -141,9 +166,9 @@ class ReferenceStack(AVStack):
             if observation.image is None:
                 return False  # no new frame: keep the last decision
             detections = self._detect(observation.image)
-        width = self.camera.width
+        width, classes = self.camera.width, self._classes
         for det in detections:
-            if aeb_test(det, width, self._threshold, self._centering, self._distance, self._label):
+            if aeb_test(det, width, self._threshold, self._centering, self._distance, classes):
                 return True
         return False
 
@@ -191,6 +216,7 @@ class ReferenceStack(AVStack):
         """Name, fault and the effective parameters (JSON-serialisable)."""
         params = dict(self.params)
         params["centering"] = list(params["centering"])
+        params["classes"] = list(params["classes"])
         return {"name": self.name, "fault": self.fault, "aeb": self.aeb, "params": params}
 
 

@@ -74,6 +74,8 @@ class AdversaryController:
         self.params = params or AdversaryParams()
         self.has_conflict = has_conflict
         self.phase = "wait"
+        p = self.params
+        self._switch = FALLBACK_SWITCH_DISTANCE if p.switch_distance is None else p.switch_distance
 
     def command(self, d_ego: float, v_ego: float, d_ov: float, v_ov: float) -> tuple[float, float]:
         """(throttle, brake) for this tick.
@@ -84,17 +86,18 @@ class AdversaryController:
             v_ego, v_ov: current speeds [m/s].
         """
         p = self.params
-        switch = FALLBACK_SWITCH_DISTANCE if p.switch_distance is None else p.switch_distance
-        if self.phase == "wait":
+        phase = self.phase
+        if phase == "wait":
             if v_ego <= p.start_speed:
                 return 0.0, 1.0
-            self.phase = "regulate" if self.has_conflict else "cruise"
-        if self.phase == "regulate" and (d_ego <= switch or d_ov <= 0.0):
-            self.phase = "cruise"
-        if self.phase == "regulate":
-            u = p.gain * (
-                arrival_time(d_ov, v_ov, p.min_speed) - arrival_time(d_ego, v_ego, p.min_speed)
-            )
+            phase = self.phase = "regulate" if self.has_conflict else "cruise"
+        if phase == "regulate" and (d_ego <= self._switch or d_ov <= 0.0):
+            phase = self.phase = "cruise"
+        if phase == "regulate":
+            low = p.min_speed  # arrival_time(), inlined: this runs every step
+            t_ov = (d_ov if d_ov > 0.0 else 0.0) / (v_ov if v_ov > low else low)
+            t_ego = (d_ego if d_ego > 0.0 else 0.0) / (v_ego if v_ego > low else low)
+            u = p.gain * (t_ov - t_ego)
         else:
             u = p.cruise_gain * (p.cruise_speed - v_ov)
         if u >= 0.0:

@@ -66,12 +66,17 @@ class Conditions:
 class Trace:
     """Recorded trajectories of a run, one row per control step.
 
-    Each of ``ego`` and ``ov`` is a list of (t [s], x [m], y [m], yaw [rad], speed [m/s]).
+    Each of ``ego`` and ``ov`` is a list of (t [s], x [m], y [m], yaw [rad], speed [m/s]);
+    ``ov`` is the primary other road user (the intersection situation's). ``actors`` maps
+    every non-ego actor's name (``ov``, ``actor2``, ...) to its rows (empty in traces
+    recorded before actors existed); ``meta["actors"]`` gives each one's kind, size and
+    route.
     """
 
     ego: list[tuple[float, float, float, float, float]]
     ov: list[tuple[float, float, float, float, float]]
     meta: dict[str, Any] = field(default_factory=dict)
+    actors: dict[str, list[tuple[float, float, float, float, float]]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,8 @@ def test_geometric_faults_and_f1_raw_are_the_papers_values():
     assert fault_overrides("f1-raw") == {"threshold": 0.95}
     assert fault_overrides("f2") == {"centering": (0.3, 0.6)}
     assert fault_overrides("f3") == {"distance": 0.35}
-    assert set(FAULT_DESCRIPTIONS) == set(FAULTS) == {"f1", "f1-raw", "f2", "f3"}
+    assert set(FAULT_DESCRIPTIONS) == set(FAULTS) == {"f1", "f1-raw", "f2", "f3", "f4"}
+    assert fault_overrides("f4") == {"classes": ("car", "bicycle")}
     assert "0.95" in FAULT_DESCRIPTIONS["f1-raw"] and "PEM" in FAULT_DESCRIPTIONS["f1"]
 
 
@@ -125,7 +126,7 @@ def test_cli_unknown_fault_is_one_line_and_help_says_which_f1_is_which():
     result = _sitcov("bench", "--fault", "f9", "-n", "1")
     assert result.returncode == 2
     lines = [line for line in result.stderr.splitlines() if line.strip()]
-    assert lines == ["error: unknown fault 'f9'; expected one of: f1, f1-raw, f2, f3 (or none)"]
+    assert lines == ["error: unknown fault 'f9'; expected one of: f1, f1-raw, f2, f3, f4 (or none)"]
     help_text = " ".join(_sitcov("run", "--help").stdout.replace("│", " ").split())
     assert "f1-raw = the paper's raw 0.95" in help_text
     assert "relative to our detector" in help_text

@@ -14,22 +14,15 @@ the same outcome.
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from sitcov.av._base import EgoState, Observation, RunInfo
+from sitcov.av._base import RunInfo
 from sitcov.errors import ConfigError
-from sitcov.perception._base import ActorView, CameraSpec, Pose, Sensor
-from sitcov.perception._colors import ov_color
-from sitcov.sim._adversary import (
-    AdversaryController,
-    AdversaryParams,
-    pure_pursuit,
-    with_switch_distance,
-)
+from sitcov.perception._base import CameraSpec, Sensor
+from sitcov.sim._adversary import AdversaryParams
 from sitcov.sim._base import Backend, Outcome, Trace
 from sitcov.sim._conditions import (
     AIR_DENSITY,
@@ -38,47 +31,46 @@ from sitcov.sim._conditions import (
     check_profile,
     conditions_from_values,
 )
-from sitcov.sim._metrics import PET_ZONE, post_encroachment_time
-from sitcov.sim.embedded._collision import (
-    box_distance,
-    corridor_gap,
-    overlap,
-    time_to_collision,
-)
-from sitcov.sim.embedded._dynamics import G, Vehicle, default_params
+from sitcov.sim.embedded._controllers import TimingController
+from sitcov.sim.embedded._dynamics import default_params
+from sitcov.sim.embedded._ego import EgoDriver
 from sitcov.sim.embedded._map import MAPS_DIR, JunctionMap, load_map
-from sitcov.sim.embedded._monitors import (
+from sitcov.sim.embedded._monitors import (  # noqa: F401 - constants re-exported
+    CORRIDOR_MARGIN,
+    FAR,
+    GOAL_TOLERANCE,
+    LANE_HOLD_MARGIN,
     LANE_TOLERANCE,
+    STOPPED_SPEED,
     LaneDepartureMonitor,
     RoadDepartureMonitor,
+    default_monitors,
 )
+from sitcov.sim.embedded._scene import DEFAULT_INTSIT, build_actors, parse_scene  # noqa: F401
+from sitcov.sim.embedded._world import Wind, World
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
     from sitcov.hyperspace import Situation
 
-#: The intersection situation used when a situation has no ``intsit`` element (IntSit-1).
-DEFAULT_INTSIT = {"ego": "L-B", "ov": "R-B", "conflict": "c4"}
 #: Gust model: turbulence intensity (std of speed / mean speed) [-] and time scale [s].
 GUST_INTENSITY = 0.3
 GUST_TIME = 2.0
-#: Ego speed below which it counts as stopped [m/s].
-STOPPED_SPEED = 0.05
-#: The ego has reached its goal within this arc length of the route's end [m].
-GOAL_TOLERANCE = 1.5
-#: Safety factor on the friction an OV needs to hold its lane (for the early end) [-].
-LANE_HOLD_MARGIN = 1.5
-#: Tracking margin of the OV around its route for the early end [m].
-CORRIDOR_MARGIN = 1.0
-#: Centre distance beyond which the box distance is evaluated every other step [m].
-FAR = 15.0
 
+#: Highest actor slot (``actor2`` ... ``actor<MAX_ACTOR_SLOT>``) listed among the effects.
+MAX_ACTOR_SLOT = 32
 _PERCEPTION_EFFECTS = {
     "fog_density": "fog extinction coefficient (Koschmieder), lowers detection contrast",
     "fog_distance": "distance at which the fog starts [m]",
     "cloudiness": "scene illumination (Kasten-Czeplak), lowers image contrast",
-    "intsit": "ego and OV routes and their conflict point",
+    "intsit": "ego and OV routes and their conflict point; the OV's kind (car, cyclist, "
+    "pedestrian)",
     "ov_color": "the OV's body colour (camera image; PEM contrast term); default: drawn per run",
+    **{
+        f"actor{n}": "an extra road user: kind, route, behaviour (docs/embedded.md, "
+        "'Actors and the scene'); 'none' for no actor"
+        for n in range(2, MAX_ACTOR_SLOT + 1)
+    },
 }
 #: What each element does, per physics profile (``docs/weather.md`` has the table).
 ELEMENT_EFFECTS: dict[str, dict[str, str]] = {
@@ -259,22 +251,6 @@ class EmbeddedBackend(Backend):
         builtin = MAPS_DIR / f"{self.map.name}.yaml"
         return self.map.name if str(builtin) == self.map.source else self.map.source
 
-    def _intsit(self, situation: Situation) -> dict[str, str]:
-        value = situation.value("intsit", None)
-        if value is None:
-            return dict(DEFAULT_INTSIT)
-        if not isinstance(value, Mapping) or "ego" not in value or "ov" not in value:
-            raise ConfigError(
-                field="intsit",
-                value=value,
-                expected="a mapping with 'ego' and 'ov' movements like 'L-B'",
-            )
-        return {
-            "ego": str(value["ego"]),
-            "ov": str(value["ov"]),
-            "conflict": str(value.get("conflict", "")),
-        }
-
     # --- the run ------------------------------------------------------------------------------
 
     def run(
@@ -284,294 +260,175 @@ class EmbeddedBackend(Backend):
         seed = int(seed)
         rng = np.random.default_rng(seed)
         values = situation.values
-        intsit = self._intsit(situation)
+        plan = parse_scene(values)
         wind_direction = float(rng.uniform(-math.pi, math.pi))
         cond = conditions_from_values(values, wind_direction=wind_direction, profile=self.physics)
-        ov_rgb = ov_color(values, seed)  # own random stream: shifts no other draw
-        vp = self.vehicle
-        ov_dims = (vp.length, vp.width, vp.height)
-        scen = self.map.scenario(intsit["ego"], intsit["ov"], vp.width, vp.width)
-        er, orr = scen.ego_route, scen.ov_route
-        ov_curv = orr.max_curvature
-        e_xs, e_ys = er.xs, er.ys
-        e_sin = [math.sin(h) for h in er.hs]
-        e_cos = [math.cos(h) for h in er.hs]
-        conflict = scen.conflict
-        dt = self.dt
-        n_max = int(math.ceil(self.sim_timeout / dt - 1e-9))
+        ego, actors = build_actors(self.map, plan, values, seed, self.adversary)
+        n_max = int(math.ceil(self.sim_timeout / self.dt - 1e-9))
         # wind: OU gusts on the mean speed, drawn up front so the stream order is fixed
-        gust_noise = rng.standard_normal(n_max + 1).tolist()
-        phi = math.exp(-dt / GUST_TIME)
-        gust_scale = GUST_INTENSITY * math.sqrt(1.0 - phi * phi)
-        # carla profile: no wind force (the noise is drawn all the same: same streams)
-        wind_mean = cond.wind_speed if self.wind and self.physics == "physical" else 0.0
-        wind_k = 0.5 * AIR_DENSITY * SIDE_FORCE_COEFF * SIDE_AREA / vp.mass
-        gust = GUST_INTENSITY * gust_noise[0]
-
-        ex, ey, eh = er.point_at(0.0)
-        ego = Vehicle(vp, ex, ey, eh)
-        ox, oy, oh = orr.point_at(0.0)
-        ov = Vehicle(vp, ox, oy, oh)
-        adv_params = with_switch_distance(self.adversary, self.map.switch_distance(scen))
-        adv = AdversaryController(adv_params, has_conflict=conflict is not None)
-        s_conf_e = conflict.s_ego if conflict else math.inf
-        s_conf_o = conflict.s_ov if conflict else math.inf
-        zone_e = min(conflict.s_ego_end, s_conf_e + PET_ZONE) if conflict else math.inf
-        zone_o = min(conflict.s_ov_end, s_conf_o + PET_ZONE) if conflict else math.inf
-
-        camera = av_stack.camera
-        info = RunInfo(
-            dt=dt,
-            route=er.points,
-            goal=er.points[-1],
-            map_name=self.map.name,
-            camera=camera,
-            seed=seed,
-            situation=situation if self.grey_box else None,
+        # (carla profile: no wind force, the noise is drawn all the same: same streams)
+        wind = Wind(
+            cond.wind_speed if self.wind and self.physics == "physical" else 0.0,
+            wind_direction,
+            rng.standard_normal(n_max + 1).tolist(),
+            GUST_INTENSITY,
+            GUST_TIME,
+            0.5 * AIR_DENSITY * SIDE_FORCE_COEFF * SIDE_AREA / self.vehicle.mass,
+            self.dt,
         )
-        av_stack.reset(info)
+        driver = self._driver(situation, av_stack, ego, cond, rng, seed)
+        world = World(ego, actors, driver, wind, cond.mu, self.dt)
+        monitors = self._monitors(world)
+        reason = run_loop(world, monitors, n_max, record)
+        return self._outcome(plan, world, monitors, cond, wind_direction, reason, record)
+
+    def _driver(self, situation, av_stack, ego, cond, rng, seed) -> EgoDriver:
+        """Reset the stack and the sensor for a run; the ego's controller."""
+        route = ego.route
+        camera = av_stack.camera
+        av_stack.reset(
+            RunInfo(
+                dt=self.dt,
+                route=route.points,
+                goal=route.points[-1],
+                map_name=self.map.name,
+                camera=camera,
+                seed=seed,
+                situation=situation if self.grey_box else None,
+            )
+        )
         sensor = self._get_sensor() if self.perception == "pem" else None
         if sensor is not None and hasattr(sensor, "reset"):
-            sensor.reset(frame_dt=self.sensor_every * dt)  # per-run noise state (PEM)
-        latched = False  # the stack's AEB has latched: it ignores perception from now on
+            sensor.reset(frame_dt=self.sensor_every * self.dt)  # per-run noise state (PEM)
         gate_px = self._gate_px(av_stack, camera) if sensor is None else 0.0
-        half_l, half_w = 0.5 * vp.length, 0.5 * vp.width
-        disc = 2.0 * math.sqrt(vp.length * vp.width / math.pi)
-        diag2 = 2.0 * math.hypot(half_l, half_w)
-        mu = cond.mu
-        steer_max, lr, wb = vp.steer_max, vp.lr, vp.wheelbase
-        # delays in whole control periods: frames wait in ``frames`` until their delivery
-        # step, brake commands in ``brakes`` (pre-filled with "no brake")
-        delay_p = round(self.perception_delay / dt)
-        delay_b = round(self.brake_delay / dt)
-        frames: deque[tuple[int, Any, Any]] = deque()
-        brakes: deque[float] = deque([0.0] * delay_b)
+        return EgoDriver(
+            self,
+            av_stack,
+            sensor,
+            cond,
+            rng,
+            seed,
+            round(self.perception_delay / self.dt),
+            round(self.brake_delay / self.dt),
+            gate_px,
+        )
 
-        s_e = s_o = 0.0
-        hint_e = hint_o = 0
-        ov_active = True
-        min_dist = math.inf
-        min_ttc: float | None = None
-        aeb_time: float | None = None
-        enter_e = exit_e = enter_o = exit_o = None
-        collision_speed: float | None = None
-        max_lat = 0.0
-        lane_mon = LaneDepartureMonitor(0.5 * (self.map.lane_width - vp.width) + LANE_TOLERANCE)
-        left, right = self.map.clearance(er)
-        road_mon = RoadDepartureMonitor(self.map.drivable_area, er.hs, left, right, half_l, half_w)
-        monitors = (lane_mon, road_mon)
-        switch_time: float | None = None
-        switch_gap: float | None = None  # ego's distance to the conflict at the switch [m]
-        prev_gap = math.inf
-        clear: bool | None = None  # decided once the ego stands latched
-        ego_rows: list[tuple[float, float, float, float, float]] = []
-        ov_rows: list[tuple[float, float, float, float, float]] = []
-        status, reason = "pass", "sim_timeout"
-        t = 0.0
-        k = 0
-        while True:
-            ego_speed = ego.speed
-            if record:
-                ego_rows.append((t, ego.x, ego.y, ego.yaw, ego_speed))
-                if ov_active:
-                    ov_rows.append((t, ov.x, ov.y, ov.yaw, ov.speed))
-            # --- ego stack ------------------------------------------------------------
-            detections = image = None
-            if k % self.sensor_every == 0 and not latched:
-                actors = (
-                    (ActorView(Pose(ov.x, ov.y, ov.yaw), *ov_dims, ov.speed, ov_rgb),)
-                    if ov_active
-                    else ()
-                )
-                pose = Pose(ego.x, ego.y, ego.yaw)
-                if sensor is not None:
-                    detections = sensor.detect(pose, actors, cond, rng)
-                elif self._needs_frame(camera, pose, actors, gate_px):
-                    if self.frame_observer is not None:
-                        self.frame_observer(camera, pose, actors, cond)
-                    # one generator per frame: which frames are rendered changes no other
-                    frame_rng = np.random.default_rng([seed, k])
-                    image = self._frame(camera, pose, actors, cond, frame_rng)
-                else:
-                    detections = ()  # camera mode, no vehicle in view (see _needs_frame)
-            if delay_p:
-                if detections is not None or image is not None:
-                    frames.append((k + delay_p, detections, image))
-                detections = image = None
-                if frames and frames[0][0] == k:
-                    _, detections, image = frames.popleft()
-            obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, ego_speed, t), detections, image)
-            ctrl = av_stack.step(obs)
-            if ctrl.info and ctrl.info.get("aeb"):
-                if aeb_time is None:
-                    aeb_time = t
-                # camera mode: no more frames are rendered once the brake has latched
-                # (Control.info["aeb"] promises the stack ignores perception from now on)
-                latched = self.perception == "camera"
-            # --- wind -----------------------------------------------------------------
-            if wind_mean > 0.0:
-                gust = phi * gust + gust_scale * gust_noise[k + 1]
-                w = wind_mean * (1.0 + gust)
-                ve = w * math.sin(wind_direction - ego.yaw)
-                lat_e = wind_k * ve * abs(ve)
-                vo = w * math.sin(wind_direction - ov.yaw)
-                lat_o = wind_k * vo * abs(vo)
-            else:
-                lat_e = lat_o = 0.0
-            # --- OV -------------------------------------------------------------------
-            brk = 0.0
-            if ov_active:
-                ov_speed = ov.speed
-                thr, brk = adv.command(s_conf_e - s_e, ego_speed, s_conf_o - s_o, ov_speed)
-                if switch_time is None and adv.phase == "cruise":
-                    switch_time, switch_gap = t, s_conf_e - s_e
-                look = adv.lookahead(ov_speed)
-                tx, ty, _ = orr.point_at(s_o + look)
-                c, s = math.cos(ov.yaw), math.sin(ov.yaw)
-                delta = pure_pursuit(ov.x - lr * c, ov.y - lr * s, ov.yaw, tx, ty, wb)
-                ov.step(thr, brk, delta / steer_max, mu, lat_o, dt)
-            brake = ctrl.brake
-            if delay_b:
-                brakes.append(brake)
-                brake = brakes.popleft()
-            ego.step(ctrl.throttle, brake, ctrl.steer, mu, lat_e, dt)
-            t = (k + 1) * dt
-            k += 1
-            # --- bookkeeping ------------------------------------------------------------
-            s_e, hint_e = er.track(ego.x, ego.y, hint_e)
-            lat = -(ego.x - e_xs[hint_e]) * e_sin[hint_e] + (ego.y - e_ys[hint_e]) * e_cos[hint_e]
-            for mon in monitors:
-                mon.update(t, ego.x, ego.y, ego.yaw, hint_e, lat)
-            lat = -lat if lat < 0.0 else lat
-            if lat > max_lat:
-                max_lat = lat
-            if enter_e is None and s_e + half_l >= s_conf_e:
-                enter_e = t
-            if exit_e is None and s_e - half_l > zone_e:
-                exit_e = t
-            if ov_active:
-                s_o, hint_o = orr.track(ov.x, ov.y, hint_o)
-                if enter_o is None and s_o + half_l >= s_conf_o:
-                    enter_o = t
-                if exit_o is None and s_o - half_l > zone_o:
-                    exit_o = t
-                dx, dy = ov.x - ego.x, ov.y - ego.y
-                gap = math.hypot(dx, dy)
-                near = gap < diag2
-                ego_box = ov_box = None
-                # exact box distance only when it can beat the minimum (every 4th step
-                # while far apart: < 3 m of closing in between cannot hide a minimum that
-                # matters; the exact value is always computed when near)
-                if gap - diag2 < min_dist and (gap < FAR or k & 3 == 0):
-                    ego_box = (ego.x, ego.y, ego.yaw, half_l, half_w)
-                    ov_box = (ov.x, ov.y, ov.yaw, half_l, half_w)
-                    d = box_distance(ego_box, ov_box)
-                    if d < min_dist:
-                        min_dist = d
-                ce, se_ = math.cos(ego.yaw), math.sin(ego.yaw)
-                co, so_ = math.cos(ov.yaw), math.sin(ov.yaw)
-                rvx = (ov.vx * co - ov.vy * so_) - (ego.vx * ce - ego.vy * se_)
-                rvy = (ov.vx * so_ + ov.vy * co) - (ego.vx * se_ + ego.vy * ce)
-                ttc = time_to_collision(dx, dy, rvx, rvy, disc)
-                if ttc is not None and (min_ttc is None or ttc < min_ttc):
-                    min_ttc = ttc
-                if near:
-                    if ego_box is None:
-                        ego_box = (ego.x, ego.y, ego.yaw, half_l, half_w)
-                        ov_box = (ov.x, ov.y, ov.yaw, half_l, half_w)
-                    if overlap(ego_box, ov_box):
-                        status, reason = "fail", "collision"
-                        collision_speed = math.hypot(rvx, rvy)
-                        break
-                if s_o >= orr.length - GOAL_TOLERANCE:
-                    ov_active = False  # the OV has left the map at the end of its leg
-            else:
-                gap = math.inf
-            if s_e >= er.length - GOAL_TOLERANCE:
-                status, reason = "pass", "goal"
-                break
-            if self.early_end and aeb_time is not None and ego.speed < STOPPED_SPEED:
-                # the ego is latched at a standstill; the run is over when the OV can no
-                # longer reach it: gone, driving away past the conflict zone, the ego is
-                # short of the conflict zone on its lane, or the OV waits for an ego that
-                # will never come (the paper's timing law then brakes it forever)
-                # "clear": the stopped ego's box lies outside the corridor the OV will
-                # still sweep (its remaining route, widened by half its width and a
-                # tracking margin), and the road can hold the OV in its tightest curve
-                # at its speed, so it cannot slide into the ego. Checked once: the ego
-                # no longer moves.
-                if clear is None and ov_active:
-                    v_ov = max(ov.speed, self.adversary.cruise_speed)
-                    clear = mu * G >= LANE_HOLD_MARGIN * v_ov * v_ov * ov_curv and (
-                        corridor_gap(orr, s_o, (ego.x, ego.y, ego.yaw, half_l, half_w))
-                        > half_w + CORRIDOR_MARGIN
-                    )
-                away = s_o - half_l > zone_o and gap > prev_gap
-                stuck = (
-                    ov_active and adv.phase != "cruise" and brk > 0.0 and (ov.speed < STOPPED_SPEED)
-                )
-                if not ov_active or clear or away or stuck:
-                    status, reason = "pass", "stopped"
-                    break
-            prev_gap = gap
-            if k >= n_max:
-                break
+    def _monitors(self, world: World) -> list[Any]:
+        """The run's monitors (``_monitors.default_monitors``) for the ego's route."""
+        ego = world.ego
+        route = ego.route
+        lane = LaneDepartureMonitor(0.5 * (self.map.lane_width - ego.spec.width) + LANE_TOLERANCE)
+        left, right = self.map.clearance(route)
+        road = RoadDepartureMonitor(
+            self.map.drivable_area, route.hs, left, right, ego.half_l, ego.half_w
+        )
+        return default_monitors(world, lane, road, self.early_end)
 
-        pet = post_encroachment_time((enter_e, exit_e), (enter_o, exit_o), reason == "collision")
+    def _outcome(self, plan, world, monitors, cond, wind_direction, reason, record) -> Outcome:
+        """The run's Outcome: the primary OV's values at the top level, as before actors."""
+        run: dict[str, Any] = {}
+        per_actor: dict[str, Any] = {a.name: {} for a in world.actors}
+        for m in monitors:
+            m.report(run, per_actor, world)
+        ov = world.actors[0]
+        primary = per_actor[ov.name]
+        timing = ov.controller if isinstance(ov.controller, TimingController) else None
+        collided = reason == "collision"
+        t = world.t
         metrics = {
-            "steps": k,
-            "mu": mu,
+            "steps": world.k,
+            "mu": cond.mu,
             "physics": self.physics,
             "perception_delay": self.perception_delay,
             "brake_delay": self.brake_delay,
             "visibility": cond.visibility if math.isfinite(cond.visibility) else None,
             "wind_direction": wind_direction,
-            "ego_route": intsit["ego"],
-            "ov_route": intsit["ov"],
-            "conflict_label": intsit["conflict"],
-            "conflict_point": list(conflict.point) if conflict else None,
-            "ov_switch_time": switch_time,
-            "ov_switch_distance": adv_params.switch_distance,
-            "ego_gap_at_switch": switch_gap,
-            "ego_max_lateral_offset": max_lat,
-            "ego_left_lane": lane_mon.time is not None,
-            "lane_departure_time": None if lane_mon.time is None else round(lane_mon.time, 10),
-            "road_departure_time": None if road_mon.time is None else round(road_mon.time, 10),
-            "ego_final_speed": ego.speed,
+            "ego_route": plan.ego,
+            "ov_route": ov.info["route"],
+            "conflict_label": plan.conflict_label,
+            "conflict_point": list(ov.conflict.point) if ov.conflict else None,
+            "ov_switch_time": timing.switch_time if timing else None,
+            "ov_switch_distance": timing.params.switch_distance if timing else None,
+            "ego_gap_at_switch": timing.switch_gap if timing else None,
+            **run,
+            "ego_final_speed": world.ego.body.speed,
         }
-        trace = None
-        if record:
-            ego_rows.append((t, ego.x, ego.y, ego.yaw, ego.speed))
-            if ov_active:
-                ov_rows.append((t, ov.x, ov.y, ov.yaw, ov.speed))
-            trace = Trace(
-                ego=ego_rows,
-                ov=ov_rows,
-                meta={
-                    "map": self._map_ref(),
-                    "ego_route": [list(p) for p in er.points],
-                    "ov_route": [list(p) for p in orr.points],
-                    "conflict_point": list(conflict.point) if conflict else None,
-                    "collision_point": [0.5 * (ego.x + ov.x), 0.5 * (ego.y + ov.y)]
-                    if reason == "collision"
-                    else None,
-                    "length": vp.length,
-                    "width": vp.width,
-                    "dt": dt,
-                },
-            )
+        if not plan.classic:
+            metrics.update(scene_metrics(world, per_actor))
         return Outcome(
-            status=status,
+            status="fail" if collided else "pass",
             end_reason=reason,
             sim_time=round(t, 10),
-            collision=reason == "collision",
-            collision_time=round(t, 10) if reason == "collision" else None,
-            collision_speed=collision_speed,
-            min_distance=min_dist if math.isfinite(min_dist) else None,
-            min_ttc=min_ttc,
-            pet=pet,
-            aeb_fired=aeb_time is not None,
-            aeb_time=aeb_time,
+            collision=collided,
+            collision_time=round(t, 10) if collided else None,
+            collision_speed=per_actor["_collision_speed"],
+            min_distance=primary["min_distance"],
+            min_ttc=primary["min_ttc"],
+            pet=primary["pet"],
+            aeb_fired=world.driver.aeb_time is not None,
+            aeb_time=world.driver.aeb_time,
             metrics=metrics,
-            trace=trace,
+            trace=self._trace(world, reason) if record else None,
         )
+
+    def _trace(self, world: World, reason: str) -> Trace:
+        """Every actor's rows (the primary OV also as ``ov``), routes, kinds and sizes."""
+        world.record()
+        ego, ov = world.ego, world.actors[0]
+        hit = world.collision
+        b = ego.body
+        return Trace(
+            ego=ego.rows,
+            ov=ov.rows,
+            meta={
+                "map": self._map_ref(),
+                "ego_route": [list(p) for p in ego.route.points],
+                "ov_route": [list(p) for p in ov.route.points],
+                "conflict_point": list(ov.conflict.point) if ov.conflict else None,
+                "collision_point": [0.5 * (b.x + hit.body.x), 0.5 * (b.y + hit.body.y)]
+                if reason == "collision" and hit is not None
+                else None,
+                "length": ego.spec.length,
+                "width": ego.spec.width,
+                "dt": self.dt,
+                "actors": {
+                    a.name: {
+                        "kind": a.kind,
+                        "length": a.spec.length,
+                        "width": a.spec.width,
+                        "height": a.spec.height,
+                        "route": [list(p) for p in a.route.points],
+                    }
+                    for a in world.actors
+                },
+            },
+            actors={a.name: a.rows for a in world.actors},
+        )
+
+
+def run_loop(world: World, monitors: list[Any], n_max: int, record: bool) -> str:
+    """Step the world until a monitor ends the run or ``n_max`` steps passed; the end reason."""
+    updates = [m.update for m in monitors]
+    step = world.step
+    while True:
+        if record:
+            world.record()
+        step()
+        for update in updates:
+            reason = update(world)
+            if reason is not None:
+                return reason
+        if world.k >= n_max:
+            return "sim_timeout"
+
+
+def scene_metrics(world: World, per_actor: dict[str, Any]) -> dict[str, Any]:
+    """Metrics of a scene beyond the paper's two cars: every actor's facts, actor-actor
+    collisions, and which actor the ego hit."""
+    hit = world.collision
+    return {
+        "actors": {a.name: {"kind": a.kind, **a.info, **per_actor[a.name]} for a in world.actors},
+        "actor_collisions": per_actor.get("_actor_collisions", []),
+        "collision_actor": hit.name if hit is not None else None,
+        "collision_kind": hit.kind if hit is not None else None,
+    }

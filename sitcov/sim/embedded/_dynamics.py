@@ -175,8 +175,19 @@ class Vehicle:
         """
         (m, iz, lf, lr, wb, fzf, fzr, cf, cr, fdrive, power, fbrake, drag, roll) = self._k
         throttle = 0.0 if throttle < 0.0 else (1.0 if throttle > 1.0 else throttle)
-        if throttle == 0.0 and self.vx == 0.0 and self.vy == 0.0 and self.r == 0.0:
+        vx, vy, r = self.vx, self.vy, self.r
+        if throttle == 0.0 and vx == 0.0 and vy == 0.0 and r == 0.0:
             return  # standing still with no drive: nothing moves (wind cannot push a braked car)
+        # the hot path of every run: state in locals, math functions bound once (the
+        # floating-point operations and their order are those of the equations)
+        hypot, atan2, sqrt, tanh, cos, sin = (
+            math.hypot,
+            math.atan2,
+            math.sqrt,
+            math.tanh,
+            math.cos,
+            math.sin,
+        )
         brake = 0.0 if brake < 0.0 else (1.0 if brake > 1.0 else brake)
         steer = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
         delta = steer * self.p.steer_max
@@ -187,27 +198,28 @@ class Vehicle:
         muf, mur = mu * fzf, mu * fzr
         capf, capr = ABS_SHARE * muf, ABS_SHARE * mur
         mug = mu * G
-        cos_d, sin_d, tan_d = math.cos(delta), math.sin(delta), math.tan(delta)
+        cos_d, sin_d, tan_d = cos(delta), sin(delta), math.tan(delta)
         cos_bk = sin_bk = 0.0
-        if self.vx < V_KIN_HIGH + 1.0:  # the kinematic model may be needed this period
+        if vx < V_KIN_HIGH + 1.0:  # the kinematic model may be needed this period
             beta_k = math.atan(lr * tan_d / wb)
-            cos_bk, sin_bk = math.cos(beta_k), math.sin(beta_k)
+            cos_bk, sin_bk = cos(beta_k), sin(beta_k)
+        x, y, yaw = self.x, self.y, self.yaw
+        drive = fdrive * throttle
+        fb = fbrake * brake
         for _ in range(substeps):
-            vx, vy, r = self.vx, self.vy, self.r
-            v = math.hypot(vx, vy)
+            v = hypot(vx, vy)
             # longitudinal tyre forces: drive (rear), brake split by axle load, rolling
             # resistance by axle load; each axle's net force within ABS_SHARE * mu * Fz
-            drive = fdrive * throttle
-            if v > 1.0 and drive * v > power * throttle:
-                drive = power * throttle / v
-            fb = fbrake * brake
+            fd = drive
+            if v > 1.0 and fd * v > power * throttle:
+                fd = power * throttle / v
             if v > 0.05:
                 fxf = -(fb + roll) * share_f
-                fxr = drive - (fb + roll) * share_r
+                fxr = fd - (fb + roll) * share_r
                 resist = drag * v * v
             else:
                 fxf = -fb * share_f
-                fxr = drive - fb * share_r
+                fxr = fd - fb * share_r
                 resist = 0.0
             if fxf < -capf:
                 fxf = -capf
@@ -221,15 +233,14 @@ class Vehicle:
                 w = 0.0
             else:
                 w = (v - V_KIN_LOW) / (V_KIN_HIGH - V_KIN_LOW)
-            yaw = self.yaw
             if w > 0.0:
                 # dynamic single-track with saturating tyres
-                alpha_f = delta - math.atan2(vy + lf * r, vx)
-                alpha_r = -math.atan2(vy - lr * r, vx)
-                fyf_max = math.sqrt(muf * muf - fxf * fxf)
-                fyr_max = math.sqrt(mur * mur - fxr * fxr)
-                fyf = fyf_max * math.tanh(cf * alpha_f / fyf_max) if fyf_max > 0.0 else 0.0
-                fyr = fyr_max * math.tanh(cr * alpha_r / fyr_max) if fyr_max > 0.0 else 0.0
+                alpha_f = delta - atan2(vy + lf * r, vx)
+                alpha_r = -atan2(vy - lr * r, vx)
+                fyf_max = sqrt(muf * muf - fxf * fxf)
+                fyr_max = sqrt(mur * mur - fxr * fxr)
+                fyf = fyf_max * tanh(cf * alpha_f / fyf_max) if fyf_max > 0.0 else 0.0
+                fyr = fyr_max * tanh(cr * alpha_r / fyr_max) if fyr_max > 0.0 else 0.0
                 fyf_c = fxf * sin_d + fyf * cos_d
                 vx_n = vx + ((fxf * cos_d - fyf * sin_d + fxr - resist) / m + vy * r) * h
                 vy_n = vy + ((fyf_c + fyr) / m + lateral_accel - vx * r) * h
@@ -247,7 +258,7 @@ class Vehicle:
                     r_k = mug / v_kin if r_k > 0.0 else -mug / v_kin
                 ax = (v_kin * cos_bk - vx) / h - vy * r  # tyre force / m needed [m/s^2]
                 ay = (v_kin * sin_bk - vy) / h + vx * r - lateral_accel
-                need = math.hypot(ax, ay)
+                need = hypot(ax, ay)
                 if need > mug:
                     ax, ay = ax * mug / need, ay * mug / need
                 vx_k = vx + (ax + vy * r) * h
@@ -263,10 +274,12 @@ class Vehicle:
             # position update with the mean velocity over the sub-step (semi-implicit)
             yaw_n = yaw + 0.5 * (r + r_n) * h
             mvx, mvy = 0.5 * (vx + vx_n), 0.5 * (vy + vy_n)
-            c, s = math.cos(yaw), math.sin(yaw)
-            self.x += (mvx * c - mvy * s) * h
-            self.y += (mvx * s + mvy * c) * h
-            self.yaw = yaw_n
-            self.vx, self.vy, self.r = vx_n, vy_n, r_n
+            c, s = cos(yaw), sin(yaw)
+            x += (mvx * c - mvy * s) * h
+            y += (mvx * s + mvy * c) * h
+            yaw = yaw_n
+            vx, vy, r = vx_n, vy_n, r_n
+        self.x, self.y, self.yaw = x, y, yaw
+        self.vx, self.vy, self.r = vx, vy, r
         if self.yaw > math.pi or self.yaw < -math.pi:
             self.yaw = math.atan2(math.sin(self.yaw), math.cos(self.yaw))

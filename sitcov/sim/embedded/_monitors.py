@@ -1,7 +1,26 @@
 """Run monitors: small objects the run loop calls each step, each recording one fact.
 
-A monitor watches the ego and records the first time [s] its event happens; it never ends
-the run nor decides a verdict (that is the campaign's judge, ``sitcov.sim.Judge``), so the
+Every world monitor has two methods: ``update(world) -> str | None``, called after each
+control step (a string ends the run with that ``end_reason``), and ``report(run, actors,
+world)``, called once at the end, which writes its facts into the run's metrics (``run``)
+and per-actor metrics (``actors[name]``). The run loop knows nothing else about them, so a
+new metric is a new monitor in the list (``default_monitors``), not a change of the loop.
+
+- :class:`EgoRouteMonitor`: lane and road departure of the ego (below) and its largest
+  lateral offset from its route.
+- :class:`PETMonitor`, :class:`DistanceMonitor`, :class:`TTCMonitor`: per actor, the
+  post-encroachment time at its conflict with the ego, the minimum box distance and the
+  minimum constant-velocity TTC (``sitcov.sim._metrics``, docs/metrics.md).
+- :class:`CollisionMonitor`: the ego's box overlaps an actor's: ends the run.
+- :class:`ActorCollisionMonitor`: two other actors' boxes overlap: recorded, both brake
+  to a stop; the run goes on.
+- :class:`LeaveMapRule`: an actor at the end of its route leaves the world.
+- :class:`GoalMonitor`: the ego reached its goal: ends the run.
+- :class:`EarlyEndMonitor`: the ego's AEB latched and it stands, and no actor can still
+  reach it: ends the run as ``stopped`` (docs/embedded.md, "End of a run").
+
+The departure monitors record the first time [s] their event happens; they never end the
+run nor decide a verdict (that is the campaign's judge, ``sitcov.sim.Judge``), so the
 simulated facts are the same whatever counts as a failure.
 
 - :class:`LaneDepartureMonitor`: the ego's lateral offset from its route exceeds a stated
@@ -22,6 +41,10 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.sim._metrics import PET_ZONE, post_encroachment_time, time_to_collision
+from sitcov.sim.embedded._collision import box_distance, corridor_gap, overlap
+from sitcov.sim.embedded._dynamics import G
+
 #: How far the ego's box may reach beyond its lane's edge before it counts as a lane
 #: departure [m] (a wheel over the marking is normal driving; half a metre is not).
 LANE_TOLERANCE = 0.5
@@ -29,6 +52,17 @@ LANE_TOLERANCE = 0.5
 #: under a box that is up to ~2.5 m long (curve radius >= 10 m: < 0.35 m) and the route's
 #: 1 m point spacing.
 CLEARANCE_SLACK = 0.5
+#: Ego speed below which it counts as stopped [m/s].
+STOPPED_SPEED = 0.05
+#: The ego has reached its goal (an actor has left) within this arc length of its
+#: route's end [m].
+GOAL_TOLERANCE = 1.5
+#: Safety factor on the friction an actor needs to hold its lane (for the early end) [-].
+LANE_HOLD_MARGIN = 1.5
+#: Tracking margin of an actor around its route for the early end [m].
+CORRIDOR_MARGIN = 1.0
+#: Centre distance beyond which the box distance is evaluated every fourth step [m].
+FAR = 15.0
 #: Lateral search range and resolution of :func:`route_clearance` [m].
 _REACH, _STEP = 10.0, 0.05
 #: Arc length either side of a route point over which its clearance is the minimum [m]:
@@ -164,3 +198,314 @@ class RoadDepartureMonitor:
             return
         if not self.area.contains_box(x, y, yaw, self.half_l, self.half_w):
             self.time = t
+
+
+# --- world monitors -------------------------------------------------------------------------
+
+
+class EgoRouteMonitor:
+    """The ego's lateral offset from its route: lane and road departure, largest offset.
+
+    Args:
+        route: the ego's route. lane: :class:`LaneDepartureMonitor`. road:
+            :class:`RoadDepartureMonitor`.
+    """
+
+    def __init__(self, route: Any, lane: LaneDepartureMonitor, road: RoadDepartureMonitor):
+        self.xs, self.ys = route.xs, route.ys
+        self.sin = [math.sin(h) for h in route.hs]
+        self.cos = [math.cos(h) for h in route.hs]
+        self.lane, self.road = lane, road
+        self.max_lat = 0.0
+
+    def update(self, world: Any) -> None:
+        """Offset of the ego at its tracked segment; feed both departure monitors."""
+        ego = world.ego
+        b, i, t = ego.body, ego.hint, world.t
+        lat = -(b.x - self.xs[i]) * self.sin[i] + (b.y - self.ys[i]) * self.cos[i]
+        self.lane.update(t, b.x, b.y, b.yaw, i, lat)
+        self.road.update(t, b.x, b.y, b.yaw, i, lat)
+        lat = -lat if lat < 0.0 else lat
+        if lat > self.max_lat:
+            self.max_lat = lat
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """``ego_max_lateral_offset``, ``ego_left_lane``, the two departure times."""
+        lane, road = self.lane.time, self.road.time
+        run["ego_max_lateral_offset"] = self.max_lat
+        run["ego_left_lane"] = lane is not None
+        run["lane_departure_time"] = None if lane is None else round(lane, 10)
+        run["road_departure_time"] = None if road is None else round(road, 10)
+
+
+class PETMonitor:
+    """Post-encroachment time per actor at its conflict zone with the ego.
+
+    Zone entry and exit as :class:`~sitcov.sim._metrics.ZoneClock` defines them (the front
+    reaches the zone's start, the rear passes its end), kept as plain numbers here because
+    this runs every step.
+    """
+
+    def __init__(self, world: Any) -> None:
+        ego = world.ego
+        # per actor: [ego start, ego end, actor start, actor end, 4 times]
+        self.zones: list[list[Any]] = []
+        for a in world.actors:
+            c = a.conflict
+            if c is None:
+                zone = [math.inf, math.inf, math.inf, math.inf]
+            else:
+                zone = [
+                    c.s_ego,
+                    min(c.s_ego_end, c.s_ego + PET_ZONE),
+                    c.s_ov,
+                    min(c.s_ov_end, c.s_ov + PET_ZONE),
+                ]
+            self.zones.append([*zone, None, None, None, None])
+        self.half_e = ego.half_l
+
+    def update(self, world: Any) -> None:
+        """Entry and exit times of the ego and each active actor."""
+        t, s_e, hl = world.t, world.ego.s, self.half_e
+        for a, z in zip(world.actors, self.zones, strict=True):
+            if z[5] is None:
+                if z[4] is None and s_e + hl >= z[0]:
+                    z[4] = t
+                if s_e - hl > z[1]:
+                    z[5] = t
+            if a.active and z[7] is None:
+                s, ha = a.s, a.half_l
+                if z[6] is None and s + ha >= z[2]:
+                    z[6] = t
+                if s - ha > z[3]:
+                    z[7] = t
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """``pet`` per actor (0 for the actor the ego collided with)."""
+        hit = world.collision
+        for a, z in zip(world.actors, self.zones, strict=True):
+            actors[a.name]["pet"] = post_encroachment_time((z[4], z[5]), (z[6], z[7]), hit is a)
+
+
+class DistanceMonitor:
+    """Minimum distance between the ego's box and each actor's box [m].
+
+    The exact box distance is computed only when it can beat the minimum, and every
+    fourth step while the centres are more than :data:`FAR` apart (< 3 m of closing in
+    between cannot hide a minimum that matters); always when near.
+    """
+
+    def __init__(self, world: Any) -> None:
+        self.best = [math.inf] * len(world.actors)
+
+    def update(self, world: Any) -> None:
+        """Box distance to each active actor when it may be a new minimum."""
+        ego = world.ego
+        far_step = world.k & 3 == 0
+        best = self.best
+        for i, a in enumerate(world.actors):
+            gap = a.gap  # inf while inactive
+            if gap - (ego.radius + a.radius) < best[i] and (gap < FAR or far_step):
+                d = box_distance(ego.box(), a.box())
+                if d < best[i]:
+                    best[i] = d
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """``min_distance`` per actor (None if never measured)."""
+        for a, d in zip(world.actors, self.best, strict=True):
+            actors[a.name]["min_distance"] = d if math.isfinite(d) else None
+
+
+class TTCMonitor:
+    """Minimum constant-velocity time-to-collision of the footprint discs per actor [s]."""
+
+    def __init__(self, world: Any) -> None:
+        self.best: list[float | None] = [None] * len(world.actors)
+
+    def update(self, world: Any) -> None:
+        """TTC of each active actor relative to the ego now."""
+        ego = world.ego
+        e = ego.body
+        cos, sin = math.cos, math.sin
+        ce, se = cos(e.yaw), sin(e.yaw)
+        evx, evy = e.vx * ce - e.vy * se, e.vx * se + e.vy * ce
+        best = self.best
+        for i, a in enumerate(world.actors):
+            if not a.active:
+                continue
+            b = a.body
+            c, s = cos(b.yaw), sin(b.yaw)
+            rvx = (b.vx * c - b.vy * s) - evx
+            rvy = (b.vx * s + b.vy * c) - evy
+            ttc = time_to_collision(a.dx, a.dy, rvx, rvy, ego.disc + a.disc)
+            if ttc is not None and (best[i] is None or ttc < best[i]):
+                best[i] = ttc
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """``min_ttc`` per actor."""
+        for a, ttc in zip(world.actors, self.best, strict=True):
+            actors[a.name]["min_ttc"] = ttc
+
+
+class CollisionMonitor:
+    """The ego's box overlaps an active actor's box: the run ends as ``collision``."""
+
+    def __init__(self, world: Any) -> None:
+        self.speed: float | None = None
+
+    def update(self, world: Any) -> str | None:
+        """``"collision"`` on the first overlap (sets ``world.collision``)."""
+        ego = world.ego
+        r = ego.radius
+        for a in world.actors:
+            if a.gap < r + a.radius and overlap(ego.box(), a.box()):  # gap: inf if inactive
+                evx, evy = ego.velocity()
+                vx, vy = a.velocity()
+                self.speed = math.hypot(vx - evx, vy - evy)
+                world.collision = a
+                return "collision"
+        return None
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """``collided`` per actor; the relative speed of the impact."""
+        for a in world.actors:
+            actors[a.name]["collided"] = world.collision is a
+        actors["_collision_speed"] = self.speed
+
+
+class ActorCollisionMonitor:
+    """Collisions between two actors other than the ego: recorded, never end the run.
+
+    Both actors brake to a stop (``Actor.crashed``). Each pair is recorded once.
+    """
+
+    def __init__(self, world: Any) -> None:
+        self.events: list[dict[str, Any]] = []
+        self.seen: set[tuple[str, str]] = set()
+
+    def update(self, world: Any) -> None:
+        """Bounding circles first, boxes when those touch."""
+        actors = [a for a in world.actors if a.active]
+        for i, a in enumerate(actors):
+            ba = a.body
+            for b in actors[i + 1 :]:
+                bb = b.body
+                reach = a.radius + b.radius
+                dx, dy = bb.x - ba.x, bb.y - ba.y
+                if dx * dx + dy * dy > reach * reach or (a.name, b.name) in self.seen:
+                    continue
+                if overlap(a.box(), b.box()):
+                    self.seen.add((a.name, b.name))
+                    (avx, avy), (bvx, bvy) = a.velocity(), b.velocity()
+                    self.events.append(
+                        {
+                            "actors": [a.name, b.name],
+                            "kinds": [a.kind, b.kind],
+                            "time": round(world.t, 10),
+                            "speed": math.hypot(bvx - avx, bvy - avy),
+                        }
+                    )
+                    a.crashed = b.crashed = True
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """``actor_collisions``: a list of {actors, kinds, time, speed} (extended scenes)."""
+        actors["_actor_collisions"] = self.events
+
+
+class LeaveMapRule:
+    """An actor within :data:`GOAL_TOLERANCE` of its route's end leaves the world."""
+
+    def __init__(self, world: Any) -> None:
+        self.ends = [a.route.length - GOAL_TOLERANCE for a in world.actors]
+
+    def update(self, world: Any) -> None:
+        """Deactivate actors at the end of their routes."""
+        for a, end in zip(world.actors, self.ends, strict=True):
+            if a.active and a.s >= end:
+                a.active = False
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """Nothing to report."""
+
+
+class GoalMonitor:
+    """The ego is within :data:`GOAL_TOLERANCE` of its route's end: the run ends as ``goal``."""
+
+    def __init__(self, world: Any) -> None:
+        self.goal = world.ego.route.length - GOAL_TOLERANCE
+
+    def update(self, world: Any) -> str | None:
+        """``"goal"`` once reached."""
+        return "goal" if world.ego.s >= self.goal else None
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """Nothing to report."""
+
+
+class EarlyEndMonitor:
+    """Ends a run as ``stopped`` once nothing can change any more.
+
+    The ego's AEB has latched (``world.driver.aeb_time``) and the ego stands; then the run
+    is over when no active actor can still reach it. An actor cannot when it is
+    ``clear`` (the stopped ego's box lies outside the corridor the actor will still sweep:
+    its remaining route widened by half its width and :data:`CORRIDOR_MARGIN`, and the road
+    holds it in its route's tightest curve at the speed it may still reach with a
+    :data:`LANE_HOLD_MARGIN` safety factor; checked once, the ego no longer moves), or
+    ``away`` (past its conflict zone and moving away), or ``stuck`` (its controller will
+    never move it again, e.g. the timing law braked waiting for an ego that stands).
+
+    Args:
+        enabled: False never ends a run early.
+    """
+
+    def __init__(self, world: Any, enabled: bool = True) -> None:
+        self.enabled = enabled
+        self.clear: list[bool | None] = [None] * len(world.actors)
+        self.zone_end = [
+            math.inf if a.conflict is None else min(a.conflict.s_ov_end, a.conflict.s_ov + PET_ZONE)
+            for a in world.actors
+        ]
+
+    def _clear(self, world: Any, a: Any) -> bool:
+        v = a.controller.reach_speed(a)
+        ego = world.ego
+        return world.mu * G >= LANE_HOLD_MARGIN * v * v * a.route.max_curvature and (
+            corridor_gap(a.route, a.s, ego.box()) > a.half_w + CORRIDOR_MARGIN
+        )
+
+    def update(self, world: Any) -> str | None:
+        """``"stopped"`` when the ego stands latched and no actor can reach it."""
+        if not self.enabled or world.driver.aeb_time is None:
+            return None
+        if world.ego.body.speed >= STOPPED_SPEED:
+            return None
+        for i, a in enumerate(world.actors):
+            if self.clear[i] is None and a.active:
+                self.clear[i] = self._clear(world, a)
+        for i, a in enumerate(world.actors):
+            if not a.active or self.clear[i]:
+                continue
+            away = a.s - a.half_l > self.zone_end[i] and a.gap > a.prev_gap
+            if not (away or a.controller.stuck(a)):
+                return None
+        return "stopped"
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """Nothing to report."""
+
+
+def default_monitors(
+    world: Any, lane: LaneDepartureMonitor, road: RoadDepartureMonitor, early_end: bool
+) -> list[Any]:
+    """The monitors of an embedded run, in the order the loop calls them."""
+    return [
+        EgoRouteMonitor(world.ego.route, lane, road),
+        PETMonitor(world),
+        DistanceMonitor(world),
+        TTCMonitor(world),
+        CollisionMonitor(world),
+        *([ActorCollisionMonitor(world)] if len(world.actors) > 1 else []),
+        LeaveMapRule(world),
+        GoalMonitor(world),
+        EarlyEndMonitor(world, early_end),
+    ]

@@ -33,6 +33,16 @@ def _box(ax: Any, row: tuple, length: float, width: float, color: str, alpha: fl
     )
 
 
+#: Colours of the actors beyond the ego and the OV in top-down pictures.
+ACTOR_COLORS = ("#fb8c00", "#8e24aa", "#00897b", "#6d4c41", "#fdd835", "#3949ab")
+
+
+def _size(sizes: dict, name: str, length: float, width: float) -> tuple[float, float]:
+    """(length, width) of actor ``name`` from ``meta["actors"]``, else the default."""
+    info = sizes.get(name) or {}
+    return float(info.get("length", length)), float(info.get("width", width))
+
+
 def render_topdown(
     outcome_or_trace: Outcome | Trace,
     path: str | FsPath,
@@ -90,11 +100,20 @@ def render_topdown(
             xs, ys = zip(*kerb, strict=False)
             ax.plot(xs, ys, color="#555555", linewidth=1.2, zorder=2)
         length, width = meta.get("length", 4.5), meta.get("width", 1.6)
-        for key, rows, color in (
-            ("ego_route", trace.ego, "#1e88e5"),
-            ("ov_route", trace.ov, "#e53935"),
-        ):
-            route = meta.get(key)
+        sizes = meta.get("actors") or {}
+        drawn = [
+            ("ego_route", trace.ego, "#1e88e5", "ego", length, width),
+            ("ov_route", trace.ov, "#e53935", "OV", *_size(sizes, "ov", length, width)),
+        ]
+        # further actors (traces recorded before actors existed have none)
+        for n, (name, rows) in enumerate(sorted((trace.actors or {}).items())):
+            if name != "ov":
+                info = sizes.get(name, {})
+                color = ACTOR_COLORS[n % len(ACTOR_COLORS)]
+                label = f"{name} ({info.get('kind', '?')})"
+                drawn.append((name, rows, color, label, *_size(sizes, name, length, width)))
+        for key, rows, color, label, length, width in drawn:
+            route = meta.get(key) or sizes.get(key, {}).get("route")
             if route:
                 xs, ys = zip(*route, strict=False)
                 ax.plot(xs, ys, color=color, linestyle=":", linewidth=1, zorder=3)
@@ -105,7 +124,7 @@ def render_topdown(
                     color=color,
                     linewidth=1.8,
                     zorder=3,
-                    label="ego" if key == "ego_route" else "OV",
+                    label=label,
                 )
                 picks = sorted(
                     {round(i * (len(rows) - 1) / (SNAPSHOTS - 1)) for i in range(SNAPSHOTS)}
@@ -121,6 +140,8 @@ def render_topdown(
             cx, cy = meta["collision_point"]
             ax.plot(cx, cy, marker="*", color="black", markersize=16, zorder=6, label="collision")
         pts = [p for r in (trace.ego, trace.ov) for p in ((row[1], row[2]) for row in r)]
+        for rows in (trace.actors or {}).values():
+            pts += [(row[1], row[2]) for row in rows]
         pts += [tuple(p) for p in meta.get("ego_route", [])]
         if pts:
             xs, ys = zip(*pts, strict=False)

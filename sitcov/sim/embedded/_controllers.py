@@ -1,0 +1,322 @@
+"""Controllers of the road users other than the ego: what each does every control step.
+
+A controller turns the world's state into ``(throttle, brake, steer)`` for its actor's body
+(``_bodies.py``); lateral control follows the actor's route (:func:`steer_on_route`).
+
+- :class:`TimingController`: the paper's timing law (``sitcov.sim._adversary``) for ANY
+  actor that shares a conflict with the ego: wait until the ego moves, regulate the arrival
+  time at the conflict to the ego's, then cruise on ("arrive when the ego arrives, then
+  continue"). The cruise speed is the kind's (15 km/h for cars as in the paper; a
+  pedestrian walks, a cyclist rides at its ``walk_speed``).
+- :class:`ScriptedController`: background traffic: cruise at a speed, optionally stop at
+  an arc length for a while (or for good), then go on; keeps a time gap to any road user
+  ahead on its path.
+- :class:`CrossingController`: pedestrian behaviours on a crosswalk: ``cross`` (start to
+  cross when the ego is ``time`` seconds from the crosswalk), ``kerb`` (walk up to the kerb
+  then and stop there for good), ``hesitate`` (walk up to the kerb, pause, then cross).
+
+Controllers read the world through the :class:`~sitcov.sim.embedded._actors.Actor` they
+drive and the world (``world.ego``, ``world.ego_speed``, ``world.actors``, ``world.t``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from typing import TYPE_CHECKING, Any
+
+from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit
+
+if TYPE_CHECKING:
+    from sitcov.sim.embedded._actors import Actor
+
+#: Speed below which an actor counts as standing [m/s].
+STANDING = 0.05
+#: Speed P-gain of scripted and pedestrian controllers [1/(m/s)].
+SPEED_GAIN = 0.5
+#: Scripted traffic keeps this time gap [s] plus :data:`MIN_GAP` [m] to a road user ahead.
+TIME_GAP, MIN_GAP = 1.5, 2.0
+#: A road user counts as "ahead on the path" within this lateral distance [m] (plus half widths).
+LATERAL_MARGIN = 0.5
+
+
+def steer_on_route(actor: Actor, lookahead: float) -> float:
+    """Steer command in [-1, 1] that follows ``actor.route`` from its arc length.
+
+    Cars and bicycles: pure pursuit of the route point ``lookahead`` metres ahead, from the
+    rear axle; a pedestrian turns towards that point at its turn rate.
+    """
+    return lateral_controller(actor)(lookahead)
+
+
+def lateral_controller(actor: Actor, dt: float = 0.05) -> Callable[[float], float]:
+    """``lookahead -> steer`` for ``actor`` (see :func:`steer_on_route`), its constants bound
+    once: controllers call it every step."""
+    body, point_at = actor.body, actor.route.point_at
+    cos, sin = math.cos, math.sin
+    if actor.kind == "car":
+        lr, wb, steer_max = body.p.lr, body.p.wheelbase, body.p.steer_max
+
+        def car(lookahead: float) -> float:
+            tx, ty, _ = point_at(actor.s + lookahead)
+            yaw = body.yaw
+            c, s = cos(yaw), sin(yaw)
+            return pure_pursuit(body.x - lr * c, body.y - lr * s, yaw, tx, ty, wb) / steer_max
+
+        return car
+    spec = body.spec
+    if actor.kind == "cyclist":
+        half, wb, steer_max = 0.5 * spec.wheelbase, spec.wheelbase, spec.steer_max
+
+        def bicycle(lookahead: float) -> float:
+            tx, ty, _ = point_at(actor.s + lookahead)
+            yaw = body.yaw
+            c, s = cos(yaw), sin(yaw)
+            delta = pure_pursuit(body.x - half * c, body.y - half * s, yaw, tx, ty, wb)
+            return max(-1.0, min(1.0, delta / steer_max))
+
+        return bicycle
+    turn = spec.turn_rate * dt
+
+    def walker(lookahead: float) -> float:
+        tx, ty, _ = point_at(actor.s + lookahead)
+        err = math.atan2(ty - body.y, tx - body.x) - body.yaw
+        err = math.atan2(sin(err), cos(err))
+        return max(-1.0, min(1.0, err / turn))
+
+    return walker
+
+
+def _speed_command(actor: Actor, target: float, dt: float) -> tuple[float, float]:
+    """(throttle, brake) towards ``target`` [m/s]: a P controller for a car; a cyclist or
+    a pedestrian reaches the target within its acceleration limits in one step if it can."""
+    speed = actor.body.speed
+    if target <= 0.0 and speed < STANDING:
+        return 0.0, 1.0
+    if actor.kind == "car":
+        u = SPEED_GAIN * (target - speed)
+    else:
+        spec = actor.spec
+        u = (target - speed) / ((spec.a_max if target > speed else spec.b_max) * dt)
+    return (min(u, 1.0), 0.0) if u >= 0.0 else (0.0, min(-u, 1.0))
+
+
+def _lookahead(actor: Actor, speed: float) -> float:
+    return max(4.0, 0.8 * speed) if actor.kind != "pedestrian" else max(1.0, 0.5 * speed)
+
+
+class TimingController:
+    """The paper's timing law for an actor sharing a conflict with the ego.
+
+    Args:
+        params: the adversary's tuning with the situation's switch distance.
+        s_ego, s_self: arc lengths of the conflict's start on the ego's and the actor's
+            route [m] (inf: no conflict, the actor cruises once the ego moves).
+        cruise_speed: the actor's speed after the switch [m/s] (None: ``params``').
+    """
+
+    name = "timed"
+
+    def __init__(
+        self,
+        params: AdversaryParams,
+        s_ego: float,
+        s_self: float,
+        cruise_speed: float | None = None,
+    ) -> None:
+        if cruise_speed is not None:
+            params = replace(params, cruise_speed=cruise_speed)
+        self.params = params
+        self.law = AdversaryController(params, has_conflict=math.isfinite(s_ego))
+        self.s_ego, self.s_self = s_ego, s_self
+        self.switch_time: float | None = None
+        self.switch_gap: float | None = None
+        self.brake = 0.0
+        self._steer: Callable[[float], float] | None = None
+
+    def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
+        """(throttle, brake, steer) for this step."""
+        speed = actor.body.speed
+        law = self.law
+        s_ego = world.ego.s
+        thr, brk = law.command(self.s_ego - s_ego, world.ego_speed, self.s_self - actor.s, speed)
+        if self.switch_time is None and law.phase == "cruise":
+            self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
+        self.brake = brk
+        if self._steer is None:
+            self._steer = lateral_controller(actor, world.dt)
+        return thr, brk, self._steer(law.lookahead(speed))
+
+    def reach_speed(self, actor: Actor) -> float:
+        """The speed the actor may still reach [m/s] (for the early end)."""
+        return max(actor.body.speed, self.params.cruise_speed)
+
+    def stuck(self, actor: Actor) -> bool:
+        """Braked still before its switch: waits for an ego that will never come."""
+        return self.law.phase != "cruise" and self.brake > 0.0 and actor.body.speed < STANDING
+
+
+class ScriptedController:
+    """Background traffic: cruise at ``speed``; stop at arc length ``stop_at`` for ``wait``
+    seconds (None: for good), then go on. Keeps ``TIME_GAP`` to whoever is ahead.
+
+    Args:
+        speed: cruising speed [m/s].
+        stop_at: arc length on the actor's route where it stops [m], or None.
+        wait: how long it stands there [s]; None stands for good.
+    """
+
+    name = "cruise"
+
+    def __init__(self, speed: float, stop_at: float | None = None, wait: float | None = None):
+        self.speed, self.stop_at, self.wait = float(speed), stop_at, wait
+        self.stopped_since: float | None = None
+        self.done_stop = stop_at is None
+        self.brake = 0.0
+        self._steer: Callable[[float], float] | None = None
+
+    def _target(self, actor: Actor, world: Any) -> float:
+        target = self.speed
+        if not self.done_stop:
+            left = self.stop_at - actor.s
+            if self.stopped_since is None and left <= 0.3 and actor.body.speed < STANDING + 0.2:
+                self.stopped_since = world.t
+            if self.stopped_since is not None:
+                if self.wait is not None and world.t - self.stopped_since >= self.wait:
+                    self.done_stop = True
+                else:
+                    return 0.0
+            else:
+                brake = max(actor.spec.b_max, 1.0)
+                target = min(target, math.sqrt(max(0.0, 2.0 * 0.5 * brake * max(left, 0.0))))
+        gap = _gap_ahead(actor, world)
+        if gap < math.inf:
+            target = min(target, max(0.0, (gap - MIN_GAP) / TIME_GAP))
+        return target
+
+    def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
+        """(throttle, brake, steer) for this step."""
+        target = self._target(actor, world)
+        thr, brk = _speed_command(actor, target, world.dt)
+        self.brake = brk
+        if self._steer is None:
+            self._steer = lateral_controller(actor, world.dt)
+        return thr, brk, self._steer(_lookahead(actor, actor.body.speed))
+
+    def reach_speed(self, actor: Actor) -> float:
+        """The speed the actor may still reach [m/s]."""
+        return max(actor.body.speed, self.speed)
+
+    def stuck(self, actor: Actor) -> bool:
+        """Stopped for good at its stop point."""
+        return self.stopped_since is not None and self.wait is None
+
+
+def _gap_ahead(actor: Actor, world: Any) -> float:
+    """Distance [m] to the nearest road user ahead of ``actor`` on its heading (box to box,
+    roughly), or inf."""
+    body = actor.body
+    c, s = math.cos(body.yaw), math.sin(body.yaw)
+    best = math.inf
+    for other in world.bodies_except(actor):
+        dx, dy = other.body.x - body.x, other.body.y - body.y
+        ahead = dx * c + dy * s
+        if ahead <= 0.0 or ahead > 40.0:
+            continue
+        side = -dx * s + dy * c
+        if abs(side) < actor.half_w + other.half_w + LATERAL_MARGIN:
+            gap = ahead - actor.half_l - other.half_l
+            if gap < best:
+                best = gap
+    return best
+
+
+#: Pedestrian behaviours and their defaults: start time before the ego arrives [s],
+#: pause at the kerb [s] (None: for good; 0: no stop at the kerb).
+CROSSING_BEHAVIOURS: dict[str, dict[str, float | None]] = {
+    "cross": {"time": 3.0, "pause": 0.0},
+    "kerb": {"time": 4.0, "pause": None},
+    "hesitate": {"time": 4.0, "pause": 1.5},
+}
+
+
+class CrossingController:
+    """A pedestrian on a crosswalk.
+
+    Waits on the sidewalk until the ego's arrival time at the crosswalk (its distance to
+    the conflict over its speed, speed floored at 0.5 m/s) drops to ``time`` seconds;
+    then walks at its walking speed. With a ``pause`` it stops with its front
+    :data:`KERB_MARGIN` short of the kerb (``s_kerb``, where its route meets the road)
+    for ``pause`` seconds (None: for good), then crosses.
+
+    Args:
+        behaviour: ``cross``, ``kerb`` or ``hesitate`` (:data:`CROSSING_BEHAVIOURS`).
+        s_ego: arc length of the conflict's start on the ego's route [m].
+        s_kerb: arc length of the kerb on the pedestrian's route [m].
+        time, pause: override the behaviour's defaults.
+        speed: walking speed [m/s].
+    """
+
+    #: A pedestrian waiting at the kerb stands this far short of it [m].
+    KERB_MARGIN = 0.3
+
+    def __init__(
+        self,
+        behaviour: str,
+        s_ego: float,
+        s_kerb: float,
+        speed: float,
+        time: float | None = None,
+        pause: float | None | str = "default",
+    ) -> None:
+        defaults = CROSSING_BEHAVIOURS[behaviour]
+        self.name = behaviour
+        self.time = float(defaults["time"] if time is None else time)
+        self.pause = defaults["pause"] if pause == "default" else pause
+        self.s_ego, self.s_kerb, self.speed = s_ego, s_kerb, float(speed)
+        self.started = False
+        self.paused_since: float | None = None
+        # a pause of 0 means no stop at the kerb; None means a stop for good
+        self.past_kerb = self.pause is not None and self.pause <= 0.0
+        self.brake = 0.0
+        self._steer: Callable[[float], float] | None = None
+
+    def _target(self, actor: Actor, world: Any) -> float:
+        if not self.started:
+            d_ego = self.s_ego - world.ego.s
+            if d_ego / max(world.ego_speed, 0.5) > self.time or world.ego_speed <= 0.1:
+                return 0.0
+            self.started = True
+        if self.past_kerb:
+            return self.speed
+        left = self.s_kerb - self.KERB_MARGIN - actor.half_l - actor.s
+        if self.paused_since is None:
+            if left > 0.05:
+                b = actor.spec.b_max
+                return min(self.speed, math.sqrt(2.0 * 0.8 * b * left))
+            self.paused_since = world.t
+        if self.pause is not None and world.t - self.paused_since >= self.pause:
+            self.past_kerb = True
+            return self.speed
+        return 0.0
+
+    def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
+        """(throttle, brake, steer) for this step."""
+        target = self._target(actor, world)
+        thr, brk = _speed_command(actor, target, world.dt)
+        self.brake = brk
+        if thr == 0.0 and actor.body.speed == 0.0:
+            return thr, brk, 0.0  # waits standing: faces where it stands
+        if self._steer is None:
+            self._steer = lateral_controller(actor, world.dt)
+        return thr, brk, self._steer(_lookahead(actor, actor.body.speed))
+
+    def reach_speed(self, actor: Actor) -> float:
+        """The speed the actor may still reach [m/s]."""
+        return max(actor.body.speed, self.speed)
+
+    def stuck(self, actor: Actor) -> bool:
+        """Will never move again: waits for an ego that stands still (the early end asks
+        only once the ego stands for good), or stands at the kerb for good."""
+        return not self.started or (self.paused_since is not None and self.pause is None)

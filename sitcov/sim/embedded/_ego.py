@@ -1,0 +1,101 @@
+"""The ego's controller: the AV stack under test, fed by simulated perception.
+
+:class:`EgoDriver` does per step what stands between the world and the stack: at the
+sensor rate it shows the sensor every active actor (PEM mode: ``Sensor.detect`` with an
+``ActorView`` per actor, ``kind`` set; camera mode: a rendered frame), delays frames by
+the perception delay, asks the stack for a ``Control``, notes when its AEB fired, and
+delays the brake command by the brake delay (throttle and steering act at once).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from typing import Any
+
+import numpy as np
+
+from sitcov.av._base import EgoState, Observation
+from sitcov.perception._base import Pose
+
+
+class EgoDriver:
+    """Drives the ego actor with ``stack`` (one instance per run).
+
+    Args:
+        backend: the embedded backend (camera-mode frame gating and rendering).
+        stack: the AV stack under test (already ``reset``).
+        sensor: the PEM-mode sensor, or None in camera mode.
+        conditions: the run's conditions (sensors read them).
+        rng: the run's generator (sensor noise draws).
+        seed: the run's seed (camera frames get their own generators).
+        delay_p, delay_b: perception and brake delays in control periods.
+        gate_px: camera mode: the true box width below which no frame is rendered.
+    """
+
+    def __init__(
+        self,
+        backend: Any,
+        stack: Any,
+        sensor: Any,
+        conditions: Any,
+        rng: np.random.Generator,
+        seed: int,
+        delay_p: int,
+        delay_b: int,
+        gate_px: float,
+    ) -> None:
+        self.backend, self.stack, self.sensor = backend, stack, sensor
+        self.cond, self.rng, self.seed = conditions, rng, seed
+        self.every = backend.sensor_every
+        self.delay_p = delay_p
+        self.frames: deque[tuple[int, Any, Any]] = deque()
+        self.brakes: deque[float] = deque([0.0] * delay_b)
+        self.gate_px = gate_px
+        self.camera = stack.camera
+        self.latched = False  # camera mode: the AEB latched, no more frames are rendered
+        self.camera_mode = sensor is None
+        self.aeb_time: float | None = None
+
+    def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
+        """(detections, image) captured at step ``k`` (a frame step)."""
+        ego = world.ego.body
+        actors = tuple(a.view() for a in world.actors if a.active)
+        pose = Pose(ego.x, ego.y, ego.yaw)
+        if not self.camera_mode:
+            return self.sensor.detect(pose, actors, self.cond, self.rng), None
+        backend = self.backend
+        if not backend._needs_frame(self.camera, pose, actors, self.gate_px):
+            return (), None  # camera mode, no road user in view (see _needs_frame)
+        if backend.frame_observer is not None:
+            backend.frame_observer(self.camera, pose, actors, self.cond)
+        # one generator per frame: which frames are rendered changes no other draw
+        frame_rng = np.random.default_rng([self.seed, k])
+        return None, backend._frame(self.camera, pose, actors, self.cond, frame_rng)
+
+    def command(self, world: Any, k: int, t: float) -> tuple[float, float, float]:
+        """(throttle, brake, steer) of the ego for step ``k`` at time ``t``."""
+        if k % self.every or self.latched:
+            detections = image = None
+        else:
+            detections, image = self._perceive(world, k)
+        if self.delay_p:
+            if detections is not None or image is not None:
+                self.frames.append((k + self.delay_p, detections, image))
+            detections = image = None
+            if self.frames and self.frames[0][0] == k:
+                _, detections, image = self.frames.popleft()
+        ego = world.ego.body
+        speed = world.ego_speed
+        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, speed, t), detections, image)
+        ctrl = self.stack.step(obs)
+        if ctrl.info and ctrl.info.get("aeb"):
+            if self.aeb_time is None:
+                self.aeb_time = t
+            # camera mode: no more frames once the brake has latched (Control.info["aeb"]
+            # promises the stack ignores perception from now on)
+            self.latched = self.camera_mode
+        brake = ctrl.brake
+        if self.brakes:
+            self.brakes.append(brake)
+            brake = self.brakes.popleft()
+        return ctrl.throttle, brake, ctrl.steer

@@ -1,0 +1,130 @@
+"""The world: the actors, the wind and one control step of all of them.
+
+:class:`World` advances every actor by one control period: the ego's stack decides first
+(from perception of the state at the start of the step), the wind's gust updates, every
+other active actor's controller decides from the same state and its body moves, then the
+ego's body moves; finally each actor's position along its route is tracked. Monitors
+(``_monitors.py``) look at the world after each step; the run loop (``_backend.py``) only
+alternates the two.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+from sitcov.sim.embedded._actors import Actor
+
+
+class Wind:
+    """Gusty crosswind on cars: Ornstein-Uhlenbeck gusts on a mean speed.
+
+    Args:
+        mean: mean wind speed [m/s] (0: no force at all).
+        direction: where it blows towards [rad].
+        noise: standard normal draws, one per step (drawn up front so the stream order is
+            fixed whether or not the wind acts).
+        intensity, time_scale: turbulence intensity [-] and gust time scale [s].
+        k: side-force coefficient: lateral acceleration per (m/s)^2 of crosswind [1/m].
+        dt: control period [s].
+    """
+
+    def __init__(
+        self,
+        mean: float,
+        direction: float,
+        noise: Sequence[float],
+        intensity: float,
+        time_scale: float,
+        k: float,
+        dt: float,
+    ) -> None:
+        self.mean, self.direction, self.noise, self.k = mean, direction, noise, k
+        self.phi = math.exp(-dt / time_scale)
+        self.scale = intensity * math.sqrt(1.0 - self.phi * self.phi)
+        self.gust = intensity * noise[0]
+        self.speed = 0.0
+
+    def update(self, k: int) -> None:
+        """Advance the gust to step ``k``'s value."""
+        if self.mean > 0.0:
+            self.gust = self.phi * self.gust + self.scale * self.noise[k + 1]
+            self.speed = self.mean * (1.0 + self.gust)
+
+    def lateral(self, actor: Actor) -> float:
+        """Lateral acceleration [m/s^2] on ``actor`` now (cars only; riders and walkers
+        lean into the wind)."""
+        if self.mean <= 0.0 or actor.kind != "car":
+            return 0.0
+        v = self.speed * math.sin(self.direction - actor.body.yaw)
+        return self.k * v * abs(v)
+
+
+class World:
+    """Every actor of a run and the step that advances them together.
+
+    Args:
+        ego: the ego actor.
+        actors: the other actors, primary OV first.
+        driver: the ego's controller (``_ego.EgoDriver``).
+        wind: the run's wind.
+        mu: tyre-road friction [-].
+        dt: control period [s].
+    """
+
+    def __init__(
+        self, ego: Actor, actors: Sequence[Actor], driver: Any, wind: Wind, mu: float, dt: float
+    ) -> None:
+        self.ego, self.actors, self.driver, self.wind = ego, list(actors), driver, wind
+        self.mu, self.dt = mu, dt
+        self.t = 0.0
+        self.k = 0
+        self.ego_speed = 0.0
+        self.collision: Actor | None = None  # the actor the ego hit (CollisionMonitor)
+
+    def bodies_except(self, actor: Actor) -> Iterator[Actor]:
+        """Every active actor (the ego included) but ``actor``."""
+        if actor is not self.ego:
+            yield self.ego
+        for other in self.actors:
+            if other is not actor and other.active:
+                yield other
+
+    def record(self) -> None:
+        """Append a trace row for the ego and every active actor."""
+        t = self.t
+        self.ego.record(t)
+        for a in self.actors:
+            if a.active:
+                a.record(t)
+
+    def step(self) -> None:
+        """One control period for every actor (see the module docstring)."""
+        ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
+        self.ego_speed = ego.body.speed
+        throttle, brake, steer = self.driver.command(self, self.k, self.t)
+        windy = wind.mean > 0.0
+        if windy:
+            wind.update(self.k)
+        lat_e = wind.lateral(ego) if windy else 0.0
+        for a in self.actors:
+            if a.active:
+                cmd = (0.0, 1.0, 0.0) if a.crashed else a.controller.command(a, self)
+                a.body.step(cmd[0], cmd[1], cmd[2], mu, wind.lateral(a) if windy else 0.0, dt)
+        eb = ego.body
+        eb.step(throttle, brake, steer, mu, lat_e, dt)
+        self.k += 1
+        self.t = self.k * dt
+        ex, ey = eb.x, eb.y
+        ego.s, ego.hint = ego.route.track(ex, ey, ego.hint)
+        hypot = math.hypot
+        for a in self.actors:
+            a.prev_gap = a.gap
+            if a.active:
+                b = a.body
+                a.s, a.hint = a.route.track(b.x, b.y, a.hint)
+                a.dx, a.dy = dx, dy = b.x - ex, b.y - ey
+                a.gap = hypot(dx, dy)
+            else:
+                a.gap = math.inf

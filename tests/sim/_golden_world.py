@@ -1,0 +1,94 @@
+"""The golden two-car runs of the embedded world: record them, or compare against them.
+
+The world-of-actors redesign must reproduce the two-car runs exactly. This module records
+``Outcome.to_dict()`` for random default-hyperspace situations (the ``random`` generator,
+as ``sitcov bench`` draws them) x two seeds x both physics profiles x four stacks (the
+reference stack, F2, F3 and the blind ego), in PEM mode with the PEM parameters pinned to
+a copy (``data/golden_world_pem.yaml``) so a PEM refit does not move the golden values.
+The situations' values are stored with the outcomes, so a change of the default
+hyperspace does not move them either.
+
+Write (only on purpose, with the code whose results are the reference)::
+
+    PYTHONPATH=. python tests/sim/_golden_world.py --write
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+DATA = Path(__file__).parent / "data"
+GOLDEN = DATA / "golden_world_two_cars.json"
+PEM = DATA / "golden_world_pem.yaml"
+#: Situations drawn, seeds per situation, profiles and stacks (fault or "blind").
+N_SITUATIONS = 60
+SEEDS = (0, 1)
+PROFILES = ("carla", "physical")
+STACKS = (None, "f2", "f3", "blind")
+
+
+def situations() -> list[dict[str, Any]]:
+    """The values of the first ``N_SITUATIONS`` random default-hyperspace situations."""
+    from sitcov._seeding import ask_rng
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+    from sitcov.hyperspace._situation import _thaw
+
+    generator = make_generator("random", load_hyperspace())
+    out = []
+    for i in range(N_SITUATIONS):
+        s = generator.ask(ask_rng(0, i))
+        out.append({"bins": dict(s.bins), "values": _thaw(s.values)})
+    return out
+
+
+def cases(stored: list[dict[str, Any]]):
+    """Yield (key, situation, stack factory args, physics, seed) for every golden run."""
+    from sitcov._seeding import run_seed
+    from sitcov.hyperspace import Situation
+
+    for i, item in enumerate(stored):
+        situation = Situation(bins=item["bins"], values=item["values"])
+        for physics in PROFILES:
+            for stack in STACKS:
+                for seed in SEEDS:
+                    key = f"{i}/{physics}/{stack}/{seed}"
+                    yield key, situation, stack, physics, run_seed(seed, i)
+
+
+def run_all(stored: list[dict[str, Any]], every: int = 1) -> dict[str, dict[str, Any]]:
+    """Outcome dicts of every ``every``-th golden case, keyed as in the golden file."""
+    from sitcov.av import NoPerceptionStack, ReferenceStack
+    from sitcov.perception import PEMSensor
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    backends = {p: EmbeddedBackend(physics=p, sensor=PEMSensor(params=str(PEM))) for p in PROFILES}
+    stacks = {s: ReferenceStack(fault=s) for s in STACKS if s != "blind"}
+    stacks["blind"] = NoPerceptionStack()
+    out = {}
+    for n, (key, situation, stack, physics, seed) in enumerate(cases(stored)):
+        if n % every:
+            continue
+        outcome = backends[physics].run(situation, stacks[stack], seed)
+        out[key] = json.loads(json.dumps(outcome.to_dict()))
+    return out
+
+
+def main() -> None:
+    """Write the golden file from the current code."""
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--write", action="store_true", help="(re)write the golden file")
+    args = parser.parse_args()
+    if not args.write:
+        parser.error("nothing to do: pass --write to record the golden file")
+    stored = situations()
+    golden = {"situations": stored, "outcomes": run_all(stored)}
+    GOLDEN.write_text(json.dumps(golden, indent=None, sort_keys=True) + "\n", encoding="utf-8")
+    print(f"wrote {len(golden['outcomes'])} outcomes to {GOLDEN}")
+
+
+if __name__ == "__main__":
+    main()

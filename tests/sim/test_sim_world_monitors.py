@@ -1,0 +1,171 @@
+"""World monitors one by one, on hand-made worlds with known answers."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import pytest
+
+from sitcov.sim.embedded._actors import Actor
+from sitcov.sim.embedded._bodies import body_spec, make_body
+from sitcov.sim.embedded._map import Conflict
+from sitcov.sim.embedded._monitors import (
+    ActorCollisionMonitor,
+    CollisionMonitor,
+    DistanceMonitor,
+    EarlyEndMonitor,
+    GoalMonitor,
+    LeaveMapRule,
+    PETMonitor,
+    TTCMonitor,
+)
+from sitcov.sim.embedded._path import Path
+
+LINE = Path.from_points([(float(x), 0.0) for x in range(-50, 51)])
+
+
+def actor(name: str, kind: str, x: float, y: float = 0.0, yaw: float = 0.0, **kw) -> Actor:
+    a = Actor(name, kind, body_spec(kind), make_body(kind, x, y, yaw), LINE, **kw)
+    a.s = x + 50.0
+    return a
+
+
+def world(ego: Actor, *others: Actor, t: float = 0.0, k: int = 0, aeb: float | None = None):
+    w = SimpleNamespace(
+        ego=ego,
+        actors=list(others),
+        t=t,
+        k=k,
+        mu=1.0,
+        collision=None,
+        driver=SimpleNamespace(aeb_time=aeb),
+    )
+    relate(w)
+    return w
+
+
+def relate(w) -> None:
+    """What World.step does after moving: relative positions and gaps."""
+    e = w.ego.body
+    for a in w.actors:
+        a.prev_gap = a.gap
+        a.dx, a.dy = a.body.x - e.x, a.body.y - e.y
+        a.gap = math.hypot(a.dx, a.dy) if a.active else math.inf
+
+
+def report(monitor, w) -> dict:
+    per = {a.name: {} for a in w.actors}
+    run: dict = {}
+    monitor.report(run, per, w)
+    return {**run, **per}
+
+
+def test_distance_is_the_gap_between_the_boxes() -> None:
+    ego = actor("ego", "car", 0.0)
+    ped = actor("p", "pedestrian", 10.0)
+    w = world(ego, ped)
+    mon = DistanceMonitor(w)
+    mon.update(w)
+    expected = 10.0 - 0.5 * body_spec("car").length - 0.25
+    assert report(mon, w)["p"]["min_distance"] == pytest.approx(expected)
+
+
+def test_collision_ends_the_run_and_names_the_actor() -> None:
+    ego = actor("ego", "car", 0.0)
+    far = actor("far", "car", 30.0)
+    bike = actor("bike", "cyclist", 2.5, 0.5)
+    bike.body.vx = 4.0
+    w = world(ego, far, bike)
+    mon = CollisionMonitor(w)
+    assert mon.update(w) == "collision" and w.collision is bike
+    out = report(mon, w)
+    assert out["bike"]["collided"] and not out["far"]["collided"]
+    assert out["_collision_speed"] == pytest.approx(4.0)
+    w2 = world(actor("ego", "car", 0.0), actor("p", "pedestrian", 2.6))  # 0.1 m apart
+    assert CollisionMonitor(w2).update(w2) is None
+
+
+def test_ttc_of_a_head_on_approach() -> None:
+    ego = actor("ego", "car", 0.0)
+    other = actor("o", "car", 20.0, yaw=math.pi)
+    other.body.vx = 5.0
+    w = world(ego, other)
+    mon = TTCMonitor(w)
+    mon.update(w)
+    radii = 2.0 * math.sqrt(body_spec("car").length * body_spec("car").width / math.pi)
+    assert report(mon, w)["o"]["min_ttc"] == pytest.approx((20.0 - radii) / 5.0)
+
+
+def test_pet_is_the_gap_between_the_ego_leaving_and_the_actor_entering() -> None:
+    conflict = Conflict(point=(0.0, 0.0), s_ego=50.0, s_ego_end=52.0, s_ov=50.0, s_ov_end=52.0)
+    ego = actor("ego", "car", -50.0)
+    ped = actor("p", "pedestrian", -50.0, conflict=conflict)
+    w = world(ego, ped)
+    mon = PETMonitor(w)
+    half = 0.5 * body_spec("car").length
+    # ego front reaches the zone at t = 1, rear leaves at t = 2; pedestrian enters at t = 5
+    for t, s_ego, s_ped in (
+        (1.0, 50.0 - half, 0.0),
+        (2.0, 52.0 + half + 0.01, 0.0),
+        (5.0, 80.0, 49.75),
+    ):
+        w.t, ego.s, ped.s = t, s_ego, s_ped
+        mon.update(w)
+    assert report(mon, w)["p"]["pet"] == pytest.approx(3.0)
+
+
+def test_leave_map_and_goal() -> None:
+    ego = actor("ego", "car", 0.0)
+    a = actor("a", "car", 0.0)
+    w = world(ego, a)
+    leave, goal = LeaveMapRule(w), GoalMonitor(w)
+    assert goal.update(w) is None
+    a.s = LINE.length - 1.0
+    leave.update(w)
+    assert not a.active
+    ego.s = LINE.length - 1.0
+    assert goal.update(w) == "goal"
+
+
+class Controller:
+    def __init__(self, stuck: bool) -> None:
+        self._stuck = stuck
+
+    def reach_speed(self, actor: Actor) -> float:
+        return 4.0
+
+    def stuck(self, actor: Actor) -> bool:
+        return self._stuck
+
+
+def test_early_end_needs_a_latched_standing_ego_and_no_actor_that_can_reach_it() -> None:
+    ego = actor("ego", "car", 0.0)
+    waiting = actor("w", "car", -20.0, controller=Controller(stuck=True))  # on the ego's line
+    w = world(ego, waiting)
+    mon = EarlyEndMonitor(w)
+    assert mon.update(w) is None  # AEB has not fired
+    w.driver.aeb_time = 1.0
+    assert mon.update(w) == "stopped"  # the only actor is stuck
+    moving = actor("m", "car", -20.0, controller=Controller(stuck=False))
+    w2 = world(ego, moving, aeb=1.0)
+    assert EarlyEndMonitor(w2).update(w2) is None  # it can still drive into the ego
+    assert EarlyEndMonitor(w2, enabled=False).update(w2) is None
+    aside = actor("s", "car", -20.0, y=30.0, controller=Controller(stuck=False))
+    aside.route = Path.from_points([(-50.0, 30.0), (50.0, 30.0)])
+    w3 = world(ego, aside, aeb=1.0)
+    assert EarlyEndMonitor(w3).update(w3) == "stopped"  # its route passes 30 m away
+
+
+def test_actor_actor_collisions_are_recorded_once_and_both_brake() -> None:
+    ego = actor("ego", "car", -40.0)
+    a, b = actor("a", "car", 10.0), actor("b", "pedestrian", 12.0, 0.3)
+    a.body.vx = 3.0
+    w = world(ego, a, b, t=4.0)
+    mon = ActorCollisionMonitor(w)
+    assert mon.update(w) is None  # never ends the run
+    mon.update(w)
+    events = report(mon, w)["_actor_collisions"]
+    assert len(events) == 1 and events[0]["kinds"] == ["car", "pedestrian"]
+    assert events[0]["time"] == 4.0 and events[0]["speed"] == pytest.approx(3.0)
+    assert a.crashed and b.crashed and not ego.crashed
