@@ -431,7 +431,7 @@ class JunctionMap:
         s0 = self._s_at_distance(full, self.legs[a], self.spawns["ov"][a], True)
         return full.sub(s0, full.length, ROUTE_STEP)
 
-    def switch_distance(self, scenario: Scenario) -> float | None:
+    def switch_distance(self, scenario: Scenario, *, table: bool = True) -> float | None:
         """Ego's distance to the conflict point [m] at which the OV stops synchronising.
 
         The map's ``switch_distances`` entry for the situation if it has one (the shipped
@@ -439,10 +439,12 @@ class JunctionMap:
         otherwise the ego's remaining distance when it crosses the mouth of its start leg,
         where the paper's boxes sit (just inside the junction entrance), at most the map's
         ``switch_distance_max`` (a roundabout's conflicts lie far round the ring). None
-        without a conflict.
+        without a conflict. ``table=False`` skips the ``switch_distances`` entries: they
+        were measured for the paper's car-car situations, not for a cyclist or pedestrian
+        on the same movements.
         """
         key = f"{scenario.ego_move}/{scenario.ov_move}"
-        if key in self.switch_distances:
+        if table and key in self.switch_distances:
             return self.switch_distances[key]
         if scenario.conflict is None:
             return None

@@ -252,7 +252,9 @@ def _controller(
     try:
         if plan.behaviour == "timed":
             scen = Scenario(ego_move, plan.route, ego, actor.route, c)
-            params = with_switch_distance(adversary, map.switch_distance(scen))
+            # the paper's Town03 table holds for its car-car situations only
+            table = plan.kind == "car"
+            params = with_switch_distance(adversary, map.switch_distance(scen, table=table))
             return TimingController(params, s_ego, s_self, cruise)
         if plan.behaviour in CROSSING_BEHAVIOURS:
             speed = params.pop("speed", spec.walk_speed)
