@@ -586,6 +586,72 @@ def experiment_agreement_cmd(
     )
 
 
+# --- flakiness, runs needed, generator race (owner: race) -----------------------------------
+
+
+@experiment_app.command("flakiness")
+def experiment_flakiness_cmd(
+    db: Path = typer.Option(Path("flakiness.db"), "--db", help="Database (created or resumed)."),
+    name: str = typer.Option("flakiness", "--name", help="Campaign group (NAME/base, NAME/rK)."),
+    situations: int = typer.Option(200, "--situations", min=1, help="Distinct situations."),
+    repeats: int = typer.Option(5, "--repeats", min=2, help="Seeds per situation (K >= 2)."),
+    generator: str = typer.Option("sitcov", "--generator", help="Generator of the situations."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Campaign seed."),
+    av: str = typer.Option("reference", "--av", help="AV stack under test."),
+    backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
+    workers: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--workers", min=1, help="Parallel workers (default: CPU count)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the flakiness table as JSON."),
+) -> None:
+    """Re-run the same situations with K seeds: how often does the verdict flip?"""
+    import json
+
+    from sitcov.campaign import load_config
+    from sitcov.campaign._build import check_parts
+    from sitcov.campaign._console import created_store
+    from sitcov.campaign._flaky import base_config, flakiness_lines, run_flakiness_experiment
+
+    checked = load_config(overrides={"physics": physics, "judge": judge, "executor": executor,
+                                     "workers": workers})  # fmt: skip
+    settings = {"generator": generator, "runs": situations, "seed": seed, "av": av,
+                "backend": backend, "hyperspace": hyperspace or "t-junction",
+                "physics": checked.physics, "judge": checked.judge,
+                "executor": checked.executor, "workers": checked.workers}  # fmt: skip
+    base = base_config(name, settings)
+    check_parts(base)
+    with created_store(db) as store:
+        table = run_flakiness_experiment(store, base, repeats=repeats)
+    if as_json:
+        print(json.dumps(table, sort_keys=True))
+        return
+    for line in flakiness_lines(table):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
+@app.command("runs-needed")
+def runs_needed_cmd(
+    margin: float = typer.Option(0.05, "--margin", help="Wanted half-width of the interval."),
+    rate: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--rate", help="Expected failure rate (default: 0.5, the worst case)."
+    ),
+    confidence: float = typer.Option(0.95, "--confidence", help="Confidence level."),
+) -> None:
+    """Runs per bin to bound its failure rate to +-margin (Wilson interval)."""
+    from sitcov.analysis._flaky import runs_needed
+
+    n = runs_needed(margin, rate, confidence)
+    what = "any failure rate" if rate is None else f"a failure rate near {rate:g}"
+    console.print(
+        f"{n} runs per bin bound {what} to +-{margin:g} at {100 * confidence:g}% (Wilson)",
+        highlight=False,
+    )
+
+
 # --- embedded backend bench (owner: embedded world) ----------------------------------------
 
 
