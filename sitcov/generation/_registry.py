@@ -19,6 +19,7 @@ for _name, _path in {
     "tway": "sitcov.generation._tway:TWayGenerator",
     "failure-guided": "sitcov.generation._failure_guided:FailureGuidedGenerator",
     "surrogate": "sitcov.generation._surrogate:SurrogateGenerator",
+    "nsga2": "sitcov.generation._nsga2:NSGA2Generator",  # needs the search extra (pymoo)
 }.items():
     _plugins.register_builtin("generator", _name, _path)
 
