@@ -652,6 +652,61 @@ def runs_needed_cmd(
     )
 
 
+@experiment_app.command("race")
+def experiment_race_cmd(
+    db: Path = typer.Option(Path("race.db"), "--db", help="Database (created or resumed)."),
+    generators: str = typer.Option(
+        "random,sitcov,tway,failure-guided,surrogate,nsga2", "--generators",
+        help="Comma-separated contestants.",
+    ),  # fmt: skip
+    runs: int = typer.Option(300, "--runs", min=1, help="Runs per generator and seed."),
+    seeds: int = typer.Option(10, "--seeds", min=1, help="Seeds per generator."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Base seed (seed index s uses seed+s)."),
+    reference_runs: int = typer.Option(
+        3000, "--reference-runs", min=1, help="Random runs defining the failure regions."
+    ),
+    batch_size: int = typer.Option(30, "--batch-size", min=1, help="Runs between tells."),
+    workers: int = typer.Option(2, "--workers", min=1, help="Parallel campaign processes."),
+    av: str = typer.Option("reference", "--av", help="AV stack under test."),
+    backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    json_out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--json-out", help="Also write the full result as JSON to this file."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
+) -> None:
+    """Race the generators on the same budget and seeds: distinct failure regions found."""
+    import json
+
+    from rich.progress import Progress
+
+    from sitcov.campaign import load_config
+    from sitcov.campaign._console import created_store
+    from sitcov.campaign._race import race_configs, race_lines, run_race
+
+    checked = load_config(overrides={"physics": physics, "judge": judge})
+    settings = {"av": av, "backend": backend, "hyperspace": hyperspace or "t-junction",
+                "physics": checked.physics, "judge": checked.judge, "executor": "serial",
+                "workers": 1}  # fmt: skip
+    names = [g.strip() for g in generators.split(",") if g.strip()]
+    configs = race_configs(names, runs=runs, seeds=seeds, seed=seed, batch_size=batch_size,
+                           reference_runs=reference_runs, settings=settings)  # fmt: skip
+    bar = Progress(console=err_console, transient=True, disable=as_json)
+    with created_store(db) as store, bar:
+        task = bar.add_task("race", total=sum(c.runs for c in configs))
+        result = run_race(store, configs, workers=workers,
+                          progress=lambda _n, k: bar.advance(task, k))  # fmt: skip
+    if json_out is not None:
+        json_out.write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
+    if as_json:
+        print(json.dumps(result, sort_keys=True))
+        return
+    for line in race_lines(result):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
 # --- embedded backend bench (owner: embedded world) ----------------------------------------
 
 
