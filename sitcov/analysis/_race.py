@@ -4,7 +4,9 @@
 situations, its own seed) is partitioned by a CART tree over bins (``_tree``, Gini, depth
 ``max_depth``, at least ``min_leaf`` runs per leaf, no merging of leaves; elements encoded
 as in ``sitcov explain``'s rules). Every leaf is a box of bins; a leaf whose reference
-failure rate is at least 50 % is a *failure region*. A campaign *finds* a region at the
+failure rate is at least 50 % *and* whose Wilson 95 % lower bound exceeds the reference
+campaign's overall failure rate (so that a small leaf failing by chance is not a region)
+is a *failure region*. A campaign *finds* a region at the
 first of its runs that fails inside that box. Regions are disjoint, so "distinct failure
 regions found" counts boxes with at least one failure, however many failures each holds.
 
@@ -26,6 +28,7 @@ import numpy as np
 
 from sitcov.analysis._explain import encode_runs
 from sitcov.analysis._regions import _conditions, _features, _matches, _orders
+from sitcov.analysis._stats import wilson_interval
 from sitcov.analysis._tree import grow
 from sitcov.hyperspace import Hyperspace
 
@@ -62,9 +65,11 @@ def reference_regions(
     leaves = grow(_features(codes, orders), y, max_depth=max_depth, min_leaf=leaf,
                   threshold=REGION_RATE, merge=False)  # fmt: skip
     regions = []
+    overall = float(y.mean())
     for rows, lo, hi in leaves:
         rate = float(y[rows].mean())
-        if rate < REGION_RATE:
+        low = wilson_interval(int(y[rows].sum()), len(rows))
+        if rate < REGION_RATE or low is None or low[0] <= overall:
             continue
         conds = _conditions(hs, orders, lo, hi)
         regions.append({

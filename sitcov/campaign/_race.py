@@ -141,6 +141,8 @@ def race_result(store: Any, checkpoints: Sequence[int] = (50, 100, 200, 300)) ->
         campaigns.append(metrics)
     for metrics in per_gen.values():
         metrics.sort(key=lambda m: m["seed_index"])
+    rank = {name: i for i, name in enumerate(RACE_GENERATORS)}
+    per_gen = dict(sorted(per_gen.items(), key=lambda kv: (rank.get(kv[0], len(rank)), kv[0])))
     reference = [r for r in store.iter_runs(REFERENCE) if r.status != "pending"]
     return {
         "reference": {
