@@ -656,7 +656,8 @@ def runs_needed_cmd(
 def experiment_race_cmd(
     db: Path = typer.Option(Path("race.db"), "--db", help="Database (created or resumed)."),
     generators: str = typer.Option(
-        "random,sitcov,tway,failure-guided,surrogate,nsga2", "--generators",
+        "random,sitcov,tway,failure-guided,surrogate,nsga2",
+        "--generators",
         help="Comma-separated contestants.",
     ),  # fmt: skip
     runs: int = typer.Option(300, "--runs", min=1, help="Runs per generator and seed."),
