@@ -80,3 +80,13 @@ def test_flakiness_groups_by_bin_and_ranks_situations():
     assert table["elements"]["friction"]["0.4"]["situations"] == 0
     assert [f["position"] for f in table["flakiest"]] == [5, 6, 7]
     assert table["repeats"] == 4
+
+
+def test_explain_md_table_matches_the_calculator():
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[2] / "docs" / "explain.md").read_text()
+    for margin, row in ((0.1, "| ±0.10 |"), (0.05, "| ±0.05 |"), (0.02, "| ±0.02 |")):
+        line = next(x for x in text.splitlines() if x.startswith(row))
+        cells = [int(c) for c in line.strip("|").split("|")[1:]]
+        assert cells == [runs_needed(margin), runs_needed(margin, 0.1), runs_needed(margin, 0.02)]
