@@ -676,6 +676,9 @@ def experiment_race_cmd(
     json_out: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--json-out", help="Also write the full result as JSON to this file."
     ),
+    plot: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--plot", help="Write a PNG of regions found vs runs per generator."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
 ) -> None:
     """Race the generators on the same budget and seeds: distinct failure regions found."""
@@ -685,7 +688,7 @@ def experiment_race_cmd(
 
     from sitcov.campaign import load_config
     from sitcov.campaign._console import created_store
-    from sitcov.campaign._race import race_configs, race_lines, run_race
+    from sitcov.campaign._race import race_configs, race_figure, race_lines, run_race
 
     checked = load_config(overrides={"physics": physics, "judge": judge})
     settings = {"av": av, "backend": backend, "hyperspace": hyperspace or "t-junction",
@@ -701,6 +704,8 @@ def experiment_race_cmd(
                           progress=lambda _n, k: bar.advance(task, k))  # fmt: skip
     if json_out is not None:
         json_out.write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
+    if plot is not None:
+        race_figure(result, plot)
     if as_json:
         print(json.dumps(result, sort_keys=True))
         return

@@ -6,7 +6,7 @@ import pytest
 from campaign_fakes import BACKEND, STACK
 
 from sitcov.campaign import open_store
-from sitcov.campaign._race import race_configs, race_lines, race_result, run_race
+from sitcov.campaign._race import race_configs, race_figure, race_lines, race_result, run_race
 from sitcov.errors import ConfigError
 
 SETTINGS = {"backend": BACKEND, "av": STACK, "executor": "serial", "workers": 1}
@@ -38,6 +38,8 @@ def test_race_runs_every_generator_on_the_same_seeds(tmp_path):
     assert any(line.startswith("| surrogate | 2 |") for line in race_lines(result))
     # running again plans nothing new and scores the same
     assert run_race(store, configs()) == result == race_result(store)
+    png = race_figure(result, tmp_path / "race.png")
+    assert png.startswith(b"\x89PNG") and (tmp_path / "race.png").exists()
 
 
 def test_bad_race_input_is_a_config_error(tmp_path):
