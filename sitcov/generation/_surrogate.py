@@ -13,7 +13,10 @@ kept small and deterministic:
   posterior, score ``candidates`` uniform situations plus the one that maximises the drawn
   main effects element by element, and return the highest drawn failure logit. Drawing
   rather than taking the mean trades exploitation (high predicted failure) against
-  uncertainty (rarely tried bins have wide posteriors);
+  uncertainty (rarely tried bins have wide posteriors). With ``novelty`` > 0 the drawn
+  logit of a candidate is lowered by ``novelty * log(1 + f)``, ``f`` = failures already
+  observed in the candidate's cell of the modelled elements (e.g. its intsit x friction
+  cell), which steers the search from failures already found to new ones;
 - **coverage floor**: ask number ``i`` is a coverage ask when ``floor(share * (i + 1)) >
   floor(share * i)``, i.e. exactly a ``floor`` share of the asks; it takes, per element,
   a least-generated bin (seeded tie-break). Every element's least-used bin therefore has at
@@ -48,6 +51,7 @@ class SurrogateGenerator(IndexedGenerator):
         candidates: uniform candidate situations scored per model ask.
         pairs: elements whose pairwise interactions are modelled (0 = main effects only).
         warmup: judged outcomes needed before the model is used.
+        novelty: weight of the penalty on cells that already failed (0 = pure Thompson).
     """
 
     name = "surrogate"
@@ -61,24 +65,27 @@ class SurrogateGenerator(IndexedGenerator):
         candidates: int = 64,
         pairs: int = 2,
         warmup: int = 20,
+        novelty: float = 1.0,
     ) -> None:
         checks = {
             "floor": (0.0 <= float(floor) <= 1.0, "0..1"),
             "candidates": (int(candidates) >= 1, ">= 1"),
             "pairs": (int(pairs) >= 0, ">= 0"),
             "warmup": (int(warmup) >= 0, ">= 0"),
+            "novelty": (float(novelty) >= 0, ">= 0"),
         }
-        values = {"floor": floor, "candidates": candidates, "pairs": pairs, "warmup": warmup}
+        values = {"floor": floor, "candidates": candidates, "pairs": pairs, "warmup": warmup,
+                  "novelty": novelty}  # fmt: skip
         for key, (ok, expected) in checks.items():
             if not ok:
                 field = f"generator 'surrogate' option {key}"
                 raise ConfigError(field=field, value=values[key], expected=expected)
         super().__init__(
             hyperspace, floor=float(floor), candidates=int(candidates), pairs=int(pairs),
-            warmup=int(warmup),
+            warmup=int(warmup), novelty=float(novelty),
         )  # fmt: skip
         self.floor, self.n_candidates = float(floor), int(candidates)
-        self.n_pairs, self.warmup = int(pairs), int(warmup)
+        self.n_pairs, self.warmup, self.novelty = int(pairs), int(warmup), float(novelty)
         self.counts: list[list[int]] = [[0] * n for n in self.sizes]
         self.obs: list[list[int]] = []  # bin indices + [1 if fail else 0]
         self.offsets = np.concatenate([[0], np.cumsum(self.sizes)[:-1]]).astype(int)
@@ -120,7 +127,13 @@ class SurrogateGenerator(IndexedGenerator):
                 np.r_[1e-6, np.full(x.shape[1] - 1, PRIOR_PRECISION)]
             )
             chol = np.linalg.cholesky(np.linalg.inv(hess))
-        return {"coef": fit.coef, "chol": chol, "pairs": pair_list}
+        cells = sorted(top) if top else []
+        fails: dict[tuple[int, ...], int] = {}
+        for row in data[data[:, -1] == 1]:
+            key = tuple(int(row[e]) for e in cells)
+            fails[key] = fails.get(key, 0) + 1
+        return {"coef": fit.coef, "chol": chol, "pairs": pair_list, "cells": cells,
+                "cell_fails": fails}  # fmt: skip
 
     def _model(self) -> dict[str, Any]:
         if self._fit is None or self._fit[0] != len(self.obs):
@@ -167,6 +180,11 @@ class SurrogateGenerator(IndexedGenerator):
         if not allowed:
             return None
         scores = self._design(cands[allowed], model["pairs"]) @ coef
+        if self.novelty > 0 and model["cells"]:
+            seen = model["cell_fails"]
+            found = [seen.get(tuple(row[e] for e in model["cells"]), 0) for row in
+                     cands[allowed].tolist()]  # fmt: skip
+            scores = scores - self.novelty * np.log1p(np.asarray(found, dtype=float))
         return cands[allowed[int(np.argmax(scores))]].tolist()
 
     def ask(self, rng: np.random.Generator) -> Situation:

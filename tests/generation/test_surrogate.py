@@ -82,7 +82,8 @@ def test_finds_the_planted_weak_region_faster_than_random():
 
 
 @pytest.mark.parametrize(
-    ("option", "value"), [("floor", 1.5), ("candidates", 0), ("pairs", -1), ("warmup", -2)]
+    ("option", "value"),
+    [("floor", 1.5), ("candidates", 0), ("pairs", -1), ("warmup", -2), ("novelty", -1)],
 )
 def test_bad_options_name_the_option(default_hs, option, value):
     with pytest.raises(ConfigError, match=f"option {option}"):
