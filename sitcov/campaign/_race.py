@@ -200,9 +200,12 @@ def race_lines(result: Mapping[str, Any]) -> list[str]:
         lines.append(f"  R{i}: {r['text']} ({r['failures']}/{r['support']} fail)")
     lines += race_markdown(result)
     for gen, row in result["table"].items():
-        diff = row["regions"].get("vs_random")
-        if diff:
-            lines.append(f"regions found, {gen} - random (paired by seed): {_fmt(diff, 2)}")
+        end, early = row["regions"].get("vs_random"), row["regions_100"].get("vs_random")
+        if end:
+            lines.append(
+                f"{gen} - random, paired by seed: regions found {_fmt(end, 2)}, "
+                f"at 100 runs {_fmt(early, 2)}"
+            )
     return lines
 
 
