@@ -619,6 +619,133 @@ def experiment_agreement_cmd(
     )
 
 
+# --- flakiness, runs needed, generator race (owner: race) -----------------------------------
+
+
+@experiment_app.command("flakiness")
+def experiment_flakiness_cmd(
+    db: Path = typer.Option(Path("flakiness.db"), "--db", help="Database (created or resumed)."),
+    name: str = typer.Option("flakiness", "--name", help="Campaign group (NAME/base, NAME/rK)."),
+    situations: int = typer.Option(200, "--situations", min=1, help="Distinct situations."),
+    repeats: int = typer.Option(5, "--repeats", min=2, help="Seeds per situation (K >= 2)."),
+    generator: str = typer.Option("sitcov", "--generator", help="Generator of the situations."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Campaign seed."),
+    av: str = typer.Option("reference", "--av", help="AV stack under test."),
+    backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
+    workers: Optional[int] = typer.Option(  # noqa: UP045
+        None, "--workers", min=1, help="Parallel workers (default: CPU count)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the flakiness table as JSON."),
+) -> None:
+    """Re-run the same situations with K seeds: how often does the verdict flip?"""
+    import json
+
+    from sitcov.campaign import load_config
+    from sitcov.campaign._build import check_parts
+    from sitcov.campaign._console import created_store
+    from sitcov.campaign._flaky import base_config, flakiness_lines, run_flakiness_experiment
+
+    checked = load_config(overrides={"physics": physics, "judge": judge, "executor": executor,
+                                     "workers": workers})  # fmt: skip
+    settings = {"generator": generator, "runs": situations, "seed": seed, "av": av,
+                "backend": backend, "hyperspace": hyperspace or "t-junction",
+                "physics": checked.physics, "judge": checked.judge,
+                "executor": checked.executor, "workers": checked.workers}  # fmt: skip
+    base = base_config(name, settings)
+    check_parts(base)
+    with created_store(db) as store:
+        table = run_flakiness_experiment(store, base, repeats=repeats)
+    if as_json:
+        print(json.dumps(table, sort_keys=True))
+        return
+    for line in flakiness_lines(table):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
+@app.command("runs-needed")
+def runs_needed_cmd(
+    margin: float = typer.Option(0.05, "--margin", help="Wanted half-width of the interval."),
+    rate: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--rate", help="Expected failure rate (default: 0.5, the worst case)."
+    ),
+    confidence: float = typer.Option(0.95, "--confidence", help="Confidence level."),
+) -> None:
+    """Runs per bin to bound its failure rate to +-margin (Wilson interval)."""
+    from sitcov.analysis._flaky import runs_needed
+
+    n = runs_needed(margin, rate, confidence)
+    what = "any failure rate" if rate is None else f"a failure rate near {rate:g}"
+    console.print(
+        f"{n} runs per bin bound {what} to +-{margin:g} at {100 * confidence:g}% (Wilson)",
+        highlight=False,
+    )
+
+
+@experiment_app.command("race")
+def experiment_race_cmd(
+    db: Path = typer.Option(Path("race.db"), "--db", help="Database (created or resumed)."),
+    generators: str = typer.Option(
+        "random,sitcov,tway,failure-guided,surrogate,nsga2",
+        "--generators",
+        help="Comma-separated contestants.",
+    ),  # fmt: skip
+    runs: int = typer.Option(300, "--runs", min=1, help="Runs per generator and seed."),
+    seeds: int = typer.Option(10, "--seeds", min=1, help="Seeds per generator."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Base seed (seed index s uses seed+s)."),
+    reference_runs: int = typer.Option(
+        3000, "--reference-runs", min=1, help="Random runs defining the failure regions."
+    ),
+    batch_size: int = typer.Option(30, "--batch-size", min=1, help="Runs between tells."),
+    workers: int = typer.Option(2, "--workers", min=1, help="Parallel campaign processes."),
+    av: str = typer.Option("reference", "--av", help="AV stack under test."),
+    backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
+    physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
+    judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    json_out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--json-out", help="Also write the full result as JSON to this file."
+    ),
+    plot: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--plot", help="Write a PNG of regions found vs runs per generator."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print the result as JSON."),
+) -> None:
+    """Race the generators on the same budget and seeds: distinct failure regions found."""
+    import json
+
+    from rich.progress import Progress
+
+    from sitcov.campaign import load_config
+    from sitcov.campaign._console import created_store
+    from sitcov.campaign._race import race_configs, race_figure, race_lines, run_race
+
+    checked = load_config(overrides={"physics": physics, "judge": judge})
+    settings = {"av": av, "backend": backend, "hyperspace": hyperspace or "t-junction",
+                "physics": checked.physics, "judge": checked.judge, "executor": "serial",
+                "workers": 1}  # fmt: skip
+    names = [g.strip() for g in generators.split(",") if g.strip()]
+    configs = race_configs(names, runs=runs, seeds=seeds, seed=seed, batch_size=batch_size,
+                           reference_runs=reference_runs, settings=settings)  # fmt: skip
+    bar = Progress(console=err_console, transient=True, disable=as_json)
+    with created_store(db) as store, bar:
+        task = bar.add_task("race", total=sum(c.runs for c in configs))
+        result = run_race(store, configs, workers=workers,
+                          progress=lambda _n, k: bar.advance(task, k))  # fmt: skip
+    if json_out is not None:
+        json_out.write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
+    if plot is not None:
+        race_figure(result, plot)
+    if as_json:
+        print(json.dumps(result, sort_keys=True))
+        return
+    for line in race_lines(result):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
 # --- embedded backend bench (owner: embedded world) ----------------------------------------
 
 

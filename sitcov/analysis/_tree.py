@@ -53,10 +53,12 @@ def grow(
     max_depth: int,
     min_leaf: int,
     threshold: float,
+    merge: bool = True,
 ) -> list[Leaf]:
     """The leaves of a depth-``max_depth`` tree; a subtree whose leaves all fall on the same
     side of ``threshold`` (failure share) is returned as one leaf, since its splits would
-    only make the rules longer without changing any verdict."""
+    only make the rules longer without changing any verdict (``merge=False`` keeps every
+    leaf, e.g. to partition the hyperspace into regions)."""
     n_features = x.shape[1]
 
     def node(rows: np.ndarray, lo: np.ndarray, hi: np.ndarray, depth: int) -> list[Leaf]:
@@ -69,7 +71,7 @@ def grow(
         hi_left[f], lo_right[f] = t, t
         leaves = node(rows[left], lo, hi_left, depth + 1)
         leaves += node(rows[~left], lo_right, hi, depth + 1)
-        if len({bool(y[r].mean() >= threshold) for r, _, _ in leaves}) == 1:
+        if merge and len({bool(y[r].mean() >= threshold) for r, _, _ in leaves}) == 1:
             return [(rows, lo, hi)]
         return leaves
 

@@ -13,6 +13,7 @@ from sitcov.generation._registry import (
 from sitcov.generation._run import generate, load_state, parse_options, save_state
 from sitcov.generation._sitcov import SitCovGenerator, sitcov_probabilities
 from sitcov.generation._sitcov_min import SitCovMinGenerator
+from sitcov.generation._surrogate import SurrogateGenerator
 from sitcov.generation._tway import TWayGenerator
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "RandomGenerator",
     "SitCovGenerator",
     "SitCovMinGenerator",
+    "SurrogateGenerator",
     "TWayGenerator",
     "generate",
     "generator_class",

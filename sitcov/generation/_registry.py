@@ -10,7 +10,7 @@ from sitcov.generation._common import check_options
 from sitcov.hyperspace import Hyperspace, load_hyperspace
 
 #: Built-in generator names, in the order the docs and benchmarks list them.
-GENERATOR_NAMES = ("random", "sitcov", "sitcov-min", "tway", "failure-guided")
+GENERATOR_NAMES = ("random", "sitcov", "sitcov-min", "tway", "failure-guided", "surrogate")
 
 for _name, _path in {
     "random": "sitcov.generation._random:RandomGenerator",
@@ -18,6 +18,8 @@ for _name, _path in {
     "sitcov-min": "sitcov.generation._sitcov_min:SitCovMinGenerator",
     "tway": "sitcov.generation._tway:TWayGenerator",
     "failure-guided": "sitcov.generation._failure_guided:FailureGuidedGenerator",
+    "surrogate": "sitcov.generation._surrogate:SurrogateGenerator",
+    "nsga2": "sitcov.generation._nsga2:NSGA2Generator",  # needs the search extra (pymoo)
 }.items():
     _plugins.register_builtin("generator", _name, _path)
 
@@ -33,8 +35,8 @@ def make_generator(
     """A fresh generator.
 
     Args:
-        name: ``random``, ``sitcov``, ``sitcov-min``, ``tway``, ``failure-guided``, an entry
-            point name, or ``module:Class``.
+        name: ``random``, ``sitcov``, ``sitcov-min``, ``tway``, ``failure-guided``,
+            ``surrogate``, an entry point name, or ``module:Class``.
         hyperspace: a Hyperspace, or what :func:`load_hyperspace` accepts (None = default).
         **options: generator options (e.g. ``t=3`` for tway); unknown ones are a ConfigError.
     """
