@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 from campaign_fakes import BACKEND, STACK
+from needs import need_module
 
 from sitcov.campaign import open_store
 from sitcov.campaign._race import race_configs, race_figure, race_lines, race_result, run_race
@@ -18,7 +19,7 @@ def configs(generators=("random", "surrogate", "nsga2"), runs=40):
 
 
 def test_race_runs_every_generator_on_the_same_seeds(tmp_path):
-    pytest.importorskip("pymoo")
+    need_module("pymoo", "search")
     store = open_store(tmp_path / "r.db")
     result = run_race(store, configs())
     table = result["table"]

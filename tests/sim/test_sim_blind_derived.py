@@ -23,8 +23,6 @@ MAPS = [
     m if m in SMALL else pytest.param(m, marks=pytest.mark.slow)
     for m in ("t-junction", "crossroads", "skewed-cross", "roundabout", "merge")
 ]
-#: Kinds the embedded backend can put in a situation's ``intsit``.
-BACKEND_KINDS = ("car", "cyclist", "pedestrian")
 #: Derived conflicts the blind ego still misses (open in issue 12): on the roundabout a
 #: cyclist riding the ring's outer edge past the ego's entry arrives in time (PET 0) but
 #: passes 0.86 m clear of the entering ego's box; on the skewed cross three pedestrians
@@ -57,11 +55,11 @@ def _situations(name: str, kind: str) -> list[tuple[str, dict]]:
 @pytest.mark.parametrize("kind", ["car", "cyclist", "pedestrian"])
 @pytest.mark.parametrize("name", MAPS)
 def test_blind_ego_collides_in_every_derived_conflict(name: str, kind: str) -> None:
-    if kind not in BACKEND_KINDS:
-        pytest.skip(f"the embedded backend runs no {kind} yet (needs the N-actor world)")
     situations = _situations(name, kind)
-    if not situations:
-        pytest.skip(f"{name} has no {kind} conflicts")
+    if name == "merge" and kind == "pedestrian":
+        assert situations == []  # the merge has no crosswalks
+        return
+    assert situations, f"{name} lists no {kind} conflicts"
     backend = EmbeddedBackend(map=name)
     missed = []
     for label, value in situations:
