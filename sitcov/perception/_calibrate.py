@@ -398,9 +398,9 @@ def choose_noise(
     The frame-level fit (:func:`fit_pem`) matches how often a frame passes θ = 0.5, but a
     run's verdict hangs on the first frame that passes, and the frames a camera run
     records are those before its AEB fired: cars the detector finds early leave no late
-    frames, so late frames are fitted on the hard cars and the PEM, which forgets that
-    selection, fires too seldom (it failed more runs than the camera, 41 % vs 36 %, on
-    the 600 calibration runs of the previous fit). Each (``noise_tau``, ``bias`` + shift)
+    frames, so late frames are fitted on the hard cars and a PEM, which forgets that
+    selection, can fire too seldom (the previous fit failed 41 % of its 600 calibration
+    runs where the camera failed 36 %). Each (``noise_tau``, ``bias`` + shift)
     candidate drives the reference stack through the runs' situations under a run seed
     of its own (:func:`cross_seed`, as the agreement experiment's ``pem-camera`` pair
     does); the candidate whose verdicts agree most with the camera's is kept. Ties go to
