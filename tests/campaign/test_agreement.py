@@ -256,7 +256,7 @@ def test_command_end_to_end_with_camera_mode(tmp_path: Path, ssd_model, capsys) 
     assert all(r["cpu_s"] > 0.1 for r in camera)  # rendering + detection, not a PEM run
     summary = json.loads((tmp_path / "rows.summary.json").read_text())
     assert set(summary["pairs"]) == set(ag.PAIRS)
-    assert summary["runs"] == {"camera": 6, "pem": 6}
+    assert summary["runs"] == {"camera": 6, "pem": 6, "camera_reused": 0}
     recorded = camera_runs(3, seed=2, model=ssd_model)
     camera_a = [r for r in camera if r["stream"] == "A"]
     assert [r.failed for r in recorded] == [r["failed"] for r in camera_a]
