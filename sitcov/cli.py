@@ -567,6 +567,9 @@ def experiment_agreement_cmd(
     allow_calibration_seeds: bool = typer.Option(
         False, "--allow-calibration-seeds", help="Development only: evaluate on seeds the PEM saw."
     ),
+    camera_rows: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--camera-rows", help="Reuse the camera-mode rows of an earlier rows file."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ) -> None:
     """PEM vs camera, camera vs camera, PEM vs PEM: verdict agreement on held-out seeds."""
@@ -597,11 +600,12 @@ def experiment_agreement_cmd(
             seeds=seed_list, situations=situations, out=out, pairs=pair_list,
             pem_file=None if pem is None else str(pem), model=None if model is None else str(model),
             workers=workers, allow_calibration_seeds=allow_calibration_seeds,
-            on_plan=plan, progress=lambda _row: bar.advance(task),
+            camera_rows=camera_rows, on_plan=plan, progress=lambda _row: bar.advance(task),
         )  # fmt: skip
     summary["command"] = ag.command_line(
         seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
         pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
+        camera_rows=None if camera_rows is None else str(camera_rows),
     )  # fmt: skip
     summary_path = summary_out or out.with_name(out.stem + ".summary.json")
     summary_path.write_text(json.dumps(summary, indent=2) + "\n")
@@ -901,9 +905,9 @@ def calibrate_cmd(
             f"(score >= 0.5: {v['rate_0.5']:.0%})",
             highlight=False,
         )
-    for tau, row in summary.get("camera_runs", {}).get("pem_agreement_by_noise_tau", {}).items():
+    for cand, row in summary.get("camera_runs", {}).get("pem_agreement_by_noise", {}).items():
         err_console.print(
-            f"noise_tau {tau} s: PEM agrees with camera mode on {row['agreement']:.1%} of the "
+            f"{cand}: PEM agrees with camera mode on {row['agreement']:.1%} of the "
             f"runs (PEM failures {row['failure_rate']:.1%})",
             highlight=False,
         )

@@ -510,6 +510,7 @@ def run_agreement(
     model: str | None = None,
     workers: int = 1,
     allow_calibration_seeds: bool = False,
+    camera_rows: Path | None = None,
     run_job: Callable[[Job], dict[str, Any]] | None = None,
     on_plan: Callable[[list[Job]], None] | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
@@ -519,7 +520,8 @@ def run_agreement(
     Checks everything before the first run: the pairs, the rows file's suffix, the PEM
     file, that no evaluation seed calibrated it, and (when a camera side is needed) the
     detector model. ``on_plan`` then gets the jobs (to print the plan), ``progress`` each
-    row as it finishes.
+    row as it finishes. ``camera_rows``: a rows file of an earlier run whose camera-mode
+    rows are taken instead of simulated again (see :func:`reusable_camera_rows`).
 
     Raises:
         ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
@@ -536,6 +538,8 @@ def run_agreement(
     calibrated = calibration_seeds(pem_file)
     check_seeds(seeds, calibrated, allow=allow_calibration_seeds, pem_file=pem_name)
     jobs = plan_jobs(seeds, situations, pairs)
+    reused = reusable_camera_rows(camera_rows, jobs) if camera_rows is not None else {}
+    jobs = [j for j in jobs if _job_key(j) not in reused]
     if run_job is None and any(j.perception == "camera" for j in jobs):
         from sitcov.perception._models import model_path
 
@@ -544,9 +548,11 @@ def run_agreement(
     if on_plan is not None:
         on_plan(jobs)
     start = time.perf_counter()
-    rows: list[dict[str, Any]] = []
+    rows: list[dict[str, Any]] = list(reused.values())
     writer = RowsWriter(out)
     try:
+        for row in rows:
+            writer.write(row)
         for row in iter_rows(jobs, settings, workers=workers, run_job=run_job):
             rows.append(row)
             writer.write(row)
@@ -573,11 +579,44 @@ def run_agreement(
         runs={
             "camera": sum(j.perception == "camera" for j in jobs),
             "pem": sum(j.perception == "pem" for j in jobs),
+            "camera_reused": len(reused),
         },  # fmt: skip
+        camera_rows_from=None if camera_rows is None else str(camera_rows),
         wall_s=round(wall, 1),
         rows_file=str(out),
     )
     return summary
+
+
+def _job_key(job: Job) -> tuple[int, int, str, str]:
+    return (job.seed, job.index, job.perception, job.stream)
+
+
+def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[str, Any]]:
+    """The camera-mode rows of an earlier rows file that ``jobs`` would simulate again.
+
+    A camera-mode run does not involve the PEM: after a recalibration its row is the same
+    as before (with the same renderer, detector, backend and stack code, which the caller
+    vouches for). A row is reused when its seed, index, stream and run seed match a
+    planned camera job and it was judged (pass or fail).
+
+    Raises:
+        ConfigError: the file cannot be read.
+    """
+    try:
+        old = read_rows(path)
+    except (OSError, KeyError, ValueError) as exc:
+        raise ConfigError(f"{path}: cannot read camera rows: {exc}") from None
+    wanted = {_job_key(j): j for j in jobs if j.perception == "camera"}
+    out: dict[tuple, dict[str, Any]] = {}
+    for row in old:
+        key = (row["seed"], row["index"], row["perception"], row["stream"])
+        job = wanted.get(key)
+        if job is None or row["status"] not in _JUDGED:
+            continue
+        if row["run_seed"] == stream_seed(job.stream, job.seed, job.index):
+            out[key] = row
+    return out
 
 
 #: The construction, as stored in the summary JSON (and quoted by the docs).
@@ -600,6 +639,7 @@ def command_line(
     workers: int,
     pem: str | None,
     allow: bool,
+    camera_rows: str | None = None,
 ) -> str:
     """The ``sitcov experiment agreement`` command that reproduces a summary."""
     import shlex
@@ -612,6 +652,8 @@ def command_line(
         parts += ["--pem", pem]
     if allow:
         parts.append("--allow-calibration-seeds")
+    if camera_rows is not None:
+        parts += ["--camera-rows", camera_rows]
     return " ".join(p if i == 0 else shlex.quote(p) for i, p in enumerate(parts))
 
 

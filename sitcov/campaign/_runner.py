@@ -155,6 +155,42 @@ def no_effect_elements(hyperspace: Any, backend: Any) -> tuple[str, ...]:
     return tuple(e for e in hyperspace.element_names if e not in effects)
 
 
+#: Tag holding the score threshold fault F1 resolved to when the campaign was created.
+F1_THRESHOLD_TAG = "f1_threshold"
+
+
+def fault_tags(config: CampaignConfig) -> dict[str, Any]:
+    """Tags that pin what a fault resolved to: F1's threshold is computed from the PEM, so a
+    recalibration moves it; the value the campaign's runs used is stored with it."""
+    if config.fault != "f1":
+        return {}
+    stack = build_stack(config)
+    try:
+        threshold = getattr(stack, "params", {}).get("threshold")
+    finally:
+        stack.close()
+    return {} if threshold is None else {F1_THRESHOLD_TAG: round(float(threshold), 6)}
+
+
+def check_fault_tags(name: str, stored: dict[str, Any], config: CampaignConfig) -> None:
+    """Refuse to resume an F1 campaign whose threshold now resolves to another value.
+
+    Raises:
+        ConfigError: one line with both thresholds.
+    """
+    if F1_THRESHOLD_TAG not in stored:
+        return  # stored before thresholds were pinned, or not F1
+    now = fault_tags(config).get(F1_THRESHOLD_TAG)
+    if now is not None and now != stored[F1_THRESHOLD_TAG]:
+        raise ConfigError(
+            f"campaign {name!r} ran fault f1 with threshold {stored[F1_THRESHOLD_TAG]} (resolved "
+            f"from the PEM then); it now resolves to {now} (recalibrated PEM), and one campaign "
+            "must not mix two thresholds: use another --name",
+            field="fault",
+            value="f1",
+        )
+
+
 def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tuple[Any, bool, int]:
     """Create the campaign or check it against ``config``; return (generator, resumed, replays)."""
     hs_data = json.loads(json.dumps(hyperspace.to_dict()))  # as the store returns it
@@ -175,7 +211,7 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
                 created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
                 generator=config.generator,
                 generator_state=generator.state(),
-                tags=dict(config.tags),
+                tags={**config.tags, **fault_tags(config)},
                 world_version=WORLD_MODEL_VERSION,
             ),
             replays,
@@ -193,6 +229,7 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
             value=config.name,
         )
     _check_runs(store, info, config)
+    check_fault_tags(config.name, dict(info.tags or {}), config)
     generator = restore_generator(config, hyperspace, dict(info.generator_state or {}))
     replays = store.count_runs(config.name) and sum(
         1 for r in store.iter_runs(config.name) if r.replay_of

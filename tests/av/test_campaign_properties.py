@@ -9,8 +9,9 @@ Every claim is a statistical test with both error rates bounded:
 - it PASSES with probability < 1e-3 when the claim is false (the decision rule is an exact
   binomial test at ALPHA = 1e-3, computed below with scipy);
 - it FAILS with probability < 1e-3 when the claim holds with the effect measured on the
-  shipped PEM (N = 400-600 situations of seeds 2024 and 7, 23 Nov 2026), the run counts
-  being chosen for that (power computed with scipy's binomial distribution, in comments).
+  shipped PEM (the one recalibrated with ``--runs 300``; N = 400-600 situations of seed 7,
+  not the test's seed, 23 Nov 2026), the run counts being chosen for that (power computed
+  with scipy's binomial distribution, in comments).
 
 "Probability" is over the campaign seed: the situations of one seed are independent draws
 of the ``random`` generator, and a fault or fog run is paired with the no-fault / clear run
@@ -30,7 +31,7 @@ from sitcov.sim.embedded import EmbeddedBackend
 
 ALPHA = 1e-3
 N = 300  # situations for the rate band and the faults
-N_FOG = 400  # situations for the paired fog comparison
+N_FOG = 800  # situations for the paired fog comparison
 SEED = 2024
 
 
@@ -82,11 +83,11 @@ def test_fault_free_rate_is_moderate_and_every_fault_raises_it(runs):
     """Claims: the no-fault failure rate is in [0.05, 0.60]; f1, f2 and f3 each raise it.
 
     Band: with N = 300 the count must lie in [29, 153]; a rate <= 0.05 or >= 0.60 passes
-    with probability < 1e-3 (rate_band). Measured rate 0.375 (N = 400): it fails with
-    probability 7.6e-7.
-    Faults (sign test, false pass < 1e-3): measured on 400 situations, discordant pairs
-    b/c = 234/1 (f1), 99/4 (f2), 56/2 (f3); with N = 300 the test fails with probability
-    2e-15, 3e-12 and 9e-6.
+    with probability < 1e-3 (rate_band). Measured rate 0.3625 (N = 400, seed 7): it fails
+    with probability 7e-8.
+    Faults (sign test, false pass < 1e-3): measured on 400 situations of seed 7, discordant
+    pairs b/c = 112/2 (f1), 60/2 (f2), 57/2 (f3); with N = 300 the test fails with
+    probability 2e-18, 2e-6 and 6e-6.
     """
     situations, seeds, backend = runs
     situations, seeds = situations[:N], seeds[:N]
@@ -105,9 +106,11 @@ def test_dense_fog_fails_more_often_than_clear_air(runs):
     failure rate over clear air (fog_density 0), situation by situation.
 
     Sign test at ALPHA: false pass < 1e-3. Measured on 600 situations of seed 7: discordant
-    pairs b/c = 80/8 (14.7 % of the pairs discordant); with N_FOG = 400 the test then fails
-    with probability 4.8e-5. (Fog that starts 60-100 m away barely matters where the AEB
-    decides: with fog_distance left as drawn the discordant pairs were only 23/6.)
+    pairs b/c = 71/20 (15.2 % of the pairs discordant; the PEM before the last
+    recalibration gave 80/8); with N_FOG = 800 the test then fails with probability 5.0e-4
+    (8.2e-3 with 600, 9.1e-2 with the former 400). (Fog that starts 60-100 m away barely
+    matters where the AEB decides: with fog_distance left as drawn the discordant pairs
+    were only 23/6, with the previous PEM.)
     """
     situations, seeds, backend = runs
     situations, seeds = situations[:N_FOG], seeds[:N_FOG]

@@ -256,8 +256,41 @@ def test_command_end_to_end_with_camera_mode(tmp_path: Path, ssd_model, capsys) 
     assert all(r["cpu_s"] > 0.1 for r in camera)  # rendering + detection, not a PEM run
     summary = json.loads((tmp_path / "rows.summary.json").read_text())
     assert set(summary["pairs"]) == set(ag.PAIRS)
-    assert summary["runs"] == {"camera": 6, "pem": 6}
+    assert summary["runs"] == {"camera": 6, "pem": 6, "camera_reused": 0}
     recorded = camera_runs(3, seed=2, model=ssd_model)
     camera_a = [r for r in camera if r["stream"] == "A"]
     assert [r.failed for r in recorded] == [r["failed"] for r in camera_a]
     assert [r.seed for r in recorded] == [r["run_seed"] for r in camera_a]
+
+
+def test_camera_rows_of_an_earlier_file_are_reused_not_rerun(tmp_path: Path) -> None:
+    """A recalibrated PEM re-runs only the PEM sides; every camera row comes from the file."""
+    first = ag.run_agreement(seeds=[2, 4], situations=30, out=tmp_path / "a.csv", run_job=fake_run)
+    old = ag.read_rows(tmp_path / "a.csv")
+    # one camera row with a run seed that is not its stream's: it must be simulated again
+    for row in old:
+        if (row["perception"], row["seed"], row["index"], row["stream"]) == ("camera", 2, 3, "B"):
+            row["run_seed"] += 1
+    ag.write_rows(tmp_path / "old.csv", old)
+    simulated: list[ag.Job] = []
+
+    def counting(job: ag.Job) -> dict:
+        simulated.append(job)
+        return fake_run(job)
+
+    second = ag.run_agreement(
+        seeds=[2, 4], situations=30, out=tmp_path / "b.csv", run_job=counting,
+        camera_rows=tmp_path / "old.csv",
+    )  # fmt: skip
+    camera = [j for j in simulated if j.perception == "camera"]
+    assert camera == [ag.Job(2, 3, "camera", "B")]
+    assert sum(j.perception == "pem" for j in simulated) == 2 * 30 * 2
+    assert second["runs"]["camera_reused"] == 2 * 30 * 2 - 1
+    assert second["camera_rows_from"] == str(tmp_path / "old.csv")
+    assert second["pairs"] == first["pairs"]
+    assert ag.read_rows(tmp_path / "b.csv") == ag.read_rows(tmp_path / "a.csv")
+    with pytest.raises(ConfigError, match="cannot read camera rows"):
+        ag.run_agreement(
+            seeds=[2], situations=2, out=tmp_path / "c.csv", run_job=fake_run,
+            camera_rows=tmp_path / "missing.csv",
+        )  # fmt: skip

@@ -182,3 +182,24 @@ def test_record_traces_are_stored_per_run(tmp_path):
         assert run.outcome.trace.meta == {"seed": run.seed}
         assert [list(p) for p in run.outcome.trace.ov] == [[0.0, 9.0, 9.0, 1.0, run.seed % 5]]
         assert run.outcome == fake_outcome(run.situation, run.seed)  # traces do not compare
+
+
+def test_f1_campaigns_pin_the_threshold_they_resolved_to(monkeypatch):
+    """F1's threshold comes from the PEM: the stored campaign records it, and a resume after
+    a recalibration that moves it is refused (one campaign, one threshold)."""
+    from sitcov.av import _faults
+    from sitcov.av._fault_map import f1_threshold
+    from sitcov.campaign import CampaignConfig
+    from sitcov.campaign._runner import F1_THRESHOLD_TAG, check_fault_tags, fault_tags
+
+    f1 = CampaignConfig(av="reference", fault="f1", executor="serial", workers=1)
+    tags = fault_tags(f1)
+    assert tags == {F1_THRESHOLD_TAG: round(f1_threshold(), 6)}
+    assert 0.5 < tags[F1_THRESHOLD_TAG] < 0.95
+    assert fault_tags(CampaignConfig(av="reference", fault="f2")) == {}
+    assert fault_tags(CampaignConfig(av="reference")) == {}
+    check_fault_tags("c", tags, f1)  # same PEM: resumes
+    check_fault_tags("c", {}, f1)  # stored before thresholds were pinned: resumes
+    monkeypatch.setitem(_faults.FAULTS, "f1", {"threshold": 0.61})  # a recalibrated PEM
+    with pytest.raises(ConfigError, match=r"threshold .* now resolves to 0.61"):
+        check_fault_tags("c", tags, f1)
