@@ -27,6 +27,7 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import os
 import sqlite3
 import threading
 import time
@@ -165,11 +166,7 @@ class SQLiteStore(Store):
         self._configs: dict[str, dict[str, Any]] = {}
         self._tokens: dict[str, str] = {}  # campaign -> token of the lock this store holds
         try:
-            self._db = sqlite3.connect(str(self.path), isolation_level=None, timeout=BUSY_TIMEOUT)
-            self._db.execute("PRAGMA journal_mode=WAL")
-            self._db.execute("PRAGMA synchronous=NORMAL")
-            self._db.execute("PRAGMA foreign_keys=ON")
-            self._migrate()
+            self._connect()
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:  # a damaged schema page
             operational = _operational(self.location, exc)
             if operational is not None:
@@ -177,6 +174,36 @@ class SQLiteStore(Store):
             detail = " ".join(str(exc).split())[:200]
             raise StoreError(f"{self.location}: not a sitcov database ({detail})") from None
         self._db = _Guarded(self._db, self.location)  # damaged pages: one-line StoreError
+
+    def _connect(self) -> None:
+        """Open the file read-write; a file that cannot be written (read-only file, directory
+        or file system) is opened read-only, so reading commands still work on it."""
+        try:
+            self._open(str(self.path), read_only=False)
+            return
+        except sqlite3.OperationalError:
+            writable = os.access(self.path, os.W_OK) and os.access(self.path.parent, os.W_OK)
+            if writable or not self.path.is_file():
+                raise
+        uri = self.path.resolve().as_uri() + "?mode=ro"
+        try:
+            self._open(uri, read_only=True)
+        except sqlite3.OperationalError:  # WAL without a writable directory for its -shm:
+            self._open(uri + "&immutable=1", read_only=True)  # nobody here can change it
+
+    def _open(self, target: str, *, read_only: bool) -> None:
+        self._db = sqlite3.connect(
+            target, uri=read_only, isolation_level=None, timeout=BUSY_TIMEOUT
+        )
+        try:
+            if not read_only:
+                self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=NORMAL")
+            self._db.execute("PRAGMA foreign_keys=ON")
+            self._migrate()
+        except BaseException:
+            self._db.close()
+            raise
 
     # -- schema ------------------------------------------------------------------------------
     def schema_version(self) -> int:
@@ -570,8 +597,7 @@ def _operational(location: str, exc: BaseException) -> StoreError | None:
         )
     if "readonly" in text or "read-only" in text:
         return StoreError(
-            f"{location}: cannot write: the database file or its directory is read-only "
-            "(reading commands still work on it)"
+            f"{location}: cannot write: the database file or its directory is read-only"
         )
     if "disk is full" in text or "database or disk is full" in text:
         return StoreError(

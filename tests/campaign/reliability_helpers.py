@@ -126,3 +126,28 @@ def reaped(proc: subprocess.Popen) -> Iterator[subprocess.Popen]:
         if proc.poll() is None:
             proc.send_signal(signal.SIGKILL)
         proc.wait()
+
+
+@contextmanager
+def tmpfs(where: Path, size: str) -> Iterator[bool]:
+    """Mount a tmpfs of ``size`` (e.g. ``"300k"``) on ``where``; yields False if this
+    machine does not allow it (not root, no mount), True while mounted."""
+    where.mkdir(parents=True, exist_ok=True)
+    if os.geteuid() != 0:
+        yield False
+        return
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(where)], capture_output=True
+    )
+    if done.returncode != 0:
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        subprocess.run(["umount", "-l", str(where)], capture_output=True)
+
+
+def remount(where: Path, options: str) -> None:
+    """``mount -o remount,OPTIONS`` (a tmpfs mounted by :func:`tmpfs`)."""
+    subprocess.run(["mount", "-o", f"remount,{options}", str(where)], check=True)
