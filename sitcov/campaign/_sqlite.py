@@ -471,6 +471,8 @@ class SQLiteStore(Store):
 
     def _decode_record(self, row: tuple, trace: str | None = None) -> RunRecord:
         name, idx, _sid, bins, vals, seed, status, outcome, wall, replay_of = row
+        _typed(name, str), _typed(status, str), _typed(replay_of, (str, type(None)))
+        _typed(wall, (int, float, type(None)))  # a damaged cell may come back as a blob
         out = None
         if outcome is not None:
             data = json.loads(outcome)
@@ -662,6 +664,12 @@ class _Guarded:
 
     def __getattr__(self, name: str) -> Any:  # rowcount, in_transaction, close, ...
         return getattr(self._target, name)
+
+
+def _typed(value: Any, types: type | tuple[type, ...]) -> None:
+    """Raise TypeError (reported as damage by :func:`_decoding`) for a mistyped cell."""
+    if not isinstance(value, types):
+        raise TypeError(f"a stored cell holds {type(value).__name__} {value!r:.40}")
 
 
 def _trace_dict(trace: Trace) -> dict[str, Any]:
