@@ -54,6 +54,7 @@ _STDERR_TAIL = 20
 _CHUNK = 1 << 16  # bytes read from the stack's stdout at a time
 #: Longest stdout line a stack may write [bytes]; a control message is well under 1 KiB.
 MAX_LINE = 4 << 20
+_EXIT_POLL = 0.25  # [s] how often a silent stack is checked for having exited
 _STDERR_PIECE = 1 << 14  # longest piece of a stderr line logged or quoted [bytes]
 #: Environment variable carrying the per-stack token that marks all its processes.
 TOKEN_VAR = "SITCOV_STACK_TOKEN"
@@ -465,8 +466,10 @@ class ExternalProcessStack(AVStack):
                 raise StackTimeoutError(
                     f"{self.who} did not answer the {what} within {timeout:g} s (wall clock)"
                 )
-            ready, _, _ = select.select([fd], [], [], remaining)
+            ready, _, _ = select.select([fd], [], [], min(remaining, _EXIT_POLL))
             if not ready:
+                if proc.poll() is not None:  # exited, but a descendant holds the pipe open
+                    raise StackError(self._failure(what))
                 continue
             chunk = os.read(fd, _CHUNK)
             if not chunk:
