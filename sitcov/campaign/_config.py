@@ -150,8 +150,10 @@ def load_config(
             loaded = yaml.safe_load(Path(file).read_text())
         except OSError as exc:
             raise ConfigError(f"{where}: cannot read campaign config ({exc.strerror})") from None
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"{where}: not valid YAML ({exc})") from None
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"{where}: not UTF-8 text (byte {exc.start})") from None
+        except yaml.YAMLError as exc:  # its message spans lines: keep one
+            raise ConfigError(f"{where}: not valid YAML ({' '.join(str(exc).split())})") from None
         if loaded is None:
             loaded = {}
         if not isinstance(loaded, dict):

@@ -506,5 +506,5 @@ def load_map(source: str = "t-junction") -> JunctionMap:
             file=str(path), field="map", value=None, expected=f"a readable file ({exc.strerror})"
         ) from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+        raise ConfigError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
     return JunctionMap(data, source=str(path))
