@@ -25,7 +25,10 @@ _COMMON = {
 }
 settings.register_profile("fuzz", max_examples=40, derandomize=True, **_COMMON)
 settings.register_profile("fuzz-long", max_examples=2000, **_COMMON)
-settings.load_profile("fuzz-long" if os.environ.get("SITCOV_FUZZ") == "long" else "fuzz")
+LONG = os.environ.get("SITCOV_FUZZ") == "long"
+settings.load_profile("fuzz-long" if LONG else "fuzz")
+#: Examples of the fuzz tests that start a process per example.
+PROCESS_EXAMPLES = 300 if LONG else 12
 
 #: Seconds one example may take before it counts as a hang.
 HANG = 20
