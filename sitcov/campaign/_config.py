@@ -152,7 +152,7 @@ def load_config(
             raise ConfigError(f"{where}: cannot read campaign config ({exc.strerror})") from None
         except UnicodeDecodeError as exc:
             raise ConfigError(f"{where}: not UTF-8 text (byte {exc.start})") from None
-        except yaml.YAMLError as exc:  # its message spans lines: keep one
+        except (yaml.YAMLError, ValueError, RecursionError) as exc:  # multi-line: keep one
             raise ConfigError(f"{where}: not valid YAML ({' '.join(str(exc).split())})") from None
         if loaded is None:
             loaded = {}

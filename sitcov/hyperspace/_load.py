@@ -45,8 +45,9 @@ def read_yaml(text: str, file: str) -> Any:
         line = f"line {mark.line + 1}" if mark is not None else "(unknown line)"
         problem = exc.problem or exc.context or "a syntax error"
         raise ConfigError(f"{file}: {line}: expected valid YAML, got {problem}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{file}: expected valid YAML, got {exc}") from None
+    except (yaml.YAMLError, ValueError, RecursionError) as exc:  # 4300+ digits, deep nesting
+        problem = " ".join(str(exc).split())
+        raise ConfigError(f"{file}: expected valid YAML, got {problem}") from None
 
 
 def load_hyperspace(

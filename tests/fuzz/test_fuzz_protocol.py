@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 from conftest import PROCESS_EXAMPLES, no_hang, ok_or_one_line
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from mutations import VALUES, mutated_bytes
 
@@ -56,6 +56,9 @@ def parse_all(line: bytes) -> None:
 
 
 @given(LINES)
+@example(b'{"type": "control", "throttle": ' + b"1" * 5000 + b"}")  # int of 5000 digits
+@example(b'{"type": "control", "info": ' + b"[" * 100_000 + b"]" * 100_000 + b"}")
+@example(b'{"type": "hello", "name": "\xff\xfe"}')
 def test_any_line_is_a_message_or_one_stack_error(line):
     assert ok_or_one_line(lambda: parse_all(line)) in ("ok", "error")
 
