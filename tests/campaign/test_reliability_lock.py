@@ -77,6 +77,7 @@ def test_second_run_on_a_live_campaign_refuses_at_once_naming_the_owner(tmp_path
         done_then = finished(path)
         assert live.wait(timeout=120) == 0, live.stderr.read().decode()
     line = one_error_line(err)
+    print(f"second run refused in {refused_in:.2f} s: {line}")
     assert code == 2
     assert f"pid {live.pid} on host {HOST} since 20" in line
     assert "campaign 'default' is being run by another process" in line

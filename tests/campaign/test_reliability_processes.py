@@ -86,6 +86,7 @@ def test_sigkill_of_the_sitcov_run_command_then_resume_gives_identical_rows(tmp_
             break
     assert len(kills) >= 3 and sum(0 < k < 160 for k in kills) >= 2, kills
     assert takeovers == 1 and lock_rows(path) == []
+    print(f"parent SIGKILLs at {kills} finished runs of 160; resumed to identical rows")
     reference = reference_rows(tmp_path, **{**changes, "backend_options": {}})
     assert {row[1]: row for row in db_rows(path)} == reference
     time.sleep(0.5)  # orphaned workers notice their closed pipe and exit
@@ -116,6 +117,7 @@ def test_sigkill_of_a_worker_stores_its_run_as_error_and_the_campaign_completes(
         runs = store.runs("default")
     assert len(runs) == 120 and {r.status for r in runs} <= {"pass", "fail", "error"}
     errors = [r for r in runs if r.status == "error"]
+    print(f"{killed} worker SIGKILLs -> {len(errors)} error runs of 120, all others exact")
     assert 1 <= len(errors) <= killed, errors  # the run in hand when killed, nothing more
     for run in errors:
         assert run.outcome.message.startswith(

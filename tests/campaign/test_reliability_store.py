@@ -54,6 +54,8 @@ def test_disk_full_stops_with_one_line_and_resume_completes(tmp_path, capsys, re
             assert db.execute("PRAGMA integrity_check").fetchone() == ("ok",)
         stored = [r for r in db_rows(path) if r[6] != "pending"]
         assert 0 < len(stored) < QUICK["runs"]
+        with capsys.disabled():
+            print(f"disk full after {len(stored)} of {QUICK['runs']} runs stored", end=" ")
         assert set(stored) <= set(db_rows(reference))  # what was stored is exactly right
         remount(where, "size=50m")
         code, _, err = cli(capsys, path, "run", "--config", str(cfg))
@@ -139,6 +141,8 @@ def test_database_locked_by_another_connection(tmp_path, capsys, reference, monk
             one_error_line(err)
         )
         assert waited < 10, waited
+        with capsys.disabled():
+            print(f"run on a locked database gave up after {waited:.1f} s (busy time-out 1 s)")
         code, out, err = cli(capsys, path, "summary", "--json")
         assert code == 0 and '"runs": 300' in out, err
         other.execute("ROLLBACK")
@@ -180,6 +184,8 @@ def test_truncated_database_gives_one_line_or_works(tmp_path, capsys, reference)
             result = verdict(*cli(capsys, path, *args))
             seen[result] = seen.get(result, 0) + 1
     assert seen.get("one line", 0) >= 20, seen
+    with capsys.disabled():
+        print(f"truncated files, 20 cuts x 3 commands: {seen}")
 
 
 def test_not_a_database_names_the_file_in_one_line(tmp_path, capsys):
