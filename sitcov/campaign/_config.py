@@ -103,6 +103,8 @@ class CampaignConfig(BaseModel):
     def _canonical_judge(cls, value: Any) -> Any:
         from sitcov.sim import normalize_judge
 
+        if value is not None and not isinstance(value, str | list | tuple):  # e.g. false
+            value = [value]  # refused below as an unknown kind, naming the value
         try:
             return normalize_judge(value)
         except ConfigError as exc:

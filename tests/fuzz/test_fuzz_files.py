@@ -6,6 +6,7 @@ names the file - never another exception, never a hang.
 
 from __future__ import annotations
 
+import itertools
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -13,7 +14,7 @@ from typing import Any
 
 import pytest
 import yaml
-from conftest import ok_or_one_line
+from fuzz_helpers import fuzz_settings, ok_or_one_line
 from hypothesis import given
 from mutations import ALIAS_BOMB, dump, mutated_bytes, mutated_data
 
@@ -23,6 +24,7 @@ from sitcov.hyperspace import load_hyperspace
 from sitcov.sim.embedded._map import MAPS_DIR, load_map
 
 WORK = Path(tempfile.mkdtemp(prefix="sitcov-fuzz-"))
+_COUNT = itertools.count()
 HYPERSPACE = Path(sitcov.hyperspace.__file__).parent / "data" / "t-junction.yaml"
 
 
@@ -38,10 +40,13 @@ SOURCES: dict[str, tuple[str, Callable[[Path], Any]]] = {
 
 
 def check(kind: str, content: bytes) -> str:
-    path = WORK / f"{kind}.yaml"
+    path = WORK / f"{kind}-{next(_COUNT)}.yaml"  # a new name: loaders may cache by path
     path.write_bytes(content)
     _, load = SOURCES[kind]
-    return ok_or_one_line(lambda: load(path), str(path), path.name)
+    try:
+        return ok_or_one_line(lambda: load(path), str(path), path.name)
+    finally:
+        path.unlink()
 
 
 @pytest.mark.parametrize("kind", list(SOURCES))
@@ -69,6 +74,7 @@ def test_nesting_and_number_limits_are_one_line(kind, text):
 def test_structurally_damaged_files(kind):
     text, _ = SOURCES[kind]
 
+    @fuzz_settings()
     @given(mutated_data(yaml.safe_load(text)))
     def damaged(data):
         check(kind, dump(data).encode())
@@ -80,6 +86,7 @@ def test_structurally_damaged_files(kind):
 def test_byte_damaged_files(kind):
     text, _ = SOURCES[kind]
 
+    @fuzz_settings()
     @given(mutated_bytes(text))
     def damaged(content):
         check(kind, content)

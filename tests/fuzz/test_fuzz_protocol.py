@@ -10,8 +10,8 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from conftest import PROCESS_EXAMPLES, no_hang, ok_or_one_line
-from hypothesis import example, given, settings
+from fuzz_helpers import fuzz_settings, no_hang, ok_or_one_line
+from hypothesis import example, given
 from hypothesis import strategies as st
 from mutations import VALUES, mutated_bytes
 
@@ -55,6 +55,7 @@ def parse_all(line: bytes) -> None:
             assert "\n" not in str(exc) and len(str(exc)) < 2000, str(exc)
 
 
+@fuzz_settings()
 @given(LINES)
 @example(b'{"type": "control", "throttle": ' + b"1" * 5000 + b"}")  # int of 5000 digits
 @example(b'{"type": "control", "info": ' + b"[" * 100_000 + b"]" * 100_000 + b"}")
@@ -63,6 +64,7 @@ def test_any_line_is_a_message_or_one_stack_error(line):
     assert ok_or_one_line(lambda: parse_all(line)) in ("ok", "error")
 
 
+@fuzz_settings()
 @given(st.dictionaries(st.text(max_size=12), VALUES, max_size=6))
 def test_any_fields_in_a_hello_or_control(fields):
     for kind, parse in (("hello", proto.parse_hello), ("control", proto.parse_control)):
@@ -89,7 +91,7 @@ ANSWERS = st.lists(
 
 
 @pytest.mark.slow
-@settings(max_examples=PROCESS_EXAMPLES)
+@fuzz_settings(examples=12, long_examples=300)
 @given(ANSWERS)
 def test_a_stack_answering_anything_fails_runs_cleanly(answers):
     """Two runs of 4 steps against a stack answering with ``answers``: every call returns a

@@ -1,7 +1,9 @@
-"""Fuzz tests: Hypothesis profiles and the "one clear line, never a traceback" check.
+"""Helpers of the fuzz tests: settings, and the "one clear line, never a traceback, never a
+hang" check.
 
-Profiles: ``fuzz`` (default; few examples, derandomized, so CI is fast and repeatable) and
-``fuzz-long`` (``SITCOV_FUZZ=long``: many random examples, for a hunt before a release)::
+Two sizes (settings applied per test, so other Hypothesis tests of the suite keep theirs):
+the default (few examples, derandomized: CI is fast and repeatable) and the long hunt
+(``SITCOV_FUZZ=long``: many random examples, before a release)::
 
     SITCOV_FUZZ=long python -m pytest -q tests/fuzz
 """
@@ -18,17 +20,22 @@ from hypothesis import HealthCheck, settings
 
 from sitcov.errors import SitcovError
 
-_COMMON = {
-    "deadline": None,  # machines are shared: time per example is bounded by no_hang below
-    "suppress_health_check": [HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
-    "database": None,
-}
-settings.register_profile("fuzz", max_examples=40, derandomize=True, **_COMMON)
-settings.register_profile("fuzz-long", max_examples=2000, **_COMMON)
+#: The long profile (``SITCOV_FUZZ=long``, see conftest.py) is active.
 LONG = os.environ.get("SITCOV_FUZZ") == "long"
-settings.load_profile("fuzz-long" if LONG else "fuzz")
-#: Examples of the fuzz tests that start a process per example.
-PROCESS_EXAMPLES = 300 if LONG else 12
+
+
+def fuzz_settings(examples: int = 40, long_examples: int = 2000) -> settings:
+    """Hypothesis settings of a fuzz test: ``examples`` derandomized, or ``long_examples``
+    random ones under ``SITCOV_FUZZ=long``; no per-example deadline (shared machines: a hang
+    is caught by :func:`no_hang` instead)."""
+    return settings(
+        max_examples=long_examples if LONG else examples,
+        derandomize=not LONG,
+        deadline=None,
+        database=None,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture],
+    )
+
 
 #: Seconds one example may take before it counts as a hang.
 HANG = 20
