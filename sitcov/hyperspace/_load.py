@@ -82,4 +82,12 @@ def load_hyperspace(
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{file}: cannot read: {exc}") from None
-    return Hyperspace.from_dict(read_yaml(text, file), file=file)
+    data = read_yaml(text, file)
+    try:
+        return Hyperspace.from_dict(data, file=file)
+    except ValueError as exc:  # situations are stored as JSON, which has no inf or nan
+        if "JSON compliant" not in str(exc):
+            raise
+        raise ConfigError(
+            f"{file}: expected finite numbers (.inf and .nan cannot be stored), got one"
+        ) from None

@@ -63,8 +63,13 @@ def test_an_alias_bomb_is_one_line_or_loads_quickly(kind):
 @pytest.mark.parametrize("kind", list(SOURCES))
 @pytest.mark.parametrize(
     "text",
-    ["[" * 500 + "]" * 500, "runs: " + "1" * 5000, "a: " + "{a: " * 2000 + "1" + "}" * 2000],
-    ids=["deep-list", "5000-digit-int", "deep-mapping"],
+    [
+        "[" * 500 + "]" * 500,
+        "runs: " + "1" * 5000,
+        "a: " + "{a: " * 2000 + "1" + "}" * 2000,
+        "axes: [{elements: [{bins: [{value: .inf}]}]}]",
+    ],
+    ids=["deep-list", "5000-digit-int", "deep-mapping", "infinity"],
 )
 def test_nesting_and_number_limits_are_one_line(kind, text):
     assert check(kind, text.encode()) == "error"
