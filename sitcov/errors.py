@@ -34,7 +34,8 @@ class ConfigError(SitcovError, ValueError):
             head = ": ".join(parts) + ": " if parts else ""
             got = f", got {value!r}" if value is not None else ""
             message = f"{head}expected {expected}{got}"
-        super().__init__(message)
+        # keys and values come from users' files: a line break in one must not split the line
+        super().__init__(message.replace("\r", "\\r").replace("\n", "\\n"))
 
 
 class UnknownPluginError(ConfigError):

@@ -5,7 +5,14 @@ The stack is a black box: sitcov starts the command, greets it, and for every ru
 step time-out. A stack that crashes, writes garbage or hangs fails *that run* (``StackError``
 / ``StackTimeoutError`` from ``step``): its whole process group is killed, and the next
 ``reset`` starts it afresh. Nothing outlives :meth:`ExternalProcessStack.close` (or garbage
-collection / interpreter exit): no zombies, no orphans.
+collection / interpreter exit): no zombies, no orphans - not even descendants that left the
+stack's process group (``setsid``): every process started carries a per-stack token in its
+environment (:data:`TOKEN_VAR`), and killing a stack also kills every process of this user
+that still carries it (Linux ``/proc``).
+
+What a stack writes is bounded: a stdout line longer than :data:`MAX_LINE` bytes fails the
+run at once (memory stays bounded, whatever the stack floods), stderr is read in pieces of
+at most :data:`_STDERR_PIECE` bytes, and invalid UTF-8 or JSON is a protocol error.
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ import sys
 import tempfile
 import threading
 import time
+import uuid
 import weakref
 from collections.abc import Callable
 from pathlib import Path
@@ -44,6 +52,12 @@ CLOSE_GRACE = 1.0
 #: Stderr lines kept to quote when the stack fails [lines].
 _STDERR_TAIL = 20
 _CHUNK = 1 << 16  # bytes read from the stack's stdout at a time
+#: Longest stdout line a stack may write [bytes]; a control message is well under 1 KiB.
+MAX_LINE = 4 << 20
+_EXIT_POLL = 0.25  # [s] how often a silent stack is checked for having exited
+_STDERR_PIECE = 1 << 14  # longest piece of a stderr line logged or quoted [bytes]
+#: Environment variable carrying the per-stack token that marks all its processes.
+TOKEN_VAR = "SITCOV_STACK_TOKEN"
 _PR_SET_PDEATHSIG = 1  # prctl option, linux/prctl.h
 
 
@@ -62,11 +76,40 @@ def _require_executable(program: str, cwd: str | Path | None) -> None:
         )
 
 
-def _kill_group(proc: subprocess.Popen) -> None:
-    """SIGKILL the process group of ``proc`` (its own session) and reap it."""
+def _marked(token: str) -> list[int]:
+    """Processes of this user whose environment carries ``token`` (Linux; else none)."""
+    needle = f"{TOKEN_VAR}={token}".encode()
+    found = []
+    try:
+        entries = os.listdir("/proc")
+    except OSError:
+        return found
+    for entry in entries:
+        if not entry.isdigit() or int(entry) == os.getpid():
+            continue
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as f:
+                environ = f.read()
+        except OSError:  # gone, or another user's process
+            continue
+        if needle in environ.split(b"\0"):
+            found.append(int(entry))
+    return found
+
+
+def _kill_group(proc: subprocess.Popen, token: str | None = None) -> None:
+    """SIGKILL the process group of ``proc`` (its own session) and every process still
+    marked with ``token`` (descendants that left the group), then reap ``proc``."""
     if proc.poll() is None:
         with contextlib.suppress(ProcessLookupError, PermissionError):
             os.killpg(proc.pid, signal.SIGKILL)
+    for _ in range(3 if token else 0):  # a fork racing the sweep is caught by the next one
+        escaped = _marked(token)
+        if not escaped:
+            break
+        for pid in escaped:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.kill(pid, signal.SIGKILL)
     with contextlib.suppress(Exception):
         proc.wait(timeout=5.0)
     for pipe in (proc.stdin, proc.stdout):
@@ -107,8 +150,8 @@ def _pump_stderr(proc: subprocess.Popen, tail: collections.deque, path: str | No
     that garbage collection can still end a forgotten stack's process.
     """
     sink = open(path, "a", encoding="utf-8") if path else None  # noqa: SIM115
-    try:
-        for raw in iter(proc.stderr.readline, b""):
+    try:  # readline with a limit: a flood without newlines is read piece by piece
+        for raw in iter(lambda: proc.stderr.readline(_STDERR_PIECE), b""):
             line = raw.decode("utf-8", "replace").rstrip("\n")
             tail.append(line)
             log.info("[%s] %s", proc.pid, line)
@@ -207,6 +250,7 @@ class ExternalProcessStack(AVStack):
         self._frame: _FrameFile | None = None
         self._started = 0
         self._finalizer: weakref.finalize | None = None
+        self._token = uuid.uuid4().hex  # marks this stack's processes (see _kill_group)
 
     # -- pickling: a stack crosses process boundaries as its configuration only ----------
 
@@ -292,7 +336,7 @@ class ExternalProcessStack(AVStack):
 
     def _start(self) -> None:
         self._kill()
-        env = {**os.environ, **self.env} if self.env else None
+        env = {**os.environ, **self.env, TOKEN_VAR: self._token}
         try:
             proc = subprocess.Popen(
                 self.args,
@@ -309,7 +353,7 @@ class ExternalProcessStack(AVStack):
             raise StackError(f"{self.who} cannot be started: {exc}") from exc
         os.set_blocking(proc.stdin.fileno(), False)
         self._proc = proc
-        self._finalizer = weakref.finalize(self, _kill_group, proc)
+        self._finalizer = weakref.finalize(self, _kill_group, proc, self._token)
         self._buffer.clear()
         self._stderr_tail.clear()
         self._stderr_thread = threading.Thread(
@@ -346,7 +390,7 @@ class ExternalProcessStack(AVStack):
         if self._finalizer is not None:
             self._finalizer.detach()
             self._finalizer = None
-        _kill_group(proc)
+        _kill_group(proc, self._token)
         if self._stderr_thread is not None:
             self._stderr_thread.join(timeout=2.0)
             self._stderr_thread = None
@@ -412,13 +456,20 @@ class ExternalProcessStack(AVStack):
                         f"{self.who} sent more than one line in answer to {what}: {extra!r}..."
                     )
                 return message
+            if len(self._buffer) > MAX_LINE:
+                raise StackError(
+                    f"{self.who} wrote more than {MAX_LINE >> 20} MiB on stdout without a "
+                    f"newline in answer to {what} (a flood, or logs on stdout?)"
+                )
             remaining = deadline - time.monotonic()
             if remaining <= 0:
                 raise StackTimeoutError(
                     f"{self.who} did not answer the {what} within {timeout:g} s (wall clock)"
                 )
-            ready, _, _ = select.select([fd], [], [], remaining)
+            ready, _, _ = select.select([fd], [], [], min(remaining, _EXIT_POLL))
             if not ready:
+                if proc.poll() is not None:  # exited, but a descendant holds the pipe open
+                    raise StackError(self._failure(what))
                 continue
             chunk = os.read(fd, _CHUNK)
             if not chunk:

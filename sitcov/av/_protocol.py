@@ -40,7 +40,7 @@ def decode(line: bytes, *, who: str) -> dict[str, Any]:
     """Parse one line from the stack; anything but a JSON object is a protocol error."""
     try:
         message = json.loads(line)
-    except (UnicodeDecodeError, json.JSONDecodeError):
+    except (ValueError, RecursionError):  # bad UTF-8 or JSON, 4300+ digits, deep nesting
         message = None
     if not isinstance(message, dict) or not isinstance(message.get("type"), str):
         text = line[:_QUOTE].decode("utf-8", "replace").rstrip()

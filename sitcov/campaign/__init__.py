@@ -18,6 +18,7 @@ from sitcov.campaign._runner import (
 )
 from sitcov.campaign._store import (
     RUN_STATUSES,
+    CampaignBusyError,
     CampaignInfo,
     PlannedRun,
     Store,
@@ -29,6 +30,7 @@ __all__ = [
     "EXECUTION_ONLY",
     "FAULT_LABELS",
     "RUN_STATUSES",
+    "CampaignBusyError",
     "CampaignConfig",
     "CampaignInfo",
     "CampaignProgress",

@@ -103,6 +103,8 @@ class CampaignConfig(BaseModel):
     def _canonical_judge(cls, value: Any) -> Any:
         from sitcov.sim import normalize_judge
 
+        if value is not None and not isinstance(value, str | list | tuple):  # e.g. false
+            value = [value]  # refused below as an unknown kind, naming the value
         try:
             return normalize_judge(value)
         except ConfigError as exc:
@@ -150,8 +152,10 @@ def load_config(
             loaded = yaml.safe_load(Path(file).read_text())
         except OSError as exc:
             raise ConfigError(f"{where}: cannot read campaign config ({exc.strerror})") from None
-        except yaml.YAMLError as exc:
-            raise ConfigError(f"{where}: not valid YAML ({exc})") from None
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"{where}: not UTF-8 text (byte {exc.start})") from None
+        except (yaml.YAMLError, ValueError, RecursionError) as exc:  # multi-line: keep one
+            raise ConfigError(f"{where}: not valid YAML ({' '.join(str(exc).split())})") from None
         if loaded is None:
             loaded = {}
         if not isinstance(loaded, dict):

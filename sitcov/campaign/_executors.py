@@ -206,6 +206,18 @@ def _worker_main(conn: Any, config_data: dict, worker_index: int) -> None:
     backend.close()
 
 
+def _exit_text(code: int | None) -> str:
+    """``exit code 3``, or ``killed by SIGKILL (the out-of-memory killer sends it)``."""
+    if code is None or code >= 0:
+        return f"exit code {code}"
+    try:
+        name = signal.Signals(-code).name
+    except ValueError:
+        name = f"signal {-code}"
+    hint = " (the out-of-memory killer sends it)" if name == "SIGKILL" else ""
+    return f"exit code {code}: killed by {name}{hint}"
+
+
 class _Worker:
     def __init__(self, ctx: Any, config_data: dict, index: int) -> None:
         self.index = index
@@ -273,12 +285,17 @@ class ProcessExecutor(Executor):
 
         while queue or any(w.inflight for w in self._workers):
             now = time.monotonic()
-            for worker in self._workers:
+            for worker in list(self._workers):
                 while queue and len(worker.inflight) < _PIPELINE:
                     if not worker.inflight:
                         worker.deadline = now + limit if limit else float("inf")
+                    try:
+                        worker.conn.send(queue[0])
+                    except OSError:  # the worker died (killed): its running task's EOF is
+                        if not worker.inflight:  # handled below; an idle one is replaced
+                            self._replace(worker)
+                        break
                     worker.inflight.append(queue.popleft())
-                    worker.conn.send(worker.inflight[-1])
             busy = {w.conn: w for w in self._workers if w.inflight}
             soonest = min(w.deadline for w in busy.values())
             timeout = None if soonest == float("inf") else max(0.0, soonest - time.monotonic())
@@ -287,9 +304,10 @@ class ProcessExecutor(Executor):
                 try:
                     _kind, payload = conn.recv()
                 except (EOFError, OSError):
+                    worker.process.join(5)  # reaped, so its exit code is known
                     task, code = give_back(worker), worker.process.exitcode
                     self._replace(worker)
-                    message = f"the worker process died (exit code {code})"
+                    message = f"the worker process died ({_exit_text(code)})"
                     yield task[0], Outcome.errored(message), 0.0
                     continue
                 if _kind == "fatal":

@@ -278,10 +278,25 @@ def run_campaign(
             the end.
         executor: an executor to use instead of the one ``config`` names (not closed here).
 
+    A campaign is run by one process at a time: the store's lock on it is taken first
+    (:meth:`Store.lock_campaign`) and released at the end, however the call ends.
+
     Raises:
         ConfigError: the campaign exists with a different defining config or with more
             ``runs``, or a part (hyperspace, generator, backend, stack) cannot be built.
+        CampaignBusyError: another live process is running this campaign.
     """
+    with store.lock_campaign(config.name):
+        return _run_locked(config, store, progress, executor)
+
+
+def _run_locked(
+    config: CampaignConfig,
+    store: Store,
+    progress: Callable[[CampaignProgress], None] | None,
+    executor: Executor | None,
+) -> CampaignResult:
+    """:func:`run_campaign` once the campaign's lock is held."""
     start = time.perf_counter()
     config = _runs_as_stored(config, store)
     hyperspace = resolve_hyperspace(config.hyperspace)

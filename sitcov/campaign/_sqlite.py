@@ -9,20 +9,38 @@ leaves its run ``pending``, which resume re-runs with the same situation and see
 would fsync on every result (one per run) for no gain in what a resumed campaign contains.
 
 Schema versions: ``MIGRATIONS[i]`` upgrades version ``i`` to ``i + 1``; a new file runs
-them all. A file from a newer sitcov is refused with a clear error.
+them all. A file from a newer sitcov is refused with a clear error. Opening a file at the
+current version writes nothing, so readers (``summary``, ``report``, ``export``) work on a
+read-only file and never wait for a running campaign's write transactions (WAL readers).
+
+Concurrent writers: a campaign being run holds a row of ``campaign_locks`` (owner pid,
+host, start, heartbeat; see :mod:`sitcov.campaign._lock`). The row is taken in a
+``BEGIN IMMEDIATE`` transaction - SQLite's write lock makes check-and-take atomic, so of
+two processes taking a campaign (or a stale owner's row) at once exactly one wins - and
+every later write of the run loop checks, in its own transaction, that the row still
+holds this process's token. The table is operational state, created when first needed,
+not part of the versioned schema (older sitcov versions still open the file).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
+import os
 import sqlite3
+import threading
+import time
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from sitcov.campaign import _lock
+from sitcov.campaign._lock import LockOwner
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._store import (
+    CampaignBusyError,
     CampaignInfo,
     PlannedRun,
     Store,
@@ -106,6 +124,23 @@ MIGRATIONS: tuple[str, ...] = (_V1, _V2, _V3)
 #: The schema version this sitcov writes.
 SCHEMA_VERSION = len(MIGRATIONS)
 
+#: Seconds a statement waits for another connection's write lock before giving up.
+BUSY_TIMEOUT = 30.0
+
+log = logging.getLogger("sitcov.campaign")
+
+_LOCKS = """
+CREATE TABLE IF NOT EXISTS campaign_locks (
+    campaign TEXT PRIMARY KEY,
+    token TEXT NOT NULL,
+    pid INTEGER NOT NULL,
+    host TEXT NOT NULL,
+    pid_start INTEGER,
+    started TEXT NOT NULL,
+    heartbeat REAL NOT NULL
+)"""
+_LOCK_FIELDS = "campaign, token, pid, host, pid_start, started, heartbeat"
+
 _RUN_FIELDS = "campaign, idx, situation_id, bins, vals, seed, status, outcome, wall_time, replay_of"
 
 
@@ -128,18 +163,47 @@ class SQLiteStore(Store):
             raise StoreError(f"{self.location}: is a directory, expected a database file")
         if not self.path.parent.is_dir():
             raise StoreError(f"{self.location}: directory {str(self.path.parent)!r} does not exist")
+        self._configs: dict[str, dict[str, Any]] = {}
+        self._tokens: dict[str, str] = {}  # campaign -> token of the lock this store holds
         try:
-            self._db = sqlite3.connect(str(self.path), isolation_level=None, timeout=30.0)
-            self._db.execute("PRAGMA journal_mode=WAL")
+            self._connect()
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:  # a damaged schema page
+            operational = _operational(self.location, exc)
+            if operational is not None:
+                raise operational from None
+            detail = " ".join(str(exc).split())[:200]
+            raise StoreError(f"{self.location}: not a sitcov database ({detail})") from None
+        self._db = _Guarded(self._db, self.location)  # damaged pages: one-line StoreError
+
+    def _connect(self) -> None:
+        """Open the file read-write; a file that cannot be written (read-only file, directory
+        or file system) is opened read-only, so reading commands still work on it."""
+        try:
+            self._open(str(self.path), read_only=False)
+            return
+        except sqlite3.OperationalError:
+            writable = os.access(self.path, os.W_OK) and os.access(self.path.parent, os.W_OK)
+            if writable or not self.path.is_file():
+                raise
+        uri = self.path.resolve().as_uri() + "?mode=ro"
+        try:
+            self._open(uri, read_only=True)
+        except sqlite3.OperationalError:  # WAL without a writable directory for its -shm:
+            self._open(uri + "&immutable=1", read_only=True)  # nobody here can change it
+
+    def _open(self, target: str, *, read_only: bool) -> None:
+        self._db = sqlite3.connect(
+            target, uri=read_only, isolation_level=None, timeout=BUSY_TIMEOUT
+        )
+        try:
+            if not read_only:
+                self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.execute("PRAGMA foreign_keys=ON")
-            self._configs: dict[str, dict[str, Any]] = {}
             self._migrate()
-        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:  # a damaged schema page
-            detail = " ".join(str(exc).split())[:200]
-            what = "cannot open the file" if "unable to open" in detail else "not a sitcov database"
-            raise StoreError(f"{self.location}: {what} ({detail})") from None
-        self._db = _Guarded(self._db, self.location)  # damaged pages: one-line StoreError
+        except BaseException:
+            self._db.close()
+            raise
 
     # -- schema ------------------------------------------------------------------------------
     def schema_version(self) -> int:
@@ -156,6 +220,8 @@ class SQLiteStore(Store):
         return int(row[0] or 0)
 
     def _migrate(self) -> None:
+        if self.schema_version() == SCHEMA_VERSION:
+            return  # nothing to write: readers never take the write lock
         self._db.execute("BEGIN IMMEDIATE")
         try:
             version = self.schema_version()
@@ -172,7 +238,8 @@ class SQLiteStore(Store):
                 self._db.execute("INSERT INTO schema_version VALUES (?)", (target + 1,))
             self._db.execute("COMMIT")
         except BaseException:
-            self._db.execute("ROLLBACK")
+            if self._db.in_transaction:  # SQLite may have rolled back already (disk full)
+                self._db.execute("ROLLBACK")
             raise
 
     # -- campaigns ---------------------------------------------------------------------------
@@ -241,6 +308,74 @@ class SQLiteStore(Store):
             )
         self._configs.pop(name, None)
 
+    # -- concurrent writers ------------------------------------------------------------------
+    def lock_campaign(self, name: str, *, stale_after: float = _lock.STALE_AFTER) -> CampaignLock:
+        """Take campaign ``name`` for this process (see the module docstring).
+
+        Raises:
+            CampaignBusyError: another live process holds it (the message names it).
+        """
+        me = LockOwner.me(name)
+        with self._transaction():
+            self._db.execute(_LOCKS)
+            row = self._db.execute(
+                f"SELECT {_LOCK_FIELDS} FROM campaign_locks WHERE campaign = ?", (name,)
+            ).fetchone()
+            previous = LockOwner(*row) if row else None
+            if previous is not None and previous.alive(stale_after):
+                raise CampaignBusyError(
+                    f"{self.location}: campaign {name!r} is being run by another process, "
+                    f"{previous.describe()}; wait for it to end, or stop it and run again "
+                    "to resume"
+                )
+            self._db.execute(
+                f"INSERT OR REPLACE INTO campaign_locks ({_LOCK_FIELDS}) VALUES (?,?,?,?,?,?,?)",
+                (name, me.token, me.pid, me.host, me.pid_start, me.started, me.heartbeat),
+            )
+        if previous is not None:
+            log.warning("took over campaign %r from a dead owner: %s", name, previous.describe())
+        _lock.HELD.add(me.token)
+        self._tokens[name] = me.token
+        return CampaignLock(self, me, previous)
+
+    def lock_owner(self, name: str) -> LockOwner | None:
+        """The recorded owner of campaign ``name`` (alive or not), None if there is none."""
+        has = self._db.execute(
+            "SELECT 1 FROM sqlite_master WHERE type='table' AND name='campaign_locks'"
+        ).fetchone()
+        if not has:
+            return None
+        row = self._db.execute(
+            f"SELECT {_LOCK_FIELDS} FROM campaign_locks WHERE campaign = ?", (name,)
+        ).fetchone()
+        return LockOwner(*row) if row else None
+
+    def _still_mine(self, name: str) -> None:
+        """In a write transaction: refresh the heartbeat; refuse if the lock was taken over."""
+        token = self._tokens.get(name)
+        if token is None:
+            return  # written outside run_campaign (tests, tools): no lock to keep
+        cur = self._db.execute(
+            "UPDATE campaign_locks SET heartbeat = ? WHERE campaign = ? AND token = ?",
+            (time.time(), name, token),
+        )
+        if cur.rowcount != 1:
+            owner = self.lock_owner(name)
+            who = owner.describe() if owner else "nobody"
+            raise CampaignBusyError(
+                f"{self.location}: campaign {name!r} was taken over by another process "
+                f"({who}) while this one ran it; stopped without writing more"
+            )
+
+    def _unlock(self, name: str, token: str) -> None:
+        self._tokens.pop(name, None)
+        _lock.HELD.discard(token)
+        # a row left behind (database gone bad) belongs to a dead owner: it is stale anyway
+        with contextlib.suppress(StoreError, sqlite3.Error), self._transaction():
+            self._db.execute(
+                "DELETE FROM campaign_locks WHERE campaign = ? AND token = ?", (name, token)
+            )
+
     # -- runs --------------------------------------------------------------------------------
     def _transaction(self) -> _Transaction:
         return _Transaction(self._db)
@@ -281,6 +416,7 @@ class SQLiteStore(Store):
             if cur.rowcount != 1:
                 raise StoreError(f"{self.location}: no campaign {name!r}")
             self._insert_runs(name, runs)
+            self._still_mine(name)
 
     def record_result(self, name: str, index: int, outcome: Outcome, wall_time: float) -> None:
         data = outcome.to_dict()
@@ -305,6 +441,7 @@ class SQLiteStore(Store):
             )
             if cur.rowcount != 1:
                 raise StoreError(f"{self.location}: no run {name}:{index}")
+            self._still_mine(name)
 
     def _where(
         self, campaign: str | None, status: str | Sequence[str] | None, start: int = 0
@@ -334,6 +471,8 @@ class SQLiteStore(Store):
 
     def _decode_record(self, row: tuple, trace: str | None = None) -> RunRecord:
         name, idx, _sid, bins, vals, seed, status, outcome, wall, replay_of = row
+        _typed(name, str), _typed(status, str), _typed(replay_of, (str, type(None)))
+        _typed(wall, (int, float, type(None)))  # a damaged cell may come back as a blob
         out = None
         if outcome is not None:
             data = json.loads(outcome)
@@ -391,6 +530,89 @@ class SQLiteStore(Store):
         self._db.close()
 
 
+class CampaignLock:
+    """A held campaign lock: a heartbeat thread keeps it fresh until :meth:`release`.
+
+    Attributes:
+        owner: this process's owner record.
+        previous: the dead owner whose lock was taken over, None if the campaign was free.
+    """
+
+    def __init__(self, store: SQLiteStore, owner: LockOwner, previous: LockOwner | None) -> None:
+        self._store = store
+        self.owner = owner
+        self.previous = previous
+        self._stop = threading.Event()
+        self._thread = threading.Thread(
+            target=_heartbeat,
+            args=(str(store.path), owner.campaign, owner.token, self._stop),
+            name=f"sitcov-lock-{owner.campaign}",
+            daemon=True,
+        )
+        self._thread.start()
+
+    def release(self) -> None:
+        """Stop the heartbeat and delete the lock row (if it is still this process's)."""
+        if self._stop.is_set():
+            return
+        self._stop.set()
+        self._thread.join(timeout=2 * BUSY_TIMEOUT)
+        self._store._unlock(self.owner.campaign, self.owner.token)
+
+    def __enter__(self) -> CampaignLock:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.release()
+
+
+def _heartbeat(path: str, campaign: str, token: str, stop: threading.Event) -> None:
+    """Refresh a lock's heartbeat every ``HEARTBEAT`` s from a connection of its own (runs
+    may take longer than the staleness limit; a lock taken over ends the thread)."""
+    try:
+        db = sqlite3.connect(path, isolation_level=None, timeout=BUSY_TIMEOUT)
+    except sqlite3.Error:
+        return
+    try:
+        while not stop.wait(_lock.HEARTBEAT):
+            try:
+                cur = db.execute(
+                    "UPDATE campaign_locks SET heartbeat = ? WHERE campaign = ? AND token = ?",
+                    (time.time(), campaign, token),
+                )
+            except sqlite3.Error:
+                continue  # busy or full now; the run loop's own writes report real trouble
+            if cur.rowcount != 1:
+                return  # taken over: the run loop's next write stops the campaign
+    finally:
+        db.close()
+
+
+def _operational(location: str, exc: BaseException) -> StoreError | None:
+    """The one-line error for a file that cannot be used now (locked, read-only, disk full,
+    I/O error, missing directory), None for anything else (damage)."""
+    text = str(exc).lower()
+    if "locked" in text or "busy" in text:
+        return StoreError(
+            f"{location}: the database is locked by another connection (waited "
+            f"{BUSY_TIMEOUT:g} s); close the program holding it and try again"
+        )
+    if "readonly" in text or "read-only" in text:
+        return StoreError(
+            f"{location}: cannot write: the database file or its directory is read-only"
+        )
+    if "disk is full" in text or "database or disk is full" in text:
+        return StoreError(
+            f"{location}: the disk is full; nothing half-written was kept (free some space, "
+            "then run the same command again to resume)"
+        )
+    if "disk i/o error" in text:
+        return StoreError(f"{location}: disk I/O error while using the database ({exc})")
+    if "unable to open" in text:
+        return StoreError(f"{location}: cannot open the file ({exc})")
+    return None
+
+
 def _damaged(location: str, what: str, exc: BaseException) -> StoreError:
     """The one-line error for a file whose pages or stored values cannot be read back."""
     detail = " ".join(f"{type(exc).__name__}: {exc}".split())[:200]
@@ -421,7 +643,8 @@ class _Guarded:
         try:
             result = getattr(self._target, method)(*args)
         except sqlite3.DatabaseError as exc:
-            raise _damaged(self._location, "a page", exc) from None
+            operational = _operational(self._location, exc)
+            raise (operational or _damaged(self._location, "a page", exc)) from None
         return _Guarded(result, self._location) if isinstance(result, sqlite3.Cursor) else result
 
     def execute(self, *args: Any) -> Any:
@@ -443,6 +666,12 @@ class _Guarded:
         return getattr(self._target, name)
 
 
+def _typed(value: Any, types: type | tuple[type, ...]) -> None:
+    """Raise TypeError (reported as damage by :func:`_decoding`) for a mistyped cell."""
+    if not isinstance(value, types):
+        raise TypeError(f"a stored cell holds {type(value).__name__} {value!r:.40}")
+
+
 def _trace_dict(trace: Trace) -> dict[str, Any]:
     return {"ego": trace.ego, "ov": trace.ov, "meta": trace.meta}
 
@@ -462,4 +691,7 @@ class _Transaction:
     def __exit__(self, exc_type: object, *exc: object) -> None:
         if not self._outer:
             return
-        self._db.execute("ROLLBACK" if exc_type else "COMMIT")
+        if not exc_type:
+            self._db.execute("COMMIT")
+        elif self._db.in_transaction:  # SQLite may have rolled back already (disk full)
+            self._db.execute("ROLLBACK")

@@ -15,6 +15,7 @@ moment resumes by re-running its pending rows. Implementations: SQLite (files) a
 from __future__ import annotations
 
 import abc
+import contextlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +32,10 @@ RUN_STATUSES = ("pending", "pass", "fail", "error", "timeout")
 
 class StoreError(SitcovError):
     """The campaign store cannot be opened or does not hold what was asked for."""
+
+
+class CampaignBusyError(StoreError):
+    """Another live process is running the campaign (see :meth:`Store.lock_campaign`)."""
 
 
 @dataclass(frozen=True)
@@ -114,6 +119,15 @@ class Store(abc.ABC):
     @abc.abstractmethod
     def update_config(self, name: str, config: Mapping[str, Any]) -> None:
         """Replace a campaign's stored config (e.g. when ``runs`` extends it)."""
+
+    def lock_campaign(self, name: str) -> contextlib.AbstractContextManager[Any]:
+        """Mark ``name`` as run by this process until the returned context exits.
+
+        A store shared between processes refuses (:class:`CampaignBusyError`, naming the
+        other process) while another live process holds the campaign, and takes over the
+        mark of one that died. This default is for stores only one process can see.
+        """
+        return contextlib.nullcontext()
 
     # -- runs --------------------------------------------------------------------------------
     @abc.abstractmethod

@@ -45,8 +45,9 @@ def read_yaml(text: str, file: str) -> Any:
         line = f"line {mark.line + 1}" if mark is not None else "(unknown line)"
         problem = exc.problem or exc.context or "a syntax error"
         raise ConfigError(f"{file}: {line}: expected valid YAML, got {problem}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{file}: expected valid YAML, got {exc}") from None
+    except (yaml.YAMLError, ValueError, RecursionError) as exc:  # 4300+ digits, deep nesting
+        problem = " ".join(str(exc).split())
+        raise ConfigError(f"{file}: expected valid YAML, got {problem}") from None
 
 
 def load_hyperspace(
@@ -81,4 +82,12 @@ def load_hyperspace(
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{file}: cannot read: {exc}") from None
-    return Hyperspace.from_dict(read_yaml(text, file), file=file)
+    data = read_yaml(text, file)
+    try:
+        return Hyperspace.from_dict(data, file=file)
+    except ValueError as exc:  # situations are stored as JSON, which has no inf or nan
+        if "JSON compliant" not in str(exc):
+            raise
+        raise ConfigError(
+            f"{file}: expected finite numbers (.inf and .nan cannot be stored), got one"
+        ) from None

@@ -698,6 +698,6 @@ def load_map(source: str = "t-junction") -> JunctionMap:
         raise ConfigError(
             file=str(path), field="map", value=None, expected=f"a readable file ({exc.strerror})"
         ) from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+    except (yaml.YAMLError, ValueError, RecursionError) as exc:  # bad UTF-8, deep nesting
+        raise ConfigError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
     return JunctionMap(data, source=str(path))
