@@ -1,0 +1,86 @@
+"""The few facts of each run a summary needs, streamed straight from SQL.
+
+``sitcov summary`` on a 100,000-run campaign must answer in seconds. Building a
+:class:`~sitcov.campaign.RunRecord` per run (situation values, the whole outcome JSON,
+validation) costs far more than the summary itself, so the SQLite store is asked only for
+the columns the counts use: bins, status, failure kind and which failure events happened.
+Any other store (the in-memory one, a plug-in) is read through ``iter_runs``; both give
+the same facts (tested).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator, Sequence
+from typing import Any
+
+from sitcov.campaign._records import RunRecord
+from sitcov.campaign._sqlite import SQLiteStore, _decoding
+from sitcov.campaign._store import Store
+from sitcov.sim._judge import EVENT_METRICS, event_times
+
+#: Rows fetched from SQLite at a time (memory stays flat whatever the campaign's size).
+_CHUNK = 2000
+
+
+def iter_facts(
+    store: Store, campaign: str | None = None, status: str | Sequence[str] | None = None
+) -> Iterator[dict[str, Any]]:
+    """One mapping per run (same filters as ``Store.iter_runs``, in no particular order):
+    ``bins``, ``status``, ``failure_kind`` and ``events`` (the failure events the run's
+    outcome reports as facts, a tuple of kinds; empty while pending)."""
+    if isinstance(store, SQLiteStore):
+        yield from _sql_facts(store, campaign, status)
+        return
+    for run in store.iter_runs(campaign, status):
+        yield record_facts(run)
+
+
+def record_facts(run: RunRecord) -> dict[str, Any]:
+    """The facts of a run record (what :func:`iter_facts` gives for it)."""
+    events = tuple(event_times(run.outcome)) if run.outcome is not None else ()
+    return {
+        "bins": dict(run.bins),
+        "status": run.status,
+        "failure_kind": run.failure_kind,
+        "events": events,
+    }
+
+
+def _sql_facts(
+    store: SQLiteStore, campaign: str | None, status: str | Sequence[str] | None
+) -> Iterator[dict[str, Any]]:
+    where, params = store._where(campaign, status)
+    metrics = ", ".join(
+        f"json_extract(outcome, '$.metrics.{key}') IS NOT NULL" for key in EVENT_METRICS.values()
+    )
+    cursor = store._db.execute(
+        f"SELECT campaign, idx, bins, status, failure_kind, outcome IS NOT NULL, collision, "
+        f"{metrics} FROM runs{where}",
+        params,
+    )
+    kinds = tuple(EVENT_METRICS)
+    while rows := cursor.fetchmany(_CHUNK):
+        for name, idx, bins, state, kind, finished, collision, *flags in rows:
+            with _decoding(store.location, f"run {name}:{idx}"):
+                decoded = json.loads(bins)
+            yield {
+                "bins": decoded,
+                "status": state,
+                "failure_kind": kind,
+                "events": _events(state, finished, collision, kinds, flags),
+            }
+
+
+def _events(
+    status: str, finished: int, collision: Any, kinds: tuple[str, ...], flags: list[int]
+) -> tuple[str, ...]:
+    """As ``sitcov.sim._judge.event_times`` on the stored outcome (kinds only)."""
+    if not finished:
+        return ()
+    events = (("collision",) if collision else ()) + tuple(
+        k for k, flag in zip(kinds, flags, strict=True) if flag
+    )
+    if not events and status == "fail":
+        return ("collision",)
+    return events
