@@ -15,7 +15,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 from sitcov.campaign._records import RunRecord
-from sitcov.campaign._sqlite import SQLiteStore, _decoding
+from sitcov.campaign._sqlite import SQLiteStore, _damaged
 from sitcov.campaign._store import Store
 from sitcov.sim._judge import EVENT_METRICS, event_times
 
@@ -51,36 +51,34 @@ def _sql_facts(
     store: SQLiteStore, campaign: str | None, status: str | Sequence[str] | None
 ) -> Iterator[dict[str, Any]]:
     where, params = store._where(campaign, status)
-    metrics = ", ".join(
-        f"json_extract(outcome, '$.metrics.{key}') IS NOT NULL" for key in EVENT_METRICS.values()
-    )
     cursor = store._db.execute(
-        f"SELECT campaign, idx, bins, status, failure_kind, outcome IS NOT NULL, collision, "
-        f"{metrics} FROM runs{where}",
-        params,
+        f"SELECT campaign, idx, bins, status, failure_kind, {_EVENT_MASK} FROM runs{where}", params
     )
-    kinds = tuple(EVENT_METRICS)
     while rows := cursor.fetchmany(_CHUNK):
-        for name, idx, bins, state, kind, finished, collision, *flags in rows:
-            with _decoding(store.location, f"run {name}:{idx}"):
+        for name, idx, bins, state, kind, mask in rows:
+            try:
                 decoded = json.loads(bins)
-            yield {
-                "bins": decoded,
-                "status": state,
-                "failure_kind": kind,
-                "events": _events(state, finished, collision, kinds, flags),
-            }
+            except (ValueError, TypeError) as exc:
+                raise _damaged(store.location, f"run {name}:{idx}", exc) from None
+            events = _COLLISION if mask == 0 and state == "fail" else _EVENTS[mask]
+            yield {"bins": decoded, "status": state, "failure_kind": kind, "events": events}
 
 
-def _events(
-    status: str, finished: int, collision: Any, kinds: tuple[str, ...], flags: list[int]
-) -> tuple[str, ...]:
-    """As ``sitcov.sim._judge.event_times`` on the stored outcome (kinds only)."""
-    if not finished:
-        return ()
-    events = (("collision",) if collision else ()) + tuple(
-        k for k, flag in zip(kinds, flags, strict=True) if flag
+#: Failure events a run's outcome reports as facts, as bits: the collision flag, then
+#: each departure metric that is set (-1: no outcome yet). The same facts as
+#: ``sitcov.sim._judge.event_times``, computed by SQLite.
+_EVENT_KINDS = ("collision", *EVENT_METRICS)
+_EVENT_MASK = (
+    "CASE WHEN outcome IS NULL THEN -1 ELSE (coalesce(collision, 0) != 0)"
+    + "".join(
+        f" | ((json_extract(outcome, '$.metrics.{key}') IS NOT NULL) << {bit})"
+        for bit, key in enumerate(EVENT_METRICS.values(), start=1)
     )
-    if not events and status == "fail":
-        return ("collision",)
-    return events
+    + " END"
+)
+_EVENTS = {
+    mask: tuple(k for bit, k in enumerate(_EVENT_KINDS) if mask >= 0 and mask >> bit & 1)
+    for mask in range(-1, 2 ** len(_EVENT_KINDS))
+}
+#: A failed run whose outcome reports no event failed by collision (as before failure kinds).
+_COLLISION = ("collision",)

@@ -49,8 +49,10 @@ def test_summary_of_sqlite_equals_the_in_memory_store(tmp_path):
     with open_store(tmp_path / "c.db") as sqlite:
         _fill(sqlite)
         for name in (*CAMPAIGNS, None):
-            expected = summarize_store(memory, name)
-            assert summarize_store(sqlite, name) == expected
+            expected, got = summarize_store(memory, name), summarize_store(sqlite, name)
+            # the campaigns' judges are listed in store order, which the stores may not share
+            assert sorted(got.pop("judge")) == sorted(expected.pop("judge"))
+            assert got == expected
     paper = summarize_store(memory, "paper")
     # the paper judge counts collisions only; departures still show as events
     assert paper["failures_by_kind"]["road_departure"]["failures"] == 0
