@@ -419,7 +419,8 @@ class RayExecutor(Executor):
     def map(self, tasks: Iterable[Task]) -> Iterator[Result]:
         queue: deque[tuple[Task, int]] = deque((task, 1) for task in tasks)
         limit = self.config.run_timeout
-        idle = list(range(len(self._actors)))
+        starting = set(self._starting.values())  # replacements from an earlier batch
+        idle = [slot for slot in range(len(self._actors)) if slot not in starting]
         busy: dict[Any, tuple[int, Task, int, float]] = {}  # ref -> slot, task, attempt, deadline
         while queue or busy:
             while queue and idle:
