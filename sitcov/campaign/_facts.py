@@ -36,6 +36,18 @@ def iter_facts(
         yield record_facts(run)
 
 
+def total_wall_time(store: Store, campaign: str) -> float:
+    """Sum of the wall times of a campaign's runs [s] (pending runs count 0)."""
+    if isinstance(store, SQLiteStore):
+        where, params = store._where(campaign, None)
+        row = store._db.execute(
+            f"SELECT total(wall_time) FROM (SELECT wall_time FROM runs{where} ORDER BY idx)",
+            params,
+        ).fetchone()
+        return float(row[0])
+    return sum(r.wall_time or 0.0 for r in store.iter_runs(campaign))
+
+
 def record_facts(run: RunRecord) -> dict[str, Any]:
     """The facts of a run record (what :func:`iter_facts` gives for it)."""
     events = tuple(event_times(run.outcome)) if run.outcome is not None else ()

@@ -58,3 +58,15 @@ def test_summary_of_sqlite_equals_the_in_memory_store(tmp_path):
     assert paper["failures_by_kind"]["road_departure"]["failures"] == 0
     assert paper["events_by_kind"]["road_departure"] > 0
     assert summarize_store(memory, "errors")["errors"] > 0
+
+
+def test_total_wall_time_in_sql_equals_the_sum_over_runs(tmp_path):
+    from sitcov.campaign._facts import total_wall_time
+
+    memory = open_store(None)
+    run_campaign(fake_config(name="c", runs=20), memory)
+    with open_store(tmp_path / "c.db") as store:
+        run_campaign(fake_config(name="c", runs=20), store)
+        for s in (memory, store):
+            expected = sum(r.wall_time or 0.0 for r in s.iter_runs("c"))
+            assert total_wall_time(s, "c") == expected > 0

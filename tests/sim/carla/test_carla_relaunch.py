@@ -84,6 +84,7 @@ def test_launch_command_gets_host_and_port_and_is_validated(tmp_path) -> None:
     assert carla_backend_options(launch="CarlaUE4.sh")["launch"] == "CarlaUE4.sh"
 
 
+@pytest.mark.slow
 def test_campaign_goes_on_when_the_server_dies_mid_campaign(tmp_path) -> None:
     flag = tmp_path / "server-up"
     options = {
