@@ -385,8 +385,6 @@ class RayExecutor(Executor):
         self._actors = [self._actor_cls.remote(self._data, k) for k in range(config.workers)]
         #: ready() of actors that replace dead ones -> their slot (not yet serving)
         self._starting: dict[Any, int] = {}
-        #: runs re-run because their actor was lost (for logs and tests)
-        self.lost = 0
         try:
             self._ray.get([a.ready.remote() for a in self._actors], timeout=_STARTUP_TIMEOUT)
         except Exception as exc:
@@ -467,7 +465,6 @@ class RayExecutor(Executor):
                 message = f"the Ray worker died {attempt} times running this run: {reason}"
                 yield task[0], Outcome.errored(message), 0.0
                 return
-            self.lost += 1
             log.warning("run %d lost with its Ray worker (%s); running it again", task[0], reason)
             queue.appendleft((task, attempt + 1))
             return
