@@ -11,7 +11,8 @@ the same facts (tested).
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from sitcov.campaign._records import RunRecord
@@ -34,6 +35,59 @@ def iter_facts(
         return
     for run in store.iter_runs(campaign, status):
         yield record_facts(run)
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class RunFacts:
+    """A stored run without its concrete values and outcome: what reports count and group.
+
+    About a tenth of a :class:`~sitcov.campaign.RunRecord` in memory and far cheaper to
+    read, so a report of 100,000 runs holds them all. ``store.get_run(campaign, index)``
+    gives the full record (situation, outcome, trace) of one run when it is needed.
+
+    Attributes:
+        campaign, index, seed, status, failure_kind, bins: as in ``RunRecord``.
+        config: the campaign's stored config (shared by its runs).
+    """
+
+    campaign: str
+    index: int
+    seed: int
+    status: str
+    failure_kind: str | None
+    bins: Mapping[str, str]
+    config: Mapping[str, Any]
+
+
+def iter_run_facts(
+    store: Store, campaign: str, status: str | Sequence[str] | None = None
+) -> Iterator[RunFacts]:
+    """The runs of ``campaign`` (optionally of these statuses) as :class:`RunFacts`, in index
+    order, streamed."""
+    if not isinstance(store, SQLiteStore):
+        for run in store.iter_runs(campaign, status):
+            yield RunFacts(
+                run.campaign,
+                run.index,
+                run.seed,
+                run.status,
+                run.failure_kind,
+                dict(run.bins),
+                run.config,
+            )
+        return
+    config = store._config(campaign)
+    where, params = store._where(campaign, status)
+    cursor = store._db.execute(
+        f"SELECT idx, seed, status, failure_kind, bins FROM runs{where} ORDER BY idx", params
+    )
+    while rows := cursor.fetchmany(_CHUNK):
+        for idx, seed, state, kind, bins in rows:
+            try:
+                decoded = json.loads(bins)
+            except (ValueError, TypeError) as exc:
+                raise _damaged(store.location, f"run {campaign}:{idx}", exc) from None
+            yield RunFacts(campaign, int(idx), int(seed), state, kind, decoded, config)
 
 
 def total_wall_time(store: Store, campaign: str) -> float:
