@@ -159,7 +159,7 @@ class CarlaBackend(Backend):
         except RuntimeError:
             raise BackendUnavailableError(
                 f"no CARLA server at {self.host}:{self.port} after {self.timeout:g}s: "
-                "start CarlaUE4.sh or pass --carla-host/--carla-port (or --carla-launch)"
+                "start CarlaUE4.sh or pass --carla-host/--carla-port"
             ) from None
         self._versions = {"server": str(server), "client": str(client.get_client_version())}
         self._client, self._world, self._cmap = client, None, None
