@@ -89,7 +89,11 @@ def run_scale_campaign(db: Path, runs: int, workers: int, sample_every: int) -> 
             parent.append((p.done, round(rss_mib() or 0.0, 2)))
             kids = [rss_mib(pid) for pid in child_pids(os.getpid())]
             workers_rss.append((p.done, [round(k, 2) for k in kids if k is not None]))
-            print(f"[bench_scale] {p.done}/{p.total} runs, load {os.getloadavg()}", flush=True)
+            print(  # also here: a campaign stopped early still leaves its samples
+                f"[bench_scale] {p.done}/{p.total} runs, parent RSS {parent[-1][1]} MiB, "
+                f"workers {workers_rss[-1][1]} MiB, load {os.getloadavg()}",
+                flush=True,
+            )
 
     config = CampaignConfig(name="scale", runs=runs, workers=workers, executor="processes", seed=1)
     with open_store(db) as store:
