@@ -255,6 +255,9 @@ def run_cmd(
     carla_servers: Optional[str] = typer.Option(  # noqa: UP045
         None, "--carla-servers", help="host:port,... one CARLA server per worker."
     ),
+    carla_launch: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--carla-launch", help="Shell command that (re)starts a dead CARLA server."
+    ),
 ) -> None:
     """Run, resume or extend a campaign and print its summary."""
     from sitcov.campaign import load_config, open_store, run_campaign
@@ -270,6 +273,7 @@ def run_cmd(
             "timeout": carla_timeout,
             "map": carla_map,
             "servers": carla_servers,
+            "launch": carla_launch,
         }.items()
         if value is not None
     }

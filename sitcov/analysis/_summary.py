@@ -14,9 +14,12 @@ collision, as every failure was before failure kinds existed.
 from __future__ import annotations
 
 import math
+from array import array
 from collections.abc import Iterable, Mapping
 from itertools import combinations
 from typing import Any
+
+import numpy as np
 
 from sitcov.analysis._stats import uniformity, wilson_interval
 from sitcov.hyperspace import Hyperspace
@@ -28,6 +31,8 @@ FAILURE_KINDS = ("collision", "road_departure", "lane_departure")
 
 
 def _field(run: Any, name: str) -> Any:
+    if type(run) is dict:  # the common case first: isinstance(Mapping) is slow per run
+        return run[name]
     return run[name] if isinstance(run, Mapping) else getattr(run, name)
 
 
@@ -57,9 +62,10 @@ def _indexed(hs: Hyperspace, runs: Iterable[Any]) -> tuple[list[tuple[list[int],
 
 def _kind(run: Any) -> str:
     """The failure kind of a failed run (``collision`` when it does not say)."""
-    kind = (
-        run.get("failure_kind") if isinstance(run, Mapping) else getattr(run, "failure_kind", None)
-    )
+    if type(run) is dict or isinstance(run, Mapping):
+        kind = run.get("failure_kind")
+    else:
+        kind = getattr(run, "failure_kind", None)
     return kind if kind in FAILURE_KINDS else "collision"
 
 
@@ -124,21 +130,25 @@ def _bin_stats(hs: Hyperspace, indexed: list[tuple[list[int], str]]) -> dict[str
     for e, element in enumerate(hs.elements):
         per_bin = {}
         for i, label in enumerate(element.labels):
-            t = tallies[e][i]
-            judged = t["pass"] + t["fail"]
-            rate, ci = _rate(t["fail"], judged)
-            per_bin[label] = {
-                "generated": sum(t.values()),
-                "failures": t["fail"],
-                "failure_rate": rate,
-                "ci95": ci,
-                "passes": t["pass"],
-                "errors": t["error"],
-                "timeouts": t["timeout"],
-                "judged": judged,
-            }
+            per_bin[label] = _bin_row(tallies[e][i])
         out[element.name] = per_bin
     return out
+
+
+def _bin_row(t: dict[str, int]) -> dict[str, Any]:
+    """A bin's statistics from its counts per status."""
+    judged = t["pass"] + t["fail"]
+    rate, ci = _rate(t["fail"], judged)
+    return {
+        "generated": sum(t.values()),
+        "failures": t["fail"],
+        "failure_rate": rate,
+        "ci95": ci,
+        "passes": t["pass"],
+        "errors": t["error"],
+        "timeouts": t["timeout"],
+        "judged": judged,
+    }
 
 
 def _feasible_bins(hs: Hyperspace) -> int:
@@ -192,37 +202,131 @@ def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
     ``uniformity`` per element (see :func:`~sitcov.analysis.uniformity`; an unused bin
     gives ``max_min_ratio: null`` with ``min: 0``), ``unmatched`` (runs whose bins are not
     in this hyperspace) and ``hyperspace`` (its name).
+
+    ``runs`` is read once, as a stream: a 100,000-run campaign is summarised from compact
+    per-run bin indices (a few bytes each) and counted with numpy, never held as records.
     """
-    runs = list(runs)
-    pending = sum(1 for r in runs if _field(r, "status") == "pending")
-    indexed, unmatched = _indexed(hyperspace, runs)
-    statuses = [_field(r, "status") for r in runs if _field(r, "status") != "pending"]
-    n_fail = statuses.count("fail")
-    n_pass = statuses.count("pass")
-    rate, ci = _rate(n_fail, n_fail + n_pass)
-    elements = _bin_stats(hyperspace, indexed)
-    for name, per_bin in kind_counts_per_bin(hyperspace, runs).items():
-        for label, kinds in per_bin.items():
-            elements[name][label]["failures_by_kind"] = kinds
-    return {
-        "runs": len(statuses),
-        "failures": n_fail,
-        "errors": statuses.count("error"),
-        "elements": elements,
-        "coverage": _coverage(hyperspace, indexed),
-        "timeouts": statuses.count("timeout"),
-        "passes": n_pass,
-        "pending": pending,
-        "failure_rate": rate,
-        "ci95": ci,
-        "failures_by_kind": failures_by_kind(runs),
-        "uniformity": {
-            name: _json_uniformity([b["generated"] for b in per_bin.values()])
-            for name, per_bin in elements.items()
-        },
-        "unmatched": unmatched,
-        "hyperspace": hyperspace.name,
-    }
+    tally = _Tally(hyperspace)
+    for run in runs:
+        tally.add(run)
+    return tally.summary()
+
+
+#: Status codes of the tallies (index into _STATUSES); other statuses are not tallied.
+_CODE = {s: i for i, s in enumerate(_STATUSES)}
+
+
+class _Tally:
+    """One pass over the runs: status and kind counts, and the bin indices of each run."""
+
+    def __init__(self, hs: Hyperspace) -> None:
+        self.hs = hs
+        self.lookup = hs._label_index
+        self.names = hs.element_names
+        self.statuses = dict.fromkeys(_STATUSES, 0)
+        self.other = 0  # finished runs with a status outside _STATUSES
+        self.pending = 0
+        self.unmatched = 0
+        self.kinds = dict.fromkeys(FAILURE_KINDS, 0)  # every failed run, matched or not
+        self.idx = array("i")  # bin indices of matched runs, row after row
+        self.codes = array("b")  # their status codes (-1: not tallied)
+        self.kind_codes = array("b")  # their failure kind (-1: not failed)
+
+    def add(self, run: Any) -> None:
+        status = _field(run, "status")
+        if status == "pending":
+            self.pending += 1
+            return
+        if status in self.statuses:
+            self.statuses[status] += 1
+        else:
+            self.other += 1
+        kind = FAILURE_KINDS.index(_kind(run)) if status == "fail" else -1
+        if kind >= 0:
+            self.kinds[FAILURE_KINDS[kind]] += 1
+        bins = _field(run, "bins")
+        row = []
+        for e, name in enumerate(self.names):
+            i = self.lookup[e].get(bins.get(name)) if name in bins else None
+            if i is None:
+                self.unmatched += 1
+                return
+            row.append(i)
+        self.idx.extend(row)
+        self.codes.append(_CODE.get(status, -1))
+        self.kind_codes.append(kind)
+
+    def _matrix(self) -> np.ndarray:
+        return np.array(self.idx, dtype=np.int64).reshape(-1, len(self.names))
+
+    def elements(self, idx: np.ndarray) -> dict[str, Any]:
+        codes = np.array(self.codes, dtype=np.int64)
+        kinds = np.array(self.kind_codes, dtype=np.int64)
+        tallied, failed = codes >= 0, kinds >= 0
+        out: dict[str, Any] = {}
+        for e, element in enumerate(self.hs.elements):
+            n = len(element.labels)
+            counts = np.zeros((n, len(_STATUSES)), dtype=np.int64)
+            np.add.at(counts, (idx[tallied, e], codes[tallied]), 1)
+            by_kind = np.zeros((n, len(FAILURE_KINDS)), dtype=np.int64)
+            np.add.at(by_kind, (idx[failed, e], kinds[failed]), 1)
+            out[element.name] = {
+                label: {
+                    **_bin_row(dict(zip(_STATUSES, map(int, counts[i]), strict=True))),
+                    "failures_by_kind": dict(zip(FAILURE_KINDS, map(int, by_kind[i]), strict=True)),
+                }
+                for i, label in enumerate(element.labels)
+            }
+        return out
+
+    def coverage(self, idx: np.ndarray) -> dict[str, Any]:
+        hs = self.hs
+        seen_bins = sum(len(np.unique(idx[:, e])) for e in range(idx.shape[1]))
+        allowed = hs.allowed_pairs
+        seen = set()
+        for e1, e2 in combinations(range(idx.shape[1]), 2):
+            n2 = hs.sizes[e2]
+            for code in np.unique(idx[:, e1] * n2 + idx[:, e2]).tolist():
+                seen.add((e1, code // n2, e2, code % n2))
+        seen &= allowed
+        total = len(allowed)
+        return {
+            "bins_covered": int(seen_bins),
+            "bins_total": _feasible_bins(hs),
+            "pairwise": len(seen) / total if total else 1.0,
+            "pairs_covered": len(seen),
+            "pairs_total": total,
+        }
+
+    def summary(self) -> dict[str, Any]:
+        idx = self._matrix()
+        n_fail, n_pass = self.statuses["fail"], self.statuses["pass"]
+        judged = n_fail + n_pass
+        rate, ci = _rate(n_fail, judged)
+        elements = self.elements(idx)
+        by_kind = {}
+        for kind, n in self.kinds.items():
+            k_rate, k_ci = _rate(n, judged)
+            by_kind[kind] = {"failures": n, "failure_rate": k_rate, "ci95": k_ci}
+        return {
+            "runs": sum(self.statuses.values()) + self.other,
+            "failures": n_fail,
+            "errors": self.statuses["error"],
+            "elements": elements,
+            "coverage": self.coverage(idx),
+            "timeouts": self.statuses["timeout"],
+            "passes": n_pass,
+            "pending": self.pending,
+            "failure_rate": rate,
+            "ci95": ci,
+            "failures_by_kind": by_kind,
+            "uniformity": {
+                name: _json_uniformity([b["generated"] for b in per_bin.values()])
+                for name, per_bin in elements.items()
+            },
+            "unmatched": self.unmatched,
+            "hyperspace": self.hs.name,
+        }
 
 
 def coverage_growth(hyperspace: Hyperspace, runs: Iterable[Any]) -> list[dict[str, Any]]:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import abc
 import contextlib
+import logging
 import multiprocessing as mp
 import os
 import signal
@@ -44,6 +45,8 @@ from sitcov.sim import STATUSES, Outcome
 Task = tuple[int, dict, int]
 #: A result: (run index, outcome, wall-clock seconds).
 Result = tuple[int, Outcome, float]
+
+log = logging.getLogger("sitcov.campaign")
 
 _STARTUP_TIMEOUT = 600.0  # [s] for a worker to import and build backend + stack
 #: Tasks in flight per worker process: the next one already waits in the worker's pipe, so
@@ -357,8 +360,20 @@ class _RayWorker:
             return ("fatal", str(exc))  # the campaign cannot run: the driver raises it
 
 
+#: Times a run is started on Ray before a lost worker (a dead node, a crashed actor) is
+#: stored as the run's ``error``: a run lost with its node is re-run elsewhere, but a run
+#: that itself kills its worker every time must not loop forever.
+RAY_ATTEMPTS = 3
+
+
 class RayExecutor(Executor):
     """Ray actors (one backend + stack each), on ``ray_address`` or a local Ray started here.
+
+    A run whose actor dies (its node was lost, its process crashed) is re-run on another
+    actor, up to :data:`RAY_ATTEMPTS` times in all, then stored as ``error``; the dead actor
+    is replaced without waiting for the replacement (on a cluster that lost a node it may
+    never find room: the surviving actors carry on alone). Runs are deterministic, so a
+    re-run stores exactly what the lost one would have.
 
     Raises:
         MissingExtraError: ray is not installed.
@@ -385,59 +400,122 @@ class RayExecutor(Executor):
                 ray.init(num_cpus=config.workers, **kwargs)
         self._actor_cls = ray.remote(num_cpus=1)(_RayWorker)
         self._data = config.model_dump(mode="json")
-        self._actors = [self._new_actor(k) for k in range(config.workers)]
-
-    def _new_actor(self, worker_index: int) -> Any:
-        actor = self._actor_cls.remote(self._data, worker_index)
+        self._actors = [self._actor_cls.remote(self._data, k) for k in range(config.workers)]
+        #: ready() of actors that replace dead ones -> their slot (not yet serving)
+        self._starting: dict[Any, int] = {}
         try:
-            self._ray.get(actor.ready.remote(), timeout=_STARTUP_TIMEOUT)
+            self._ray.get([a.ready.remote() for a in self._actors], timeout=_STARTUP_TIMEOUT)
         except Exception as exc:
-            raise SitcovError(f"a Ray campaign worker could not start: {exc}") from None
-        return actor
+            self.close()
+            raise SitcovError(
+                f"a Ray campaign worker could not start: {_first_line(exc)}"
+            ) from None
+
+    def _replace(self, slot: int) -> None:
+        """Kill the actor of ``slot`` and start another (without waiting for it)."""
+        with contextlib.suppress(Exception):  # it may be dead already
+            self._ray.kill(self._actors[slot])
+        self._actors[slot] = self._actor_cls.remote(self._data, slot)
+        self._starting[self._actors[slot].ready.remote()] = slot
+
+    def _started(self, ref: Any) -> int:
+        """The slot whose replacement actor answered ``ref``; raises if it could not start."""
+        slot = self._starting.pop(ref)
+        try:
+            self._ray.get(ref)
+        except self._ray.exceptions.RayTaskError as exc:  # its constructor raised
+            raise SitcovError(
+                f"a Ray campaign worker could not start: {_first_line(exc)}"
+            ) from None
+        except Exception:  # lost before it started (its node died too): try again
+            self._replace(slot)
+            return -1
+        return slot
 
     def map(self, tasks: Iterable[Task]) -> Iterator[Result]:
-        ray = self._ray
-        queue = deque(tasks)
+        queue: deque[tuple[Task, int]] = deque((task, 1) for task in tasks)
         limit = self.config.run_timeout
-        idle = list(range(len(self._actors)))
-        busy: dict[Any, tuple[int, Task, float]] = {}
+        starting = set(self._starting.values())  # replacements from an earlier batch
+        idle = [slot for slot in range(len(self._actors)) if slot not in starting]
+        busy: dict[Any, tuple[int, Task, int, float]] = {}  # ref -> slot, task, attempt, deadline
         while queue or busy:
             while queue and idle:
                 slot = idle.pop()
-                task = queue.popleft()
+                task, attempt = queue.popleft()
                 ref = self._actors[slot].run.remote(task)
                 deadline = time.monotonic() + limit if limit else float("inf")
-                busy[ref] = (slot, task, deadline)
-            soonest = min(d for _, _, d in busy.values())
+                busy[ref] = (slot, task, attempt, deadline)
+            soonest = min((d for *_, d in busy.values()), default=float("inf"))
             timeout = None if soonest == float("inf") else max(0.0, soonest - time.monotonic())
-            done, _ = ray.wait(list(busy), num_returns=1, timeout=timeout)
+            if not busy:
+                timeout = _STARTUP_TIMEOUT  # only replacements starting: wait for one
+            waiting = [*busy, *self._starting]
+            done, _ = self._ray.wait(waiting, num_returns=1, timeout=timeout)
+            if not done and not busy:
+                raise SitcovError(
+                    f"no Ray campaign worker could start within {_STARTUP_TIMEOUT:g} s "
+                    "(has the cluster lost its nodes?)"
+                )
             for ref in done:
-                slot, task, _ = busy.pop(ref)
-                idle.append(slot)
-                try:
-                    result = ray.get(ref)
-                except Exception as exc:  # the actor died
-                    self._actors[slot] = self._new_actor(slot)
-                    yield task[0], Outcome.errored(f"the Ray worker died: {exc}"), 0.0
+                if ref in self._starting:
+                    slot = self._started(ref)
+                    if slot >= 0:
+                        idle.append(slot)
                     continue
-                if result[0] == "fatal":
-                    raise SetupError(result[1])
-                yield result
-            now = time.monotonic()
-            for ref, (slot, task, deadline) in list(busy.items()):
-                if deadline <= now:
-                    busy.pop(ref)
-                    ray.kill(self._actors[slot])
-                    self._actors[slot] = self._new_actor(slot)
-                    idle.append(slot)
-                    yield task[0], _timeout_outcome(float(limit)), float(limit)
+                yield from self._finished(ref, busy, idle, queue)
+            yield from self._expired(busy, idle, limit)
+
+    def _finished(
+        self,
+        ref: Any,
+        busy: dict[Any, tuple[int, Task, int, float]],
+        idle: list[int],
+        queue: deque[tuple[Task, int]],
+    ) -> Iterator[Result]:
+        """Yield the result of a finished task, or re-queue it if its actor was lost."""
+        slot, task, attempt, _ = busy.pop(ref)
+        try:
+            result = self._ray.get(ref)
+        except Exception as exc:  # the actor died (a lost node, a crash) or its result was lost
+            self._replace(slot)
+            reason = _first_line(exc)
+            if attempt >= RAY_ATTEMPTS:
+                message = f"the Ray worker died {attempt} times running this run: {reason}"
+                yield task[0], Outcome.errored(message), 0.0
+                return
+            log.warning("run %d lost with its Ray worker (%s); running it again", task[0], reason)
+            queue.appendleft((task, attempt + 1))
+            return
+        idle.append(slot)
+        if result[0] == "fatal":
+            raise SetupError(result[1])
+        yield result
+
+    def _expired(
+        self, busy: dict[Any, tuple[int, Task, int, float]], idle: list[int], limit: float | None
+    ) -> Iterator[Result]:
+        """Yield ``timeout`` for runs past their deadline; their actors are replaced."""
+        now = time.monotonic()
+        for ref, (slot, task, _, deadline) in list(busy.items()):
+            if deadline <= now:
+                busy.pop(ref)
+                self._replace(slot)
+                yield task[0], _timeout_outcome(float(limit)), float(limit)  # type: ignore[arg-type]
 
     def close(self) -> None:
         for actor in self._actors:
-            self._ray.kill(actor)
+            with contextlib.suppress(Exception):  # dead, or never placed
+                self._ray.kill(actor)
         self._actors = []
+        self._starting = {}
         if self._owns:
             self._ray.shutdown()
+
+
+def _first_line(exc: BaseException) -> str:
+    """``Type: message`` of an exception on one line (Ray errors carry long tracebacks)."""
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}"[:300]
 
 
 def make_executor(config: CampaignConfig, backend: Any = None) -> Executor:

@@ -10,7 +10,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from sitcov.campaign._records import RunRecord
+from sitcov.campaign._facts import RunFacts, iter_run_facts
+from sitcov.campaign._summary import FINISHED
 from sitcov.errors import ConfigError
 
 #: Fault label shown for runs without a seeded fault (the paper's "NF").
@@ -62,7 +63,7 @@ class CampaignView:
     config: dict[str, Any]
     tags: dict[str, Any]
     hyperspace: dict[str, Any] | None
-    runs: list[RunRecord] = field(default_factory=list)
+    runs: list[RunFacts] = field(default_factory=list)
     sitcov_version: str = "?"
     created: str = "?"
     setup: dict[str, Any] = field(default_factory=dict)
@@ -90,7 +91,7 @@ class CampaignView:
         return self.tags.get("experiment") == "faults"
 
 
-def _campaign_config(info: Any, runs: Sequence[RunRecord]) -> dict[str, Any]:
+def _campaign_config(info: Any, runs: Sequence[RunFacts]) -> dict[str, Any]:
     config = _as_dict(_get(info, "config"))
     if not config and runs:
         config = _as_dict(runs[0].config)
@@ -147,7 +148,7 @@ def load_campaigns(store: Any, names: Sequence[str] | None = None) -> list[Campa
     views = []
     for info in _ordered(chosen) if not names else chosen:
         name = str(_get(info, "name"))
-        runs = [r for r in store.runs(campaign=name) if r.status != "pending"]
+        runs = list(iter_run_facts(store, name, FINISHED))  # slim: 100k runs fit
         hyperspace = _get(info, "hyperspace")
         views.append(
             CampaignView(
@@ -169,9 +170,9 @@ def series_key(view: CampaignView) -> tuple[str, str]:
     return view.generator, view.fault
 
 
-def group_runs(views: Sequence[CampaignView]) -> dict[tuple[str, str], list[RunRecord]]:
+def group_runs(views: Sequence[CampaignView]) -> dict[tuple[str, str], list[RunFacts]]:
     """Runs pooled by (generator, fault), NF first, then faults, generators in first-seen order."""
-    groups: dict[tuple[str, str], list[RunRecord]] = {}
+    groups: dict[tuple[str, str], list[RunFacts]] = {}
     for view in views:
         groups.setdefault(series_key(view), []).extend(view.runs)
 

@@ -51,7 +51,7 @@ def _trace_outcome(store: Any, run: Any, builders: dict) -> Any:
     from sitcov.sim import Judge
 
     judge = Judge.from_spec(run.config.get("judge", "paper"))  # stored before judges: paper
-    return judge(backend.run(run.situation, stack, run.seed, record=True))
+    return judge(backend.run(stored.situation, stack, run.seed, record=True))
 
 
 def failure_pictures(

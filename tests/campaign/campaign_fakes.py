@@ -6,6 +6,7 @@ path), so worker processes and Ray actors build them exactly like real plugins.
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import replace
 from types import SimpleNamespace
@@ -44,17 +45,30 @@ def raises(seed: int, rate: float) -> bool:
     return bool(np.random.default_rng([int(seed), 99]).random() < rate)
 
 
+def crashes(seed: int, rate: float) -> bool:
+    """Whether FakeBackend kills its process for this seed (~``rate`` of seeds)."""
+    return bool(np.random.default_rng([int(seed), 13]).random() < rate)
+
+
 class FakeBackend(Backend):
     """Outcome from the seed and the friction value; optional raising and hanging."""
 
     name: ClassVar[str] = "fake"
 
     def __init__(
-        self, raise_rate: float = 0.0, hang_rate: float = 0.0, sleep: float = 0.0, **_: Any
+        self,
+        raise_rate: float = 0.0,
+        hang_rate: float = 0.0,
+        sleep: float = 0.0,
+        crash_rate: float = 0.0,
+        **_: Any,
     ) -> None:
         self.raise_rate, self.hang_rate, self.sleep = raise_rate, hang_rate, sleep
+        self.crash_rate = crash_rate
 
     def run(self, situation: Any, av_stack: AVStack, seed: int, *, record: bool = False) -> Outcome:
+        if crashes(seed, self.crash_rate):
+            os._exit(3)  # the worker process dies (as on a segfault): never in the test process
         if raises(seed, self.raise_rate):
             raise RuntimeError(f"fake backend exploded on seed {seed}")
         if self.hang_rate and np.random.default_rng([int(seed), 5]).random() < self.hang_rate:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from campaign_fakes import raises
+from campaign_fakes import crashes, raises
 from campaign_helpers import db_rows, fake_config
 from needs import need_module
 
@@ -63,3 +63,21 @@ def test_ray_timeout_replaces_the_actor():
     assert {r.status for r in runs} <= {"pass", "fail", "timeout"}
     assert any(r.status == "timeout" for r in runs)
     assert all(r.status != "pending" for r in runs)
+
+
+@pytest.mark.slow
+def test_a_run_that_kills_its_ray_worker_every_time_is_an_error_after_3_attempts():
+    from sitcov.campaign._executors import RAY_ATTEMPTS
+
+    store = open_store(None)
+    cfg = fake_config(runs=8, executor="ray", workers=2, backend_options={"crash_rate": 0.2})
+    run_campaign(cfg, store)
+    runs = store.runs()
+    crashing = [r.index for r in runs if crashes(r.seed, 0.2)]
+    assert crashing  # the seed gives at least one such run
+    assert [r.index for r in runs if r.status == "error"] == crashing
+    for run in runs:
+        if run.index in crashing:
+            assert f"the Ray worker died {RAY_ATTEMPTS} times" in run.outcome.message
+        else:
+            assert run.status in ("pass", "fail")

@@ -7,13 +7,19 @@ tyre friction and read it back, attach the ego's RGB camera (the stack's CameraS
 collision sensor, then step: the stack gets camera frames in ``Observation.image`` and runs
 its own detector, the OV follows the adversary's timing law. Every actor and sensor is
 destroyed in ``finally``. Server time-outs or disconnects: reconnect and retry once, then an
-``error`` outcome. Only the members listed in ``_surface.SURFACE`` are used.
+``error`` outcome. With a launch command (``--carla-launch``), a server that does not
+answer is started again with it, and the backend waits (at most ``launch_timeout`` s) until
+it accepts connections before going on. Only the members listed in ``_surface.SURFACE``
+are used.
 """
 
 from __future__ import annotations
 
 import contextlib
 import math
+import shlex
+import subprocess
+import time
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -42,6 +48,10 @@ CAMERA_RATE_HZ = 10.0
 #: Relative tolerance of the tyre-friction read-back.
 FRICTION_RTOL = 1e-3
 FRICTION_MODES = ("wheels", "trigger", "both")
+#: Default wait for a server started by ``--carla-launch`` [s] (CARLA takes 10-60 s).
+LAUNCH_TIMEOUT = 120.0
+#: Pause between connection attempts while a launched server starts [s].
+LAUNCH_POLL = 1.0
 
 
 class _StackFailure(Exception):
@@ -67,6 +77,11 @@ class CarlaBackend(Backend):
             ``sitcov.sim.conditions_from_values`` reaches the wheels; the crosswind force
             is NOT applied: CARLA's weather wind moves no vehicle). See docs/carla.md.
         connect: connect now (fail fast without a server) rather than at the first run.
+        launch: a shell command that starts the server (``--carla-launch``); ``{host}`` and
+            ``{port}`` are replaced by this backend's server. When no server answers (at the
+            first connection, or after one died mid-campaign) it is run and the backend
+            waits for the server; the command must free the port of a hung server itself.
+        launch_timeout: seconds to wait for a launched server to accept connections.
         carla_module: the module providing the client API (tests pass a fake).
     """
 
@@ -88,6 +103,8 @@ class CarlaBackend(Backend):
         sun_altitude: float = 45.0,
         physics: str = "carla",
         connect: bool = True,
+        launch: str | None = None,
+        launch_timeout: float = LAUNCH_TIMEOUT,
         carla_module: Any = None,
     ) -> None:
         from sitcov.sim.carla._options import parse_servers
@@ -108,6 +125,12 @@ class CarlaBackend(Backend):
         self.physics = check_profile(physics)
         self.camera_every = max(1, round(1.0 / (camera_rate_hz * self.dt)))
         self.sun_altitude = float(sun_altitude)
+        self.launch = _launch_command(launch, self.host, self.port)
+        if not (launch_timeout > 0):
+            raise ConfigError(field="carla_launch_timeout", value=launch_timeout, expected="> 0")
+        self.launch_timeout = float(launch_timeout)
+        self.launches = 0  # servers started by this backend
+        self._server_process: subprocess.Popen | None = None
         self._carla = carla_module if carla_module is not None else _import_carla()
         self._client: Any = None
         self._world: Any = None
@@ -120,6 +143,14 @@ class CarlaBackend(Backend):
     # -- connection ------------------------------------------------------------------------
 
     def _connect(self) -> None:
+        try:
+            self._connect_once()
+        except BackendUnavailableError:
+            if self.launch is None:
+                raise
+            self._relaunch()
+
+    def _connect_once(self) -> None:
         carla = self._carla
         client = carla.Client(host=self.host, port=self.port)
         client.set_timeout(self.timeout)
@@ -132,6 +163,41 @@ class CarlaBackend(Backend):
             ) from None
         self._versions = {"server": str(server), "client": str(client.get_client_version())}
         self._client, self._world, self._cmap = client, None, None
+
+    def _relaunch(self) -> None:
+        """Start the server with the launch command and wait until it accepts connections.
+
+        Raises:
+            BackendUnavailableError: the command exited with an error, or no server answered
+                within ``launch_timeout`` seconds.
+        """
+        assert self.launch is not None
+        self.launches += 1
+        self._server_process = subprocess.Popen(  # noqa: S603 - the user's own command
+            self.launch,
+            shell=True,  # noqa: S602 - a command line such as "CarlaUE4.sh -RenderOffScreen"
+            start_new_session=True,  # the server outlives this worker's signals
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+        deadline = time.monotonic() + self.launch_timeout
+        while True:
+            try:
+                self._connect_once()
+                return
+            except BackendUnavailableError:
+                code = self._server_process.poll()
+                if code not in (None, 0):
+                    raise BackendUnavailableError(
+                        f"--carla-launch {shlex.quote(self.launch)} exited with status {code}"
+                    ) from None
+                if time.monotonic() >= deadline:
+                    raise BackendUnavailableError(
+                        f"no CARLA server at {self.host}:{self.port} within "
+                        f"{self.launch_timeout:g}s of running --carla-launch "
+                        f"{shlex.quote(self.launch)}"
+                    ) from None
+                time.sleep(min(LAUNCH_POLL, max(0.0, deadline - time.monotonic())))
 
     def _ensure_world(self) -> tuple[Any, Any]:
         if self._client is None:
@@ -424,6 +490,20 @@ def ego_state(state: VehicleState, t: float) -> EgoState:
 def make_observation(t: float, state: VehicleState, image: np.ndarray | None) -> Observation:
     """Camera-mode observation (detections are the stack's job)."""
     return Observation(t=t, ego=ego_state(state, t), image=image)
+
+
+def _launch_command(launch: str | None, host: str, port: int) -> str | None:
+    """The launch command with ``{host}`` and ``{port}`` filled in (None: no command)."""
+    if launch is None or not str(launch).strip():
+        return None
+    try:
+        return str(launch).format(host=host, port=port)
+    except (KeyError, IndexError, ValueError) as exc:
+        raise ConfigError(
+            field="carla_launch",
+            value=launch,
+            expected=f"a shell command; only {{host}} and {{port}} are replaced ({exc})",
+        ) from None
 
 
 def _import_carla() -> Any:

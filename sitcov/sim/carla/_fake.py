@@ -12,6 +12,7 @@ checks it); test hooks live on :class:`FakeServer`.
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
 #: Default tyre friction of a CARLA wheel (vehicle blueprints use ~3.5).
@@ -315,8 +316,12 @@ class FakeServer:
     """
 
     def __init__(self, carla_map: Any, map_name: str = "Carla/Maps/Town10HD_Opt") -> None:
-        self.map_name = map_name
+        self.map_name = self.start_map = map_name
         self.reachable = True
+        #: a dead server (see :meth:`kill`) comes back once this file exists (tests point a
+        #: ``--carla-launch`` command at it, e.g. ``touch FILE``); the file is then removed
+        self.revive_file: Path | None = None
+        self.kills = 0
         self.ignore_physics = False
         self.fail_ticks = 0  # the next N ticks raise a time-out
         self.collide_at_tick: int | None = None  # counted from the last vehicle spawn
@@ -344,7 +349,18 @@ class FakeServer:
         """Current world settings."""
         return self._settings
 
+    def kill(self) -> None:
+        """The server process dies: unreachable, its world (actors, settings, town) gone."""
+        self.reachable = False
+        self._actors.clear()
+        self._settings = WorldSettings(False, None)
+        self.map_name = self.start_map
+        self.kills += 1
+
     def _check(self) -> None:
+        if not self.reachable and self.revive_file is not None and self.revive_file.exists():
+            self.revive_file.unlink()  # what a launch command did: a fresh server is up
+            self.reachable = True
         if not self.reachable:
             raise RuntimeError("time-out of 10000ms while waiting for the simulator")
 

@@ -57,6 +57,7 @@ def carla_backend_options(
     timeout: float = 10.0,
     map: str = "Town03",  # noqa: A002 - the CLI's name
     servers: str | Sequence[Any] | None = None,
+    launch: str | None = None,
 ) -> dict[str, Any]:
     """Backend options for ``make_backend("carla", **options)`` from the CLI flags.
 
@@ -65,6 +66,8 @@ def carla_backend_options(
         timeout: ``--carla-timeout`` [s].
         map: ``--map`` (a shipped map name such as ``Town03`` or a map YAML path).
         servers: ``--carla-servers host:port,...`` (overrides host/port per worker).
+        launch: ``--carla-launch CMD``: the shell command that (re)starts a server that
+            does not answer (``{host}``/``{port}`` are each worker's server).
 
     Raises:
         ConfigError: a bad port, time-out, server list or map.
@@ -84,6 +87,10 @@ def carla_backend_options(
     }
     if servers:
         options["servers"] = [f"{h}:{p}" for h, p in parse_servers(servers)]
+    if launch is not None:
+        if not str(launch).strip():
+            raise ConfigError(field="carla_launch", value=launch, expected="a shell command")
+        options["launch"] = str(launch)
     return options
 
 

@@ -97,3 +97,24 @@ class DrivingStack(AVStack):
 def centred_car(image: Any) -> list[Detection]:
     """A detector that always sees a close car in the middle of the image."""
     return [Detection((200.0, 100.0, 600.0, 400.0), 0.99, "car")]
+
+
+#: Fake servers of FakeCarlaBackend instances, by the ``server_key`` option (tests kill them).
+SERVERS: dict[str, FakeServer] = {}
+
+
+class FakeCarlaBackend(CarlaBackend):
+    """The CARLA backend on an in-memory fake server, loadable by ``module:Class`` path
+    (``carla_testkit:FakeCarlaBackend``) so a campaign builds it like any backend.
+
+    ``server_key`` names the fake server in :data:`SERVERS`; ``revive_file`` is the file
+    whose appearance brings a killed fake server back (what a launch command creates).
+    """
+
+    def __init__(
+        self, server_key: str = "default", revive_file: str | None = None, **options: Any
+    ) -> None:
+        server = FakeServer(load_carla_map(options.get("map", "Town03")))
+        server.revive_file = Path(revive_file) if revive_file else None
+        SERVERS[server_key] = server
+        super().__init__(carla_module=FakeCarla(server), **options)

@@ -1,0 +1,150 @@
+"""The few facts of each run a summary needs, streamed straight from SQL.
+
+``sitcov summary`` on a 100,000-run campaign must answer in seconds. Building a
+:class:`~sitcov.campaign.RunRecord` per run (situation values, the whole outcome JSON,
+validation) costs far more than the summary itself, so the SQLite store is asked only for
+the columns the counts use: bins, status, failure kind and which failure events happened.
+Any other store (the in-memory one, a plug-in) is read through ``iter_runs``; both give
+the same facts (tested).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from sitcov.campaign._records import RunRecord
+from sitcov.campaign._sqlite import SQLiteStore, _damaged
+from sitcov.campaign._store import Store
+from sitcov.sim._judge import EVENT_METRICS, event_times
+
+#: Rows fetched from SQLite at a time (memory stays flat whatever the campaign's size).
+_CHUNK = 2000
+
+
+def iter_facts(
+    store: Store, campaign: str | None = None, status: str | Sequence[str] | None = None
+) -> Iterator[dict[str, Any]]:
+    """One mapping per run (same filters as ``Store.iter_runs``, in no particular order):
+    ``bins``, ``status``, ``failure_kind`` and ``events`` (the failure events the run's
+    outcome reports as facts, a tuple of kinds; empty while pending)."""
+    if isinstance(store, SQLiteStore):
+        yield from _sql_facts(store, campaign, status)
+        return
+    for run in store.iter_runs(campaign, status):
+        yield record_facts(run)
+
+
+@dataclass(frozen=True, eq=False, slots=True)
+class RunFacts:
+    """A stored run without its concrete values and outcome: what reports count and group.
+
+    About a tenth of a :class:`~sitcov.campaign.RunRecord` in memory and far cheaper to
+    read, so a report of 100,000 runs holds them all. ``store.get_run(campaign, index)``
+    gives the full record (situation, outcome, trace) of one run when it is needed.
+
+    Attributes:
+        campaign, index, seed, status, failure_kind, bins: as in ``RunRecord``.
+        config: the campaign's stored config (shared by its runs).
+    """
+
+    campaign: str
+    index: int
+    seed: int
+    status: str
+    failure_kind: str | None
+    bins: Mapping[str, str]
+    config: Mapping[str, Any]
+
+
+def iter_run_facts(
+    store: Store, campaign: str, status: str | Sequence[str] | None = None
+) -> Iterator[RunFacts]:
+    """The runs of ``campaign`` (optionally of these statuses) as :class:`RunFacts`, in index
+    order, streamed."""
+    if not isinstance(store, SQLiteStore):
+        for run in store.iter_runs(campaign, status):
+            yield RunFacts(
+                run.campaign,
+                run.index,
+                run.seed,
+                run.status,
+                run.failure_kind,
+                dict(run.bins),
+                run.config,
+            )
+        return
+    config = store._config(campaign)
+    where, params = store._where(campaign, status)
+    cursor = store._db.execute(
+        f"SELECT idx, seed, status, failure_kind, bins FROM runs{where} ORDER BY idx", params
+    )
+    while rows := cursor.fetchmany(_CHUNK):
+        for idx, seed, state, kind, bins in rows:
+            try:
+                decoded = json.loads(bins)
+            except (ValueError, TypeError) as exc:
+                raise _damaged(store.location, f"run {campaign}:{idx}", exc) from None
+            yield RunFacts(campaign, int(idx), int(seed), state, kind, decoded, config)
+
+
+def total_wall_time(store: Store, campaign: str) -> float:
+    """Sum of the wall times of a campaign's runs [s] (pending runs count 0)."""
+    if isinstance(store, SQLiteStore):
+        where, params = store._where(campaign, None)
+        row = store._db.execute(
+            f"SELECT total(wall_time) FROM (SELECT wall_time FROM runs{where} ORDER BY idx)",
+            params,
+        ).fetchone()
+        return float(row[0])
+    return sum(r.wall_time or 0.0 for r in store.iter_runs(campaign))
+
+
+def record_facts(run: RunRecord) -> dict[str, Any]:
+    """The facts of a run record (what :func:`iter_facts` gives for it)."""
+    events = tuple(event_times(run.outcome)) if run.outcome is not None else ()
+    return {
+        "bins": dict(run.bins),
+        "status": run.status,
+        "failure_kind": run.failure_kind,
+        "events": events,
+    }
+
+
+def _sql_facts(
+    store: SQLiteStore, campaign: str | None, status: str | Sequence[str] | None
+) -> Iterator[dict[str, Any]]:
+    where, params = store._where(campaign, status)
+    cursor = store._db.execute(
+        f"SELECT campaign, idx, bins, status, failure_kind, {_EVENT_MASK} FROM runs{where}", params
+    )
+    while rows := cursor.fetchmany(_CHUNK):
+        for name, idx, bins, state, kind, mask in rows:
+            try:
+                decoded = json.loads(bins)
+            except (ValueError, TypeError) as exc:
+                raise _damaged(store.location, f"run {name}:{idx}", exc) from None
+            events = _COLLISION if mask == 0 and state == "fail" else _EVENTS[mask]
+            yield {"bins": decoded, "status": state, "failure_kind": kind, "events": events}
+
+
+#: Failure events a run's outcome reports as facts, as bits: the collision flag, then
+#: each departure metric that is set (-1: no outcome yet). The same facts as
+#: ``sitcov.sim._judge.event_times``, computed by SQLite.
+_EVENT_KINDS = ("collision", *EVENT_METRICS)
+_EVENT_MASK = (
+    "CASE WHEN outcome IS NULL THEN -1 ELSE (coalesce(collision, 0) != 0)"
+    + "".join(
+        f" | ((json_extract(outcome, '$.metrics.{key}') IS NOT NULL) << {bit})"
+        for bit, key in enumerate(EVENT_METRICS.values(), start=1)
+    )
+    + " END"
+)
+_EVENTS = {
+    mask: tuple(k for bit, k in enumerate(_EVENT_KINDS) if mask >= 0 and mask >> bit & 1)
+    for mask in range(-1, 2 ** len(_EVENT_KINDS))
+}
+#: A failed run whose outcome reports no event failed by collision (as before failure kinds).
+_COLLISION = ("collision",)
