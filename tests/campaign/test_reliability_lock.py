@@ -13,6 +13,7 @@ import time
 
 import pytest
 from campaign_helpers import db_rows, fake_config, run_cli, subprocess_env
+from needs import not_on_this_machine
 from reliability_helpers import (
     LIVE,
     finished,
@@ -132,7 +133,7 @@ def test_a_recycled_pid_is_not_mistaken_for_the_owner(tmp_path):
     other = os.getppid()
     start = process_start(other)
     if start is None:
-        pytest.skip("no /proc start times on this system")
+        not_on_this_machine("no /proc start times on this system")
     put_lock(path, "default", pid=other, pid_start=start + 1)
     with open_store(path) as store, store.lock_campaign("default") as held:
         assert held.previous.pid == other

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from campaign_fakes import fake_outcome
 from campaign_helpers import db_rows, fake_config, run_cli
+from needs import not_on_this_machine
 from reliability_fakes import hogs
 from reliability_helpers import (
     finished,
@@ -65,7 +66,7 @@ def test_sigkill_of_the_sitcov_run_command_then_resume_gives_identical_rows(tmp_
     changes = {**PROCESSES, "runs": 160, "batch_size": 16, "backend_options": {"sleep": 0.01}}
     path, cfg = tmp_path / "c.db", write_config(tmp_path / "c.yaml", **changes)
     rng = np.random.default_rng(1515)
-    kills, takeovers = [], 0
+    kills, takeovers, stale = [], 0, False
     for attempt in range(8):
         with reaped(start_cli("run", "--db", str(path), "--config", str(cfg))) as proc:
             if attempt < 5:
@@ -79,13 +80,16 @@ def test_sigkill_of_the_sitcov_run_command_then_resume_gives_identical_rows(tmp_
                     proc.send_signal(signal.SIGKILL)
                     proc.wait()
                     kills.append(finished(path))
-                    assert lock_rows(path), "the killed process left its lock (stale now)"
+                    # a kill after the last run may land while the process exits, its lock
+                    # already released; before that, the dead owner's lock must remain
+                    stale = bool(lock_rows(path))
+                    assert stale or kills[-1] == 160, "the killed process left its lock"
                     continue
             assert proc.wait(timeout=300) == 0, proc.stderr.read().decode()
             takeovers += b"took over campaign 'default'" in proc.stderr.read()
             break
     assert len(kills) >= 3 and sum(0 < k < 160 for k in kills) >= 2, kills
-    assert takeovers == 1 and lock_rows(path) == []
+    assert takeovers == int(stale) and lock_rows(path) == []
     print(f"parent SIGKILLs at {kills} finished runs of 160; resumed to identical rows")
     reference = reference_rows(tmp_path, **{**changes, "backend_options": {}})
     assert {row[1]: row for row in db_rows(path)} == reference
@@ -166,7 +170,7 @@ def test_a_run_exceeding_a_memory_limit_is_an_error_and_the_campaign_goes_on(
     fail inside the worker, which keeps serving."""
     group = memory_cgroup(tmp_path) if limit == "oom-killer" else None
     if limit == "oom-killer" and group is None:
-        pytest.skip("needs root and a cgroup-v1 memory controller (the rlimit case runs)")
+        not_on_this_machine("needs root and a cgroup-v1 memory controller (the rlimit case runs)")
     options = {"hog_rate": 0.1, "cgroup": str(group) if group else None, "limit_mb": 200}
     changes = {**PROCESSES, "runs": 40, "backend": "reliability_fakes:HogBackend"}
     cfg = write_config(tmp_path / "c.yaml", **changes, backend_options=options)

@@ -13,7 +13,7 @@ import time
 import numpy as np
 import pytest
 from campaign_helpers import db_rows, fake_config, run_cli
-from needs import missing
+from needs import missing, not_on_this_machine
 from reliability_helpers import one_error_line, remount, tmpfs, write_config
 
 from sitcov.campaign import StoreError, open_store, run_campaign
@@ -45,7 +45,7 @@ def test_disk_full_stops_with_one_line_and_resume_completes(tmp_path, capsys, re
     where, cfg = tmp_path / "small", write_config(tmp_path / "c.yaml", **QUICK)
     with tmpfs(where, "300k") as mounted:
         if not mounted:
-            pytest.skip("cannot mount a tmpfs here: the simulated case below covers it")
+            not_on_this_machine("cannot mount a tmpfs here: the simulated case below covers it")
         path = where / "c.db"
         code, _, err = cli(capsys, path, "run", "--config", str(cfg))
         line = one_error_line(err)
