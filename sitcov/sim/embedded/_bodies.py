@@ -88,14 +88,9 @@ def body_spec(kind: str) -> BodySpec:
     return spec
 
 
-class Bicycle:
-    """Kinematic bicycle (rear-axle reference, centre of the box used as position).
-
-    The speed changes by ``a_max * throttle - b_max * brake`` (braking capped by the road's
-    ``mu g``) and stays in ``[0, v_max]``; the heading turns at ``v tan(delta) / wheelbase``
-    with ``delta = steer * steer_max``, its lateral acceleration capped at ``mu g``.
-    Crosswind is ignored (a rider leans into it).
-    """
+class _KinematicBody:
+    """State shared by the kinematic bodies: pose, speed along the heading (``vx``) and a
+    lateral speed that stays 0 (kept so every body has the car's ``vx``/``vy``)."""
 
     __slots__ = ("spec", "x", "y", "yaw", "vx", "vy")
 
@@ -108,6 +103,18 @@ class Bicycle:
     def speed(self) -> float:
         """Speed over ground [m/s]."""
         return self.vx
+
+
+class Bicycle(_KinematicBody):
+    """Kinematic bicycle (rear-axle reference, centre of the box used as position).
+
+    The speed changes by ``a_max * throttle - b_max * brake`` (braking capped by the road's
+    ``mu g``) and stays in ``[0, v_max]``; the heading turns at ``v tan(delta) / wheelbase``
+    with ``delta = steer * steer_max``, its lateral acceleration capped at ``mu g``.
+    Crosswind is ignored (a rider leans into it).
+    """
+
+    __slots__ = ()
 
     def step(
         self,
@@ -135,7 +142,7 @@ class Bicycle:
         self.vx = v1
 
 
-class Walker:
+class Walker(_KinematicBody):
     """A pedestrian: point mass with acceleration limits, heading turned at a limited rate.
 
     ``throttle`` accelerates at up to ``a_max``, ``brake`` decelerates at up to ``b_max``;
@@ -143,17 +150,7 @@ class Walker:
     fraction of ``turn_rate`` (a person turns on the spot). Wind is ignored.
     """
 
-    __slots__ = ("spec", "x", "y", "yaw", "vx", "vy")
-
-    def __init__(self, spec: BodySpec, x: float, y: float, yaw: float, speed: float = 0.0):
-        self.spec = spec
-        self.x, self.y, self.yaw = float(x), float(y), float(yaw)
-        self.vx, self.vy = float(speed), 0.0
-
-    @property
-    def speed(self) -> float:
-        """Speed over ground [m/s]."""
-        return self.vx
+    __slots__ = ()
 
     def step(
         self,

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from sitcov._geometry import convex_hull
 from sitcov.errors import ConfigError
 from sitcov.sim.embedded._monitors import DrivableArea, route_clearance
 from sitcov.sim.embedded._path import Path, wrap_angle
@@ -458,7 +459,7 @@ class JunctionMap:
         ``sidewalks`` (convex polygons, not drivable)."""
         geo = self._legs_geometry()
         mouth_corners = geo.pop("mouth_corners")
-        hull = _convex_hull(mouth_corners)
+        hull = convex_hull([(round(x, 9), round(y, 9)) for x, y in mouth_corners])
         geo["road_polygons"].append(hull)
         # kerbs of the junction box: hull edges that are not a leg mouth
         mouths = {
@@ -582,26 +583,6 @@ def _ccw(polygon: list[tuple[float, float]]) -> list[tuple[float, float]]:
         a[0] * b[1] - b[0] * a[1] for a, b in zip(polygon, polygon[1:] + polygon[:1], strict=True)
     )
     return polygon if area >= 0 else polygon[::-1]
-
-
-def _convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
-    """Counter-clockwise convex hull (monotone chain)."""
-    pts = sorted(set((round(x, 9), round(y, 9)) for x, y in points))
-
-    def cross(o, a, b) -> float:
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list[tuple[float, float]] = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list[tuple[float, float]] = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return lower[:-1] + upper[:-1]
 
 
 def overlap_matrix(
