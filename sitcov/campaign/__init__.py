@@ -9,6 +9,7 @@ from sitcov.campaign._executors import (
     make_executor,
 )
 from sitcov.campaign._experiments import FAULT_LABELS, fault_table, run_fault_experiment
+from sitcov.campaign._open import open_store
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._runner import (
     CampaignProgress,
@@ -23,7 +24,6 @@ from sitcov.campaign._store import (
     PlannedRun,
     Store,
     StoreError,
-    open_store,
 )
 
 __all__ = [

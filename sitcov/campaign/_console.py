@@ -7,9 +7,10 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from sitcov.campaign._open import open_store
 from sitcov.campaign._replay import ReplayResult
 from sitcov.campaign._runner import CampaignProgress, CampaignResult
-from sitcov.campaign._store import Store, StoreError, open_store
+from sitcov.campaign._store import Store, StoreError
 
 MAX_REPLAY_LINES = 5
 

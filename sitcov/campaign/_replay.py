@@ -21,9 +21,10 @@ from pydantic import ValidationError
 from sitcov.campaign._build import build_backend, build_stack
 from sitcov.campaign._config import CampaignConfig
 from sitcov.campaign._executors import execute
+from sitcov.campaign._open import open_store
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._runner import judge_of
-from sitcov.campaign._store import Store, StoreError, open_store
+from sitcov.campaign._store import Store, StoreError
 from sitcov.errors import ConfigError
 from sitcov.sim import Judge, Outcome
 

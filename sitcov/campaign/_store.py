@@ -18,7 +18,6 @@ import abc
 import contextlib
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from sitcov.campaign._records import RunRecord
@@ -201,21 +200,3 @@ def _statuses(status: str | Sequence[str] | None) -> tuple[str, ...] | None:
     if bad:
         raise StoreError(f"unknown run status {bad[0]!r}; expected one of {RUN_STATUSES}")
     return wanted
-
-
-def open_store(path: str | Path | None) -> Store:
-    """Open (creating if needed) the store at ``path``; None gives an in-memory store.
-
-    Args:
-        path: a SQLite file path, ``":memory:"`` or None.
-
-    Raises:
-        StoreError: the file is not a sitcov store, or was written by a newer sitcov.
-    """
-    if path is None or str(path) == ":memory:":
-        from sitcov.campaign._memory import MemoryStore
-
-        return MemoryStore()
-    from sitcov.campaign._sqlite import SQLiteStore
-
-    return SQLiteStore(Path(path))
