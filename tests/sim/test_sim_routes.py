@@ -80,5 +80,6 @@ def test_offset_path_is_parallel_at_a_corner() -> None:
 
     corner = Path.from_points([(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)])
     moved = offset_path(corner, -1.0)  # right of a left turn: outside the corner
-    assert moved.points == pytest.approx([(0.0, -1.0), (11.0, -1.0), (11.0, 10.0)])
+    flat = [c for point in moved.points for c in point]
+    assert flat == pytest.approx([0.0, -1.0, 11.0, -1.0, 11.0, 10.0])
     assert math.isclose(moved.length, 22.0)
