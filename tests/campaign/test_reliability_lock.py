@@ -231,10 +231,13 @@ def test_racing_takers_of_a_stale_lock_exactly_one_wins(tmp_path):
 @pytest.mark.slow
 def test_two_campaigns_in_one_database_run_at_the_same_time(tmp_path):
     path = tmp_path / "c.db"
+    slow = {"runs": 120, "backend_options": {"sleep": 0.05}}  # ~6 s each: they overlap
     procs = {}
     for name in ("alpha", "beta"):
-        cfg = write_config(tmp_path / f"{name}.yaml", name=name, runs=60)
+        cfg = write_config(tmp_path / f"{name}.yaml", name=name, **slow)
         procs[name] = start_cli("run", "--db", str(path), "--config", str(cfg))
+        if name == "alpha":  # beta starts once alpha runs (no race to create the file)
+            wait_for(lambda: len(lock_rows(path)) == 1, what="the first campaign's lock")
     try:
         wait_for(lambda: len(lock_rows(path)) == 2, what="both campaigns holding their locks")
         assert sorted(r[0] for r in lock_rows(path)) == ["alpha", "beta"]
@@ -248,7 +251,7 @@ def test_two_campaigns_in_one_database_run_at_the_same_time(tmp_path):
     reference = tmp_path / "reference.db"
     with open_store(reference) as store:
         for name in ("alpha", "beta"):
-            run_campaign(fake_config(**{**LIVE, "name": name, "runs": 60}), store)
+            run_campaign(fake_config(**{**LIVE, **slow, "name": name}), store)
     assert db_rows(path) == db_rows(reference)
 
 
