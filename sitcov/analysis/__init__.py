@@ -1,6 +1,7 @@
 """Coverage and failure statistics of campaign runs (counts, coverage, uniformity, Wilson),
 and explanations of the failures (interaction tests, failure regions)."""
 
+from sitcov.analysis._breakdown import breakdowns
 from sitcov.analysis._explain import interaction_analysis
 from sitcov.analysis._regions import explain, explain_lines, failure_regions
 from sitcov.analysis._stats import Z95, uniformity, wilson_interval
@@ -17,6 +18,7 @@ from sitcov.analysis._summary import (
 __all__ = [
     "Z95",
     "bin_stats",
+    "breakdowns",
     "coverage",
     "coverage_growth",
     "explain",

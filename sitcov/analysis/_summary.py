@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.analysis._breakdown import Roles, SlotTypes, breakdowns_of
 from sitcov.analysis._stats import uniformity, wilson_interval
 from sitcov.hyperspace import Hyperspace
 
@@ -192,7 +193,9 @@ def _json_uniformity(counts: list[int]) -> dict[str, Any]:
     return u
 
 
-def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
+def summarize(
+    hyperspace: Hyperspace, runs: Iterable[Any], slot_types: SlotTypes | None = None
+) -> dict[str, Any]:
     """The summary JSON of ``sitcov summary --json`` (a stable interface: the keys below).
 
     Keys: ``runs`` (non-pending), ``failures``, ``errors``, ``timeouts``, ``passes``,
@@ -201,7 +204,9 @@ def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
     ``failures_by_kind``, counts per kind), ``coverage`` (see :func:`coverage`),
     ``uniformity`` per element (see :func:`~sitcov.analysis.uniformity`; an unused bin
     gives ``max_min_ratio: null`` with ``min: 0``), ``unmatched`` (runs whose bins are not
-    in this hyperspace) and ``hyperspace`` (its name).
+    in this hyperspace), ``hyperspace`` (its name) and ``breakdowns``: failure rates by
+    ``actor_kind`` and ``conflict_type`` (:mod:`sitcov.analysis._breakdown`; ``slot_types``
+    types the actor slots; ``{}`` for a hyperspace without actor elements).
 
     ``runs`` is read once, as a stream: a 100,000-run campaign is summarised from compact
     per-run bin indices (a few bytes each) and counted with numpy, never held as records.
@@ -209,7 +214,7 @@ def summarize(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, Any]:
     tally = _Tally(hyperspace)
     for run in runs:
         tally.add(run)
-    return tally.summary()
+    return {**tally.summary(), "breakdowns": tally.breakdowns(slot_types)}
 
 
 #: Status codes of the tallies (index into _STATUSES); other statuses are not tallied.
@@ -297,6 +302,11 @@ class _Tally:
             "pairs_covered": len(seen),
             "pairs_total": total,
         }
+
+    def breakdowns(self, slot_types: SlotTypes | None) -> dict[str, Any]:
+        """Failure rates by actor kind and conflict type of the matched runs."""
+        codes = np.array(self.codes, dtype=np.int64)
+        return breakdowns_of(Roles(self.hs, slot_types), self._matrix(), codes, _bin_row)
 
     def summary(self) -> dict[str, Any]:
         idx = self._matrix()

@@ -34,6 +34,33 @@ def resolve_hyperspace(spec: str | None) -> Any:
     return load_hyperspace(spec)
 
 
+def with_hyperspace_map(config: CampaignConfig, hyperspace: Any) -> CampaignConfig:
+    """``config`` with the embedded backend's ``map`` taken from ``hyperspace.metadata.map``.
+
+    A derived hyperspace (``sitcov hyperspace derive``) names the map its routes belong to;
+    running it on another map would fail on every run (or, worse, run other geometry). The
+    map is written into ``backend_options`` so that the stored config says it and resume,
+    replay and report rebuild the same backend. Other backends, and hyperspaces without
+    ``metadata.map``, leave the config unchanged.
+
+    Raises:
+        ConfigError: ``backend_options.map`` names another map than the hyperspace.
+    """
+    wanted = (getattr(hyperspace, "metadata", None) or {}).get("map")
+    if not isinstance(wanted, str) or config.backend != "embedded":
+        return config
+    given = config.backend_options.get("map")
+    if given is None:
+        options = {**config.backend_options, "map": wanted}
+        return config.model_copy(update={"backend_options": options})
+    if str(given) != wanted:
+        raise ConfigError(
+            f"backend_options.map {given!r} contradicts metadata.map {wanted!r} of hyperspace "
+            f"{config.hyperspace!r}; drop the map option or use a hyperspace derived on {given!r}"
+        )
+    return config
+
+
 def make_generator(config: CampaignConfig, hyperspace: Any) -> Generator:
     """A fresh generator as the config names it."""
     from sitcov.generation import make_generator as factory
@@ -107,6 +134,7 @@ def check_parts(config: CampaignConfig) -> None:
         ConfigError: a part cannot be built (SetupError: a model or extra is missing).
     """
     hyperspace = resolve_hyperspace(config.hyperspace)
+    config = with_hyperspace_map(config, hyperspace)
     make_generator(config, hyperspace)
     build_backend(config).close()
     build_stack(config).close()

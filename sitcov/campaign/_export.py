@@ -2,10 +2,13 @@
 
 All formats stream the runs from the store (memory stays flat for large campaigns). One
 row / test case per run; a run's bins and concrete values become ``bin.ELEMENT`` and
-``value.ELEMENT`` columns (mappings such as an intersection situation as JSON text).
+``value.ELEMENT`` columns (mappings such as an intersection situation as JSON text), and
+its ``actor_kinds`` and ``conflict_types`` (``;``-separated, see
+:mod:`sitcov.analysis._breakdown`) so that failure rates can be broken down by road user.
 Every format carries each run's ``failure_kind`` (``pass``, ``collision``,
 ``road_departure``, ``lane_departure``, ``error``, ``timeout``; empty while pending); the
-JSON export also gives each campaign's ``physics``, ``judge`` and ``world_model``.
+JSON export also gives each campaign's ``physics``, ``judge`` and ``world_model``, and its
+``breakdowns`` (failure rates by actor kind and conflict type, as ``sitcov summary``).
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from collections.abc import Iterator
 from typing import IO, Any
 from xml.sax.saxutils import escape, quoteattr
 
+from sitcov.analysis._breakdown import run_roles
 from sitcov.campaign._facts import total_wall_time
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._sqlite import OUTCOME_COLUMNS
@@ -34,7 +38,7 @@ _BASE_COLUMNS = (
     "failure_kind",
     *OUTCOME_COLUMNS,
 )
-_TAIL_COLUMNS = ("wall_time", "replay_of")
+_TAIL_COLUMNS = ("wall_time", "replay_of", "actor_kinds", "conflict_types")
 
 
 def _elements(store: Store, campaign: str | None) -> list[str]:
@@ -69,6 +73,8 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
         *(f"value.{e}" for e in elements),
     ]
 
+    typing = _slot_typing(store, campaign)
+
     def rows() -> Iterator[dict]:
         for run in store.iter_runs(campaign):
             out = run.outcome.to_dict() if run.outcome is not None else {}
@@ -84,12 +90,28 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
             }
             row.update({c: out.get(c) for c in OUTCOME_COLUMNS})
             values = run.situation.to_dict()["values"]
+            kinds, types = run_roles(values, typing.get(run.campaign))
+            row["actor_kinds"], row["conflict_types"] = ";".join(kinds), ";".join(types)
             for e in elements:
                 row[f"bin.{e}"] = run.bins.get(e)
                 row[f"value.{e}"] = _cell(values.get(e))
             yield row
 
     return columns, rows()
+
+
+def _slot_typing(store: Store, campaign: str | None) -> dict[str, Any]:
+    """Per campaign: how its actor slots are typed (``sitcov.campaign._breakdown``)."""
+    from sitcov.campaign._breakdown import slot_types
+    from sitcov.hyperspace import Hyperspace
+
+    infos = [store.campaign(campaign)] if campaign else store.campaigns()
+    out = {}
+    for info in infos:
+        metadata = info.hyperspace.get("metadata") or {}
+        if isinstance(metadata, dict) and "map" in metadata:
+            out[info.name] = slot_types(Hyperspace.from_dict(info.hyperspace))
+    return out
 
 
 def export_csv(store: Store, out: IO[str], campaign: str | None = None) -> int:
@@ -118,6 +140,7 @@ def export_json(store: Store, out: IO[str], campaign: str | None = None) -> int:
                 "generator": c.generator,
                 "tags": c.tags,
                 **campaign_setup(c),
+                "breakdowns": _breakdowns(store, c),
             }
             for c in infos
         ],
@@ -132,6 +155,18 @@ def export_json(store: Store, out: IO[str], campaign: str | None = None) -> int:
         n += 1
     out.write("\n]}\n")
     return n
+
+
+def _breakdowns(store: Store, info: Any) -> dict[str, Any]:
+    """A campaign's failure rates by actor kind and conflict type ({} without actors)."""
+    from sitcov.analysis import breakdowns
+    from sitcov.campaign._breakdown import slot_types
+    from sitcov.campaign._facts import iter_facts
+    from sitcov.campaign._summary import FINISHED
+    from sitcov.hyperspace import Hyperspace
+
+    hs = Hyperspace.from_dict(info.hyperspace, file=f"{store.location} (campaign {info.name})")
+    return breakdowns(hs, iter_facts(store, info.name, FINISHED), slot_types(hs))
 
 
 def run_to_json(run: RunRecord) -> dict[str, Any]:

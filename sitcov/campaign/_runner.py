@@ -34,6 +34,7 @@ from sitcov.campaign._build import (
     make_generator,
     resolve_hyperspace,
     restore_generator,
+    with_hyperspace_map,
 )
 from sitcov.campaign._config import CampaignConfig, config_differences
 from sitcov.campaign._executors import Executor, make_executor
@@ -300,6 +301,7 @@ def _run_locked(
     start = time.perf_counter()
     config = _runs_as_stored(config, store)
     hyperspace = resolve_hyperspace(config.hyperspace)
+    config = with_hyperspace_map(config, hyperspace)
     backend = build_backend(config)
     build_stack(config).close()  # a bad stack or fault must fail before anything is stored
     no_effect = no_effect_elements(hyperspace, backend)

@@ -673,7 +673,11 @@ def _typed(value: Any, types: type | tuple[type, ...]) -> None:
 
 
 def _trace_dict(trace: Trace) -> dict[str, Any]:
-    return {"ego": trace.ego, "ov": trace.ov, "meta": trace.meta}
+    """The stored form of a trace; every actor's rows too (the top-down pictures draw them)."""
+    data = {"ego": trace.ego, "ov": trace.ov, "meta": trace.meta}
+    if trace.actors:
+        data["actors"] = trace.actors
+    return data
 
 
 class _Transaction:

@@ -84,6 +84,7 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
     100,000-run campaign is summarised in seconds with flat memory.
     """
     from sitcov.analysis import summarize
+    from sitcov.campaign._breakdown import slot_types
     from sitcov.campaign._facts import iter_facts
     from sitcov.sim import FAILURE_KINDS, Judge
 
@@ -97,7 +98,7 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
                     events[kind] += 1
             yield facts
 
-    summary = summarize(hyperspace, stream())
+    summary = summarize(hyperspace, stream(), slot_types(hyperspace))
     infos = [store.campaign(campaign)] if campaign else store.campaigns()
     setups = [campaign_setup(i) for i in infos]
     for key in ("physics", "judge", "world_model"):
@@ -166,7 +167,37 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
             f"{s['failure_rate']:.0%}",
             f"{lo:.0%} - {hi:.0%}",
         )
-    return Group(totals, worst) if worst.row_count else totals
+    parts = [totals, *breakdown_tables(summary)]
+    if worst.row_count:
+        parts.append(worst)
+    return Group(*parts)
+
+
+#: Titles of the breakdown tables of the console summary.
+BREAKDOWN_TITLES = {"actor_kind": "actor kind", "conflict_type": "conflict type"}
+
+
+def breakdown_tables(summary: dict[str, Any]) -> list[Any]:
+    """Rich tables of the failure rate per actor kind and per conflict type (runs involving
+    each; rows with runs only; none for a summary without breakdowns)."""
+    from rich.table import Table
+
+    tables = []
+    for key, title in BREAKDOWN_TITLES.items():
+        rows = {
+            k: r for k, r in summary.get("breakdowns", {}).get(key, {}).items() if r["generated"]
+        }
+        if not rows:
+            continue
+        table = Table(title=f"failure rate by {title}", title_justify="left")
+        for col in (title, "runs", "failures", "rate", "95% CI"):
+            table.add_column(col, justify="left" if col == title else "right")
+        for name, r in rows.items():
+            rate = "n/a" if r["failure_rate"] is None else f"{r['failure_rate']:.1%}"
+            ci = "n/a" if r["ci95"] is None else f"{r['ci95'][0]:.1%} - {r['ci95'][1]:.1%}"
+            table.add_row(name.replace("_", " "), str(r["generated"]), str(r["failures"]), rate, ci)
+        tables.append(table)
+    return tables
 
 
 def _setup_text(summary: dict[str, Any], key: str) -> str:

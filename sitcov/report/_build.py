@@ -14,6 +14,7 @@ from pathlib import Path
 
 from sitcov.errors import ConfigError
 from sitcov.report import _sections as sec
+from sitcov.report._breakdown_section import breakdown_section
 from sitcov.report._data import NO_FAULT, load_campaigns
 from sitcov.report._explain_section import explain_section
 from sitcov.report._pictures import failure_pictures
@@ -95,6 +96,7 @@ def build_report(
         experiment_cmd = sec.experiment_command(str(db), experiment)
 
         page = sec.headline_section(hs, views, all_runs)
+        page.update(breakdown_section(hs, primary, scope))
         page.update(sec.element_section(hs, views, fig_dir))
         page.update(sec.growth_section(hs, views, has_nf, page["bins_total"], fig_dir))
         page.update(sec.heat_section(hs, primary, pair, scope, fig_dir))

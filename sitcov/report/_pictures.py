@@ -35,9 +35,18 @@ def _pick(runs: Sequence[Any], n: int) -> list[Any]:
     return chosen
 
 
+def _complete(trace: Any) -> bool:
+    """Whether a stored trace has every actor's rows (stores before this kept the ego's and
+    the primary OV's only, so such a run is simulated again to draw the others)."""
+    if trace is None:
+        return False
+    actors = (trace.meta or {}).get("actors") or {}
+    return len(actors) <= 1 or set(actors) <= set(trace.actors or {})
+
+
 def _trace_outcome(store: Any, run: Any, builders: dict) -> Any:
     stored = store.get_run(run.campaign, run.index, with_trace=True)
-    if stored.outcome is not None and stored.outcome.trace is not None:
+    if stored.outcome is not None and _complete(stored.outcome.trace):
         return stored.outcome
     from sitcov.campaign._build import build_backend, build_stack
     from sitcov.campaign._config import CampaignConfig

@@ -15,14 +15,32 @@ from sitcov.sim.embedded._map import JunctionMap, load_map
 SNAPSHOTS = 5
 
 
-def _box(ax: Any, row: tuple, length: float, width: float, color: str, alpha: float) -> None:
+def _outline(kind: str, row: tuple, length: float, width: float) -> list[tuple[float, float]]:
+    """The outline of an actor of ``kind`` at ``row`` (t, x, y, yaw, speed): a box for cars
+    and trucks, a pointed box (a bike seen from above) for cyclists, a disc for pedestrians."""
+    _, x, y, yaw, _ = row
+    if kind == "pedestrian":
+        r = 0.5 * max(length, width)
+        return [
+            (x + r * math.cos(a), y + r * math.sin(a))
+            for a in (2.0 * math.pi * i / 16 for i in range(16))
+        ]
+    if kind == "cyclist":
+        hl, hw = 0.5 * length, 0.5 * width
+        c, s = math.cos(yaw), math.sin(yaw)
+        local = ((hl, 0.0), (0.3 * hl, hw), (-hl, hw), (-hl, -hw), (0.3 * hl, -hw))
+        return [(x + c * u - s * v, y + s * u + c * v) for u, v in local]
+    return [tuple(p) for p in corners((x, y, yaw, 0.5 * length, 0.5 * width))]
+
+
+def _box(
+    ax: Any, kind: str, row: tuple, size: tuple[float, float], color: str, alpha: float
+) -> None:
     from matplotlib.patches import Polygon
 
-    _, x, y, yaw, _ = row
-    pts = corners((x, y, yaw, 0.5 * length, 0.5 * width))
     ax.add_patch(
         Polygon(
-            pts,
+            _outline(kind, row, *size),
             closed=True,
             facecolor=color,
             edgecolor="black",
@@ -33,8 +51,20 @@ def _box(ax: Any, row: tuple, length: float, width: float, color: str, alpha: fl
     )
 
 
-#: Colours of the actors beyond the ego and the OV in top-down pictures.
-ACTOR_COLORS = ("#fb8c00", "#8e24aa", "#00897b", "#6d4c41", "#fdd835", "#3949ab")
+#: Colour of the ego; shades per kind for the other actors (the n-th actor of a kind takes
+#: the n-th shade), so a picture's colours say which road user is which.
+EGO_COLOR = "#1e88e5"
+KIND_COLORS: dict[str, tuple[str, ...]] = {
+    "car": ("#e53935", "#fb8c00", "#c2185b", "#6d4c41"),
+    "truck": ("#5d4037", "#795548"),
+    "cyclist": ("#2e7d32", "#00897b", "#9e9d24"),
+    "pedestrian": ("#8e24aa", "#5e35b1", "#d81b60"),
+}
+#: Legend marker and trajectory line style per kind.
+KIND_MARKERS = {"car": "s", "truck": "s", "cyclist": ">", "pedestrian": "o"}
+KIND_LINES = {"car": "-", "truck": "-", "cyclist": "-.", "pedestrian": "--"}
+#: Colours of actors of a kind without its own shades.
+ACTOR_COLORS = ("#fdd835", "#3949ab", "#00acc1")
 
 
 def _size(sizes: dict, name: str, length: float, width: float) -> tuple[float, float]:
@@ -43,12 +73,88 @@ def _size(sizes: dict, name: str, length: float, width: float) -> tuple[float, f
     return float(info.get("length", length)), float(info.get("width", width))
 
 
+def _drawn_actors(trace: Trace, meta: dict) -> list[dict[str, Any]]:
+    """Every actor to draw: name, kind, rows, route, colour, size, legend label (ego first,
+    then the primary OV, then ``actor2``, ``actor3``, ... in slot order)."""
+    length, width = meta.get("length", 4.5), meta.get("width", 1.6)
+    sizes = meta.get("actors") or {}
+    rows = {"ov": trace.ov, **{k: v for k, v in (trace.actors or {}).items() if k != "ov"}}
+    shade: dict[str, int] = {}
+    out = [
+        {
+            "name": "ego",
+            "kind": "car",
+            "rows": trace.ego,
+            "route": meta.get("ego_route"),
+            "color": EGO_COLOR,
+            "size": (length, width),
+            "label": "ego (car)",
+        }
+    ]
+    for name in sorted(rows, key=lambda n: (n != "ov", len(n), n)):
+        info = sizes.get(name) or {}
+        kind = str(info.get("kind", "car"))
+        n = shade.get(kind, 0)
+        shade[kind] = n + 1
+        palette = KIND_COLORS.get(kind, ACTOR_COLORS)
+        out.append(
+            {
+                "name": name,
+                "kind": kind,
+                "rows": rows[name],
+                "route": meta.get("ov_route") if name == "ov" else info.get("route"),
+                "color": palette[n % len(palette)],
+                "size": _size(sizes, name, length, width),
+                "label": f"{'OV' if name == 'ov' else name} ({kind})",
+            }
+        )
+    return out
+
+
+def _draw_actor(ax: Any, actor: dict[str, Any]) -> Any:
+    """Route (dotted), trajectory and boxes at a few instants; returns the legend handle."""
+    from matplotlib.lines import Line2D
+
+    color, kind, rows = actor["color"], actor["kind"], actor["rows"]
+    if actor["route"]:
+        xs, ys = zip(*actor["route"], strict=False)
+        ax.plot(xs, ys, color=color, linestyle=":", linewidth=1, zorder=3)
+    line = KIND_LINES.get(kind, "-")
+    if rows:
+        ax.plot(
+            [r[1] for r in rows],
+            [r[2] for r in rows],
+            color=color,
+            linestyle=line,
+            linewidth=1.8,
+            zorder=3,
+        )
+        picks = sorted({round(i * (len(rows) - 1) / (SNAPSHOTS - 1)) for i in range(SNAPSHOTS)})
+        for n, i in enumerate(picks):
+            alpha = 0.25 + 0.6 * n / max(1, len(picks) - 1)
+            _box(ax, kind, rows[i], actor["size"], color, alpha)
+    return Line2D(
+        [],
+        [],
+        color=color,
+        linestyle=line,
+        linewidth=1.8,
+        marker=KIND_MARKERS.get(kind, "s"),
+        markerfacecolor=color,
+        markeredgecolor="black",
+        markersize=7,
+        label=actor["label"],
+    )
+
+
 def render_topdown(
     outcome_or_trace: Outcome | Trace,
     path: str | FsPath,
     map: JunctionMap | str | None = None,  # noqa: A002
 ) -> FsPath:
-    """Draw the road, both routes and paths, vehicle boxes at a few instants, the collision.
+    """Draw the road, every actor's route and trajectory with its outline at a few instants
+    (colour, shape and line style by kind; a legend names each), the conflict point and the
+    collision.
 
     Args:
         outcome_or_trace: an Outcome run with ``record=True``, or its Trace.
@@ -99,46 +205,24 @@ def render_topdown(
         for kerb in geometry["kerbs"]:
             xs, ys = zip(*kerb, strict=False)
             ax.plot(xs, ys, color="#555555", linewidth=1.2, zorder=2)
-        length, width = meta.get("length", 4.5), meta.get("width", 1.6)
-        sizes = meta.get("actors") or {}
-        drawn = [
-            ("ego_route", trace.ego, "#1e88e5", "ego", length, width),
-            ("ov_route", trace.ov, "#e53935", "OV", *_size(sizes, "ov", length, width)),
-        ]
-        # further actors (traces recorded before actors existed have none)
-        for n, (name, rows) in enumerate(sorted((trace.actors or {}).items())):
-            if name != "ov":
-                info = sizes.get(name, {})
-                color = ACTOR_COLORS[n % len(ACTOR_COLORS)]
-                label = f"{name} ({info.get('kind', '?')})"
-                drawn.append((name, rows, color, label, *_size(sizes, name, length, width)))
-        for key, rows, color, label, length, width in drawn:
-            route = meta.get(key) or sizes.get(key, {}).get("route")
-            if route:
-                xs, ys = zip(*route, strict=False)
-                ax.plot(xs, ys, color=color, linestyle=":", linewidth=1, zorder=3)
-            if rows:
-                ax.plot(
-                    [r[1] for r in rows],
-                    [r[2] for r in rows],
-                    color=color,
-                    linewidth=1.8,
-                    zorder=3,
-                    label=label,
-                )
-                picks = sorted(
-                    {round(i * (len(rows) - 1) / (SNAPSHOTS - 1)) for i in range(SNAPSHOTS)}
-                )
-                for n, i in enumerate(picks):
-                    _box(ax, rows[i], length, width, color, 0.25 + 0.6 * n / max(1, len(picks) - 1))
+        handles = [_draw_actor(ax, actor) for actor in _drawn_actors(trace, meta)]
         if meta.get("conflict_point"):
             cx, cy = meta["conflict_point"]
-            ax.plot(
-                cx, cy, marker="o", color="#6a1b9a", markersize=6, zorder=5, label="conflict point"
+            handles += ax.plot(
+                cx,
+                cy,
+                marker="X",
+                color="#212121",
+                markersize=7,
+                zorder=5,
+                ls="",
+                label="conflict point",
             )
         if meta.get("collision_point"):
             cx, cy = meta["collision_point"]
-            ax.plot(cx, cy, marker="*", color="black", markersize=16, zorder=6, label="collision")
+            handles += ax.plot(
+                cx, cy, marker="*", color="black", markersize=16, zorder=6, ls="", label="collision"
+            )
         pts = [p for r in (trace.ego, trace.ov) for p in ((row[1], row[2]) for row in r)]
         for rows in (trace.actors or {}).values():
             pts += [(row[1], row[2]) for row in rows]
@@ -152,7 +236,7 @@ def render_topdown(
             ax.set_ylim(my - span, my + span)
         ax.set_aspect("equal")
         ax.set_facecolor("#7cb342")
-        ax.legend(loc="upper right", fontsize=8)
+        ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
         end = trace.ego[-1][0] if trace.ego else math.nan
         ax.set_title(f"{jmap.name}: run of {end:.1f} s", fontsize=10)
         ax.set_xlabel("x [m]")
