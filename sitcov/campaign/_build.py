@@ -40,14 +40,16 @@ def with_hyperspace_map(config: CampaignConfig, hyperspace: Any) -> CampaignConf
     A derived hyperspace (``sitcov hyperspace derive``) names the map its routes belong to;
     running it on another map would fail on every run (or, worse, run other geometry). The
     map is written into ``backend_options`` so that the stored config says it and resume,
-    replay and report rebuild the same backend. Other backends, and hyperspaces without
-    ``metadata.map``, leave the config unchanged.
+    replay and report rebuild the same backend. Other backends, and hyperspaces not derived
+    (no ``metadata.derived_by``: the paper's names the T-junction it was written for, but it
+    runs on the skewed cross too), leave the config unchanged.
 
     Raises:
         ConfigError: ``backend_options.map`` names another map than the hyperspace.
     """
-    wanted = (getattr(hyperspace, "metadata", None) or {}).get("map")
-    if not isinstance(wanted, str) or config.backend != "embedded":
+    metadata = getattr(hyperspace, "metadata", None) or {}
+    wanted = metadata.get("map")
+    if "derived_by" not in metadata or not isinstance(wanted, str) or config.backend != "embedded":
         return config
     given = config.backend_options.get("map")
     if given is None:
