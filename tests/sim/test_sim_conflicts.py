@@ -93,6 +93,14 @@ def test_pedestrian_crossing(name: str, ego: str, route: str, expected: str | No
         ("crossroads", "B-T", "L-R", "cyclist_crossing"),
         ("crossroads", "L-R", "L-T", "cyclist_crossing"),  # cyclist turns left: not a hook
         ("t-junction", "L-R", "L-R", None),  # same lane, the cyclist keeps right: no overlap
+        ("crossroads", "B-T", "B-L", "cyclist_crossing"),  # car straight on, cyclist turns left
+        # roundabout exits: both circulate, the car leaves the ring across the cyclist on
+        # its right (the ring's left curve must not hide the car's right turn)
+        ("roundabout", "B-R", "B-T", "cyclist_right_hook"),
+        ("roundabout", "L-T", "B-L", "cyclist_right_hook"),
+        ("roundabout", "T-B", "L-R", "cyclist_right_hook"),
+        ("roundabout", "B-L", "L-R", "cyclist_crossing"),  # entry: the cyclist passes in front
+        ("skewed-cross", "B-R", "B-L", "cyclist_right_hook"),  # as on the crossroads
     ],
 )
 def test_cyclist_conflicts(name: str, ego: str, route: str, expected: str | None) -> None:

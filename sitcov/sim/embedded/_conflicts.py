@@ -39,8 +39,11 @@ TOGETHER = 6.0
 #: route [m], it is right of the car's route (within this lateral range [m]) and parallel.
 HOOK_LOOKBACK = 8.0
 HOOK_LATERAL = 4.0
-#: ... and the car has turned right by more than this at the conflict [rad].
+#: ... and at the end of the overlap the car heads this far right of the cyclist [rad] ...
 HOOK_TURN = math.radians(30.0)
+#: ... having itself turned right by more than this [rad] from this far before the overlap [m].
+HOOK_SELF_TURN = math.radians(10.0)
+HOOK_APPROACH = 4.0
 #: Every conflict type :func:`conflict_type` can return.
 CONFLICT_TYPES = (
     "crossing",
@@ -135,8 +138,16 @@ def _headings(points: np.ndarray) -> np.ndarray:
 
 def _rides_beside(ego: Path, actor: Path, conflict: Conflict) -> bool:
     """A right hook: shortly before the conflict the cyclist rode parallel on the car's
-    right, and the car turned right across it (by the end of the overlap its heading fell
-    by more than :data:`HOOK_TURN`)."""
+    right, and the car turned right across it: the car itself turns right into the overlap
+    (by more than :data:`HOOK_SELF_TURN` from :data:`HOOK_APPROACH` before it to its end)
+    and by the end heads more than :data:`HOOK_TURN` to the right of the cyclist.
+
+    The second turn is measured against the cyclist, not against the car's own earlier
+    heading: on a roundabout both circulate (turning left) before the car exits to the
+    right, and the ring's curvature hides most of the exit's turn from a comparison with
+    the car alone. The first keeps out a car driving straight on while the cyclist turns
+    left across it (the cyclist's move, not a hook).
+    """
     s = conflict.s_ov - HOOK_LOOKBACK
     if s <= 0.0:
         return False
@@ -145,5 +156,9 @@ def _rides_beside(ego: Path, actor: Path, conflict: Conflict) -> bool:
     _, _, he = ego.point_at(s_e)
     lateral = ego.lateral_offset(x, y, i)
     parallel = abs(math.remainder(h - he, 2.0 * math.pi)) < 2.0 * PARALLEL
-    turn = math.remainder(ego.point_at(conflict.s_ego_end)[2] - he, 2.0 * math.pi)
-    return parallel and -HOOK_LATERAL < lateral < 0.0 and turn < -HOOK_TURN
+    end = ego.point_at(conflict.s_ego_end)[2]
+    own = math.remainder(end - ego.point_at(conflict.s_ego - HOOK_APPROACH)[2], 2.0 * math.pi)
+    turn = math.remainder(end - actor.point_at(conflict.s_ov_end)[2], 2.0 * math.pi)
+    return (
+        parallel and -HOOK_LATERAL < lateral < 0.0 and own < -HOOK_SELF_TURN and turn < -HOOK_TURN
+    )
