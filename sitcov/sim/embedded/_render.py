@@ -133,6 +133,17 @@ def _draw_actor(ax: Any, actor: dict[str, Any]) -> Any:
         for n, i in enumerate(picks):
             alpha = 0.25 + 0.6 * n / max(1, len(picks) - 1)
             _box(ax, kind, rows[i], actor["size"], color, alpha)
+        if kind == "pedestrian":  # a 0.5 m disc is a dot at junction scale: mark it too
+            ax.plot(
+                [rows[i][1] for i in picks],
+                [rows[i][2] for i in picks],
+                marker="o",
+                linestyle="",
+                markersize=5,
+                color=color,
+                markeredgecolor="black",
+                zorder=5,
+            )
     return Line2D(
         [],
         [],
