@@ -3,7 +3,8 @@
 The ego never brakes (``NoPerceptionStack``: no detections, so no AEB) and the adversary
 times the other road user's arrival at the derived conflict point; if the two never touch,
 the derivation listed a conflict that is not one. Run on every shipped map's derived
-hyperspace (``sitcov/hyperspace/data/derived``), per kind of road user.
+hyperspace (``sitcov/hyperspace/data/derived``), per kind of road user. A cyclist or
+pedestrian synchronises its arrival up to the conflict (no early switch: ``_scene``).
 """
 
 from __future__ import annotations
@@ -23,27 +24,6 @@ MAPS = [
     m if m in SMALL else pytest.param(m, marks=pytest.mark.slow)
     for m in ("t-junction", "crossroads", "skewed-cross", "roundabout", "merge")
 ]
-#: Derived conflicts the blind ego still misses (open in issue 12): on the roundabout a
-#: cyclist riding the ring's outer edge past the ego's entry arrives in time (PET 0) but
-#: passes 0.86 m clear of the entering ego's box; on the skewed cross three pedestrians
-#: miss by 2-5 cm. Listed exactly, so a fix (or a new miss) fails this test.
-KNOWN_MISSES: dict[tuple[str, str], set[str]] = {
-    ("roundabout", "cyclist"): {
-        f"{ego}/cyclist:{other}"
-        for other, egos in {
-            "T-R": ("B-L", "B-R", "B-T"),
-            "R-B": ("L-B", "L-R", "L-T"),
-            "L-T": ("R-B", "R-L", "R-T"),
-            "B-L": ("T-B", "T-L", "T-R"),
-        }.items()
-        for ego in egos
-    },
-    ("skewed-cross", "pedestrian"): {
-        "B-T/pedestrian:XTL",
-        "L-R/pedestrian:XRL",
-        "R-L/pedestrian:XLL",
-    },
-}
 
 
 def _situations(name: str, kind: str) -> list[tuple[str, dict]]:
@@ -71,5 +51,4 @@ def test_blind_ego_collides_in_every_derived_conflict(name: str, kind: str) -> N
         assert not outcome.aeb_fired
         if not outcome.collision:
             missed.append(label)
-    known = KNOWN_MISSES.get((name, kind), set())
-    assert set(missed) == known, f"{len(missed)} of {len(situations)} derived conflicts missed"
+    assert missed == [], f"{len(missed)} of {len(situations)} derived conflicts missed"

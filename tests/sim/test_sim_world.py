@@ -72,7 +72,9 @@ def test_the_pedestrian_as_the_situations_ov_follows_the_timing_law(backend) -> 
     s = situation(intsit={"ego": "L-B", "ov": "XBL", "conflict": "p1", "kind": "pedestrian"})
     o = backend.run(s, NoPerceptionStack(), seed=2)
     assert o.collision and o.metrics["collision_kind"] == "pedestrian"
-    assert o.metrics["ov_switch_time"] is not None  # the law ran to its switch
+    # a pedestrian synchronises up to the conflict (no early switch): the law still
+    # regulated when it was hit
+    assert o.metrics["ov_switch_distance"] == 0.0 and o.metrics["ov_switch_time"] is None
     assert o.metrics["actors"]["ov"]["kind"] == "pedestrian"
     safe = backend.run(s, ReferenceStack(), seed=2)
     assert safe.metrics["collision_kind"] is None

@@ -234,6 +234,31 @@ def _kerb(map: JunctionMap, route: Path) -> float:  # noqa: A002
     return 0.0
 
 
+def _switch_distance(
+    map: JunctionMap,  # noqa: A002
+    plan: ActorPlan,
+    ego_move: str,
+    ego: Path,
+    actor: Actor,
+) -> float | None:
+    """Where a timed actor stops synchronising: the ego's distance to the conflict [m].
+
+    A car keeps the paper's switch (the map's table for the paper's car-car situations,
+    else the ego's distance at its leg's mouth, capped): after it the car cruises at
+    15 km/h, about the speed it was synchronised at. A cyclist or pedestrian synchronises
+    up to the conflict (0): its cruise speed is far from the speed the law gave it (a
+    pedestrian 2 m from the kerb creeps at 0.5 m/s, then walks at 1.4 m/s; a cyclist
+    circling to a far entry at its 8 m/s top speed slows to 4.5 m/s), so an early switch
+    makes it arrive well before or after the ego: on the skewed cross a pedestrian switched
+    27.5 m out crossed the ego's lane 1.1 s early, on the roundabout a cyclist switched
+    5 m out arrived 0.8 s late where the routes cross (issue 12's blind-ego check).
+    """
+    if plan.kind != "car":
+        return 0.0
+    scen = Scenario(ego_move, plan.route, ego, actor.route, actor.conflict)
+    return map.switch_distance(scen, table=True)
+
+
 def _controller(
     map: JunctionMap,  # noqa: A002
     plan: ActorPlan,
@@ -251,11 +276,12 @@ def _controller(
     params = dict(plan.params)
     try:
         if plan.behaviour == "timed":
-            scen = Scenario(ego_move, plan.route, ego, actor.route, c)
-            # the paper's Town03 table holds for its car-car situations only
-            table = plan.kind == "car"
-            params = with_switch_distance(adversary, map.switch_distance(scen, table=table))
-            return TimingController(params, s_ego, s_self, cruise)
+            return TimingController(
+                with_switch_distance(adversary, _switch_distance(map, plan, ego_move, ego, actor)),
+                s_ego,
+                s_self,
+                cruise,
+            )
         if plan.behaviour in CROSSING_BEHAVIOURS:
             speed = params.pop("speed", spec.walk_speed)
             return CrossingController(
