@@ -16,12 +16,19 @@ see ``sitcov.campaign._breakdown``) and is left out of the type rows if that doe
 
 Only the kinds and types the hyperspace can produce get rows, so the paper's hyperspace
 gives one row each (car, crossing).
+
+A third table, ``hit_kind``, says which road user the ego actually hit: per kind, the
+collisions with a road user of that kind (``metrics["collision_kind"]`` of the run), their
+rate among the judged runs involving that kind (Wilson 95%) and their share of all
+collisions. A run that collided without storing the kind (the paper's two-car scene, whose
+only other road user is its car OV, and databases from before actors) hit its primary
+actor: the ``intsit`` value's kind.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -43,6 +50,8 @@ TYPE_ORDER = (
     "cyclist_following",
     "cyclist_right_hook",
 )
+#: A collision whose run stores no kind of road user hit (see :func:`run_hit`).
+HIT_UNSTORED = "?"
 #: (ego route, actor kind, actor route) -> conflict type.
 SlotTypes = Mapping[tuple[str, str, str], str]
 _SLOT = re.compile(r"actor\d+$")
@@ -180,16 +189,93 @@ def breakdown_rows(
 
 
 def breakdowns_of(
-    roles: Roles, idx: np.ndarray, codes: np.ndarray, row: Any
+    roles: Roles,
+    idx: np.ndarray,
+    codes: np.ndarray,
+    row: Any,
+    hits: Sequence[str | None] = (),
+    rate: Any = None,
 ) -> dict[str, dict[str, dict[str, Any]]]:
-    """``{"actor_kind": {kind: row}, "conflict_type": {type: row}}`` ({} without actors)."""
+    """``{"actor_kind": {kind: row}, "conflict_type": {type: row}}`` ({} without actors),
+    and ``"hit_kind"`` (:func:`hit_rows`) when each run's ``hits`` and ``rate`` are given."""
     if roles.empty:
         return {}
     kinds, types = roles.masks(idx)
-    return {
+    out = {
         "actor_kind": breakdown_rows(kinds, codes, roles.kinds, row),
         "conflict_type": breakdown_rows(types, codes, roles.types, row),
     }
+    if rate is not None and len(hits) == len(codes):
+        out["hit_kind"] = hit_rows(roles, idx, kinds, codes, hits, rate)
+    return out
+
+
+def run_hit(run: Any, collided: bool) -> str | None:
+    """The kind of road user the ego hit in ``run``: a fact's ``hit`` or a record's
+    ``metrics["collision_kind"]``; :data:`HIT_UNSTORED` if the run ``collided`` without
+    storing it; None without a collision."""
+    if type(run) is dict or isinstance(run, Mapping):
+        hit = run.get("hit")
+    elif hasattr(run, "hit"):
+        hit = run.hit
+    else:
+        outcome = getattr(run, "outcome", None)
+        hit = None if outcome is None else outcome.metrics.get("collision_kind")
+    if hit is None:
+        return HIT_UNSTORED if collided else None
+    return str(hit)
+
+
+def hit_rows(
+    roles: Roles,
+    idx: np.ndarray,
+    involved: np.ndarray,
+    codes: np.ndarray,
+    hits: Sequence[str | None],
+    rate: Any,
+) -> dict[str, dict[str, Any]]:
+    """Per kind of road user the ego hit: ``collisions`` (runs in which it hit one),
+    ``generated`` and ``judged`` (runs involving the kind), ``collision_rate`` and ``ci95``
+    (collisions in judged runs / judged, Wilson) and ``share`` of all collisions.
+
+    Args:
+        involved: (runs x ``roles.kinds``) which kinds each run involves (``Roles.masks``).
+        hits: each run's :func:`run_hit`.
+        rate: ``(count, judged) -> (rate, ci95)``.
+    """
+    primary = (
+        roles.kind_codes[roles.intsit][idx[:, roles.intsit]]
+        if roles.intsit is not None
+        else np.full(len(hits), -1, dtype=np.int64)
+    )
+    names = list(roles.kinds)
+    for h in hits:
+        if h not in (None, HIT_UNSTORED) and h not in names:
+            names.append(h)
+    hit = np.array(
+        [
+            (int(primary[i]) if h == HIT_UNSTORED else names.index(h)) if h is not None else -1
+            for i, h in enumerate(hits)
+        ],
+        dtype=np.int64,
+    ).reshape(-1)
+    judged = (codes == 0) | (codes == 1)  # pass, fail (sitcov.analysis._summary._STATUSES)
+    total = int((hit >= 0).sum())
+    out = {}
+    for k, name in enumerate(names):
+        mine = hit == k
+        runs = involved[:, k] | mine if k < involved.shape[1] else mine
+        n, n_judged = int((mine & judged).sum()), int((runs & judged).sum())
+        r, ci = rate(n, n_judged)
+        out[name] = {
+            "collisions": int(mine.sum()),
+            "generated": int(runs.sum()),
+            "judged": n_judged,
+            "collision_rate": r,
+            "ci95": ci,
+            "share": int(mine.sum()) / total if total else None,
+        }
+    return out
 
 
 def breakdowns(
@@ -198,18 +284,16 @@ def breakdowns(
     """Failure rates by actor kind and by conflict type over ``runs`` (see the module doc).
 
     Each row has the per-bin keys of :func:`sitcov.analysis.bin_stats` (generated,
-    failures, passes, errors, timeouts, judged, failure_rate, ci95). Runs that do not fit
-    the hyperspace, and pending runs, are left out.
+    failures, passes, errors, timeouts, judged, failure_rate, ci95); a third key,
+    ``hit_kind``, has the rows of :func:`hit_rows` (which road user the ego hit). Runs that
+    do not fit the hyperspace, and pending runs, are left out.
     """
-    from sitcov.analysis._summary import _CODE, _bin_row, _indexed
+    from sitcov.analysis._summary import _Tally
 
-    roles = Roles(hs, slot_types)
-    if roles.empty:
-        return {}
-    indexed, _ = _indexed(hs, runs)
-    idx = np.array([i for i, _ in indexed], dtype=np.int64).reshape(-1, len(hs.element_names))
-    codes = np.array([_CODE.get(s, -1) for _, s in indexed], dtype=np.int64)
-    return breakdowns_of(roles, idx, codes, _bin_row)
+    tally = _Tally(hs)
+    for run in runs:
+        tally.add(run)
+    return tally.breakdowns(slot_types)
 
 
 def run_roles(

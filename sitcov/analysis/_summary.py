@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from sitcov.analysis._breakdown import Roles, SlotTypes, breakdowns_of
+from sitcov.analysis._breakdown import Roles, SlotTypes, breakdowns_of, run_hit
 from sitcov.analysis._stats import uniformity, wilson_interval
 from sitcov.hyperspace import Hyperspace
 
@@ -206,7 +206,8 @@ def summarize(
     gives ``max_min_ratio: null`` with ``min: 0``), ``unmatched`` (runs whose bins are not
     in this hyperspace), ``hyperspace`` (its name) and ``breakdowns``: failure rates by
     ``actor_kind`` and ``conflict_type`` (:mod:`sitcov.analysis._breakdown`; ``slot_types``
-    types the actor slots; ``{}`` for a hyperspace without actor elements).
+    types the actor slots; ``{}`` for a hyperspace without actor elements), and
+    ``hit_kind``: which road user the ego collided with, per kind.
 
     ``runs`` is read once, as a stream: a 100,000-run campaign is summarised from compact
     per-run bin indices (a few bytes each) and counted with numpy, never held as records.
@@ -236,6 +237,7 @@ class _Tally:
         self.idx = array("i")  # bin indices of matched runs, row after row
         self.codes = array("b")  # their status codes (-1: not tallied)
         self.kind_codes = array("b")  # their failure kind (-1: not failed)
+        self.hits: list[str | None] = []  # the kind of road user the ego hit (HIT_UNSTORED)
 
     def add(self, run: Any) -> None:
         status = _field(run, "status")
@@ -260,6 +262,7 @@ class _Tally:
         self.idx.extend(row)
         self.codes.append(_CODE.get(status, -1))
         self.kind_codes.append(kind)
+        self.hits.append(run_hit(run, kind >= 0 and FAILURE_KINDS[kind] == "collision"))
 
     def _matrix(self) -> np.ndarray:
         return np.array(self.idx, dtype=np.int64).reshape(-1, len(self.names))
@@ -306,7 +309,8 @@ class _Tally:
     def breakdowns(self, slot_types: SlotTypes | None) -> dict[str, Any]:
         """Failure rates by actor kind and conflict type of the matched runs."""
         codes = np.array(self.codes, dtype=np.int64)
-        return breakdowns_of(Roles(self.hs, slot_types), self._matrix(), codes, _bin_row)
+        roles = Roles(self.hs, slot_types)
+        return breakdowns_of(roles, self._matrix(), codes, _bin_row, self.hits, _rate)
 
     def summary(self) -> dict[str, Any]:
         idx = self._matrix()

@@ -4,11 +4,13 @@ All formats stream the runs from the store (memory stays flat for large campaign
 row / test case per run; a run's bins and concrete values become ``bin.ELEMENT`` and
 ``value.ELEMENT`` columns (mappings such as an intersection situation as JSON text), and
 its ``actor_kinds`` and ``conflict_types`` (``;``-separated, see
-:mod:`sitcov.analysis._breakdown`) so that failure rates can be broken down by road user.
+:mod:`sitcov.analysis._breakdown`) so that failure rates can be broken down by road user,
+and ``hit_kind``, the kind of road user the ego collided with (empty without a collision).
 Every format carries each run's ``failure_kind`` (``pass``, ``collision``,
 ``road_departure``, ``lane_departure``, ``error``, ``timeout``; empty while pending); the
 JSON export also gives each campaign's ``physics``, ``judge`` and ``world_model``, and its
-``breakdowns`` (failure rates by actor kind and conflict type, as ``sitcov summary``).
+``breakdowns`` (failure rates by actor kind and conflict type, and collisions by the road
+user hit, as ``sitcov summary``).
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from collections.abc import Iterator
 from typing import IO, Any
 from xml.sax.saxutils import escape, quoteattr
 
-from sitcov.analysis._breakdown import run_roles
+from sitcov.analysis._breakdown import HIT_UNSTORED, run_hit, run_roles
 from sitcov.campaign._facts import total_wall_time
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._sqlite import OUTCOME_COLUMNS
@@ -38,7 +40,7 @@ _BASE_COLUMNS = (
     "failure_kind",
     *OUTCOME_COLUMNS,
 )
-_TAIL_COLUMNS = ("wall_time", "replay_of", "actor_kinds", "conflict_types")
+_TAIL_COLUMNS = ("wall_time", "replay_of", "actor_kinds", "conflict_types", "hit_kind")
 
 
 def _elements(store: Store, campaign: str | None) -> list[str]:
@@ -92,12 +94,23 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
             values = run.situation.to_dict()["values"]
             kinds, types = run_roles(values, typing.get(run.campaign))
             row["actor_kinds"], row["conflict_types"] = ";".join(kinds), ";".join(types)
+            row["hit_kind"] = _hit_kind(run, values)
             for e in elements:
                 row[f"bin.{e}"] = run.bins.get(e)
                 row[f"value.{e}"] = _cell(values.get(e))
             yield row
 
     return columns, rows()
+
+
+def _hit_kind(run: RunRecord, values: dict[str, Any]) -> str | None:
+    """The kind of road user the ego hit (a collision that stores none, as in the paper's
+    two-car scene, hit the intersection situation's road user); None without a collision."""
+    hit = run_hit(run, run.outcome is not None and run.outcome.collision)
+    if hit != HIT_UNSTORED:
+        return hit
+    intsit = values.get("intsit")
+    return str(intsit.get("kind") or "car") if isinstance(intsit, dict) else "car"
 
 
 def _slot_typing(store: Store, campaign: str | None) -> dict[str, Any]:

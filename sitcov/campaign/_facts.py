@@ -3,7 +3,8 @@
 ``sitcov summary`` on a 100,000-run campaign must answer in seconds. Building a
 :class:`~sitcov.campaign.RunRecord` per run (situation values, the whole outcome JSON,
 validation) costs far more than the summary itself, so the SQLite store is asked only for
-the columns the counts use: bins, status, failure kind and which failure events happened.
+the columns the counts use: bins, status, failure kind, which failure events happened and
+which kind of road user the ego hit.
 Any other store (the in-memory one, a plug-in) is read through ``iter_runs``; both give
 the same facts (tested).
 """
@@ -28,8 +29,11 @@ def iter_facts(
     store: Store, campaign: str | None = None, status: str | Sequence[str] | None = None
 ) -> Iterator[dict[str, Any]]:
     """One mapping per run (same filters as ``Store.iter_runs``, in no particular order):
-    ``bins``, ``status``, ``failure_kind`` and ``events`` (the failure events the run's
-    outcome reports as facts, a tuple of kinds; empty while pending)."""
+    ``bins``, ``status``, ``failure_kind``, ``events`` (the failure events the run's
+    outcome reports as facts, a tuple of kinds; empty while pending) and ``hit`` (the
+    outcome's ``metrics["collision_kind"]``: the kind of road user the ego collided with;
+    None without a collision and in runs that do not store it, such as the paper's
+    two-car scene, whose only other road user is a car)."""
     if isinstance(store, SQLiteStore):
         yield from _sql_facts(store, campaign, status)
         return
@@ -48,6 +52,7 @@ class RunFacts:
     Attributes:
         campaign, index, seed, status, failure_kind, bins: as in ``RunRecord``.
         config: the campaign's stored config (shared by its runs).
+        hit: the kind of road user the ego collided with, as :func:`iter_facts` says.
     """
 
     campaign: str
@@ -57,6 +62,7 @@ class RunFacts:
     failure_kind: str | None
     bins: Mapping[str, str]
     config: Mapping[str, Any]
+    hit: str | None = None
 
 
 def iter_run_facts(
@@ -74,20 +80,22 @@ def iter_run_facts(
                 run.failure_kind,
                 dict(run.bins),
                 run.config,
+                run_hit(run),
             )
         return
     config = store._config(campaign)
     where, params = store._where(campaign, status)
     cursor = store._db.execute(
-        f"SELECT idx, seed, status, failure_kind, bins FROM runs{where} ORDER BY idx", params
+        f"SELECT idx, seed, status, failure_kind, bins, {_HIT} FROM runs{where} ORDER BY idx",
+        params,
     )
     while rows := cursor.fetchmany(_CHUNK):
-        for idx, seed, state, kind, bins in rows:
+        for idx, seed, state, kind, bins, hit in rows:
             try:
                 decoded = json.loads(bins)
             except (ValueError, TypeError) as exc:
                 raise _damaged(store.location, f"run {campaign}:{idx}", exc) from None
-            yield RunFacts(campaign, int(idx), int(seed), state, kind, decoded, config)
+            yield RunFacts(campaign, int(idx), int(seed), state, kind, decoded, config, hit)
 
 
 def total_wall_time(store: Store, campaign: str) -> float:
@@ -110,7 +118,17 @@ def record_facts(run: RunRecord) -> dict[str, Any]:
         "status": run.status,
         "failure_kind": run.failure_kind,
         "events": events,
+        "hit": run_hit(run),
     }
+
+
+def run_hit(run: RunRecord) -> str | None:
+    """The kind of road user the ego collided with in ``run`` (``metrics["collision_kind"]``;
+    None if it stores none)."""
+    if run.outcome is None:
+        return None
+    hit = run.outcome.metrics.get("collision_kind")
+    return None if hit is None else str(hit)
 
 
 def _sql_facts(
@@ -118,16 +136,23 @@ def _sql_facts(
 ) -> Iterator[dict[str, Any]]:
     where, params = store._where(campaign, status)
     cursor = store._db.execute(
-        f"SELECT campaign, idx, bins, status, failure_kind, {_EVENT_MASK} FROM runs{where}", params
+        f"SELECT campaign, idx, bins, status, failure_kind, {_EVENT_MASK}, {_HIT} FROM runs{where}",
+        params,
     )
     while rows := cursor.fetchmany(_CHUNK):
-        for name, idx, bins, state, kind, mask in rows:
+        for name, idx, bins, state, kind, mask, hit in rows:
             try:
                 decoded = json.loads(bins)
             except (ValueError, TypeError) as exc:
                 raise _damaged(store.location, f"run {name}:{idx}", exc) from None
             events = _COLLISION if mask == 0 and state == "fail" else _EVENTS[mask]
-            yield {"bins": decoded, "status": state, "failure_kind": kind, "events": events}
+            yield {
+                "bins": decoded,
+                "status": state,
+                "failure_kind": kind,
+                "events": events,
+                "hit": hit,
+            }
 
 
 #: Failure events a run's outcome reports as facts, as bits: the collision flag, then
@@ -146,5 +171,9 @@ _EVENTS = {
     mask: tuple(k for bit, k in enumerate(_EVENT_KINDS) if mask >= 0 and mask >> bit & 1)
     for mask in range(-1, 2 ** len(_EVENT_KINDS))
 }
+#: The kind of road user the ego hit (:func:`run_hit`), computed by SQLite.
+_HIT = (
+    "CASE WHEN outcome IS NULL THEN NULL ELSE json_extract(outcome, '$.metrics.collision_kind') END"
+)
 #: A failed run whose outcome reports no event failed by collision (as before failure kinds).
 _COLLISION = ("collision",)

@@ -197,7 +197,27 @@ def breakdown_tables(summary: dict[str, Any]) -> list[Any]:
             ci = "n/a" if r["ci95"] is None else f"{r['ci95'][0]:.1%} - {r['ci95'][1]:.1%}"
             table.add_row(name.replace("_", " "), str(r["generated"]), str(r["failures"]), rate, ci)
         tables.append(table)
-    return tables
+    hit = hit_table(summary.get("breakdowns", {}).get("hit_kind", {}))
+    return tables + ([hit] if hit is not None else [])
+
+
+def hit_table(rows: Mapping[str, Any]) -> Any:
+    """Rich table of the collisions per kind of road user the ego hit (None: no rows with
+    runs)."""
+    from rich.table import Table
+
+    rows = {k: r for k, r in rows.items() if r["generated"]}
+    if not rows:
+        return None
+    table = Table(title="collisions by the road user hit", title_justify="left")
+    for col in ("road user hit", "runs with it", "collisions", "rate", "95% CI", "share"):
+        table.add_column(col, justify="left" if col == "road user hit" else "right")
+    for name, r in rows.items():
+        rate = "n/a" if r["collision_rate"] is None else f"{r['collision_rate']:.1%}"
+        ci = "n/a" if r["ci95"] is None else f"{r['ci95'][0]:.1%} - {r['ci95'][1]:.1%}"
+        share = "n/a" if r["share"] is None else f"{r['share']:.0%}"
+        table.add_row(name, str(r["generated"]), str(r["collisions"]), rate, ci, share)
+    return table
 
 
 def _setup_text(summary: dict[str, Any], key: str) -> str:

@@ -136,3 +136,43 @@ def test_numpy_tally_equals_a_per_run_brute_force(name):
         assert {
             k: [r["generated"], r["failures"]] for k, r in got[key].items() if r["generated"]
         } == rows
+
+
+def _hit(intsit: str, actor2: str, status: str, hit: str | None, kind: str | None) -> dict:
+    return {**_run(intsit, actor2, status), "hit": hit, "failure_kind": kind}
+
+
+def test_collisions_count_for_the_road_user_hit():
+    runs = [
+        _hit("c", "ped", "fail", "pedestrian", "collision"),
+        _hit("c", "ped", "pass", None, None),
+        _hit("c", "bike", "fail", None, "collision"),  # stores no kind: hit the intsit car
+        _hit("p", "bike", "fail", "cyclist", "collision"),
+        _hit("p", "none", "fail", None, "road_departure"),  # failed, hit nobody
+        _hit("p", "none", "error", None, None),
+    ]
+    out = breakdowns(SMALL, runs)["hit_kind"]
+    got = {k: (r["collisions"], r["generated"], r["judged"]) for k, r in out.items()}
+    assert got == {"car": (1, 3, 3), "cyclist": (1, 2, 2), "pedestrian": (1, 5, 4)}
+    assert out["pedestrian"]["collision_rate"] == 0.25
+    assert out["pedestrian"]["ci95"] == list(wilson_interval(1, 4))
+    assert [r["share"] for r in out.values()] == pytest.approx([1 / 3] * 3)
+
+
+def test_a_kind_hit_that_the_hyperspace_does_not_list_gets_its_own_row():
+    out = breakdowns(SMALL, [_hit("c", "none", "fail", "truck", "collision")])["hit_kind"]
+    assert out["truck"]["collisions"] == 1 and out["truck"]["share"] == 1.0
+    assert out["car"]["collisions"] == 0 and out["car"]["share"] == 0.0
+
+
+def test_the_paper_hyperspace_hits_its_car_in_every_collision():
+    hs = load_hyperspace("t-junction")
+    rng = np.random.default_rng(5)
+    runs = [
+        {"bins": {e.name: rng.choice(e.labels) for e in hs.elements}, "status": str(s)}
+        for s in rng.choice(STATUSES, 300)
+    ]
+    summary = summarize(hs, runs)
+    car = summary["breakdowns"]["hit_kind"]["car"]
+    assert car["collisions"] == summary["failures"] and car["share"] == 1.0
+    assert car["collision_rate"] == summary["failure_rate"]

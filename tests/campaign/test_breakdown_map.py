@@ -108,10 +108,27 @@ def test_summary_and_exports_break_down_by_road_user(derived_db, capsys):
     for ctype, row in summary["breakdowns"]["conflict_type"].items():
         mine = [r for r in rows if ctype in r["conflict_types"].split(";")]
         assert len(mine) == row["generated"], ctype
+    hits = summary["breakdowns"]["hit_kind"]
+    collided = sum(r["collision"] == "True" for r in rows)
+    assert sum(r["collisions"] for r in hits.values()) == collided
+    for kind, row in hits.items():  # the export's hit_kind recounts the collisions per kind
+        assert sum(r["hit_kind"] == kind for r in rows) == row["collisions"], kind
     code, out, _ = sitcov(capsys, "export", "--db", str(derived_db), "--format", "json")
     assert json.loads(out)["campaigns"][0]["breakdowns"] == summary["breakdowns"]
     code, out, _ = sitcov(capsys, "summary", "--db", str(derived_db))
     assert "failure rate by actor kind" in out and "pedestrian" in out
+    assert "collisions by the road user hit" in out
+
+
+def test_sql_facts_give_the_kind_each_run_hit(derived_db):
+    from sitcov.campaign._facts import iter_facts, iter_run_facts, run_hit
+
+    with open_store(derived_db) as store:
+        records = {r.index: run_hit(r) for r in store.iter_runs("d")}
+        facts = sorted(f["hit"] or "" for f in iter_facts(store, "d"))
+        slim = {f.index: f.hit for f in iter_run_facts(store, "d")}
+    assert slim == records and facts == sorted(h or "" for h in records.values())
+    assert set(records.values()) <= {None, "car", "cyclist", "pedestrian"}
 
 
 def test_stored_traces_keep_every_actor(tmp_path):

@@ -7,6 +7,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pytest
 from report_fakes import add_campaign
 
 from sitcov.analysis import breakdowns
@@ -36,13 +37,16 @@ def test_the_paper_hyperspace_gives_one_row_each(make_db, tmp_path):
     db = make_db("paper.db", lambda s: add_campaign(s, "p", 200, seed=3))
     html = build_report(db, tmp_path / "out", pictures=0).read_text()
     tables = _tables(html)
-    assert list(tables) == ["actor kind", "conflict type"]
+    assert list(tables) == ["actor kind", "conflict type", "the road user the ego hit"]
     assert list(tables["actor kind"]) == ["car"] and list(tables["conflict type"]) == ["crossing"]
     with open_store(db) as store:
         runs = list(store.runs())
     judged = [r for r in runs if r.status in ("pass", "fail")]
     fails = sum(r.status == "fail" for r in judged)
     assert tables["actor kind"]["car"][:2] == [str(len(runs)), f"{fails} / {len(judged)}"]
+    # two-car runs store no kind hit: every collision was with the car OV
+    hits = tables["the road user the ego hit"]
+    assert hits == {"car": [str(len(runs)), f"{fails} / {len(judged)}", *hits["car"][2:4], "100%"]}
 
 
 def _derived_store(store) -> None:
@@ -62,7 +66,11 @@ def _derived_store(store) -> None:
         ped = "pedestrian" in p.situation.bins["intsit"] + p.situation.bins["actor2"]
         fail = rng.random() < (0.7 if ped else 0.2)
         status = "fail" if fail else "pass"
-        store.record_result("d", p.index, Outcome(status=status, end_reason="goal"), 0.01)
+        # a pedestrian in the scene is the one hit; other collisions store no kind (they hit
+        # the intersection situation's road user)
+        hit = {"collision_kind": "pedestrian"} if fail and ped else {}
+        outcome = Outcome(status=status, end_reason="goal", collision=fail, metrics=hit)
+        store.record_result("d", p.index, outcome, 0.01)
 
 
 def test_a_derived_campaign_shows_every_kind_with_the_stored_numbers(make_db, tmp_path):
@@ -81,6 +89,20 @@ def test_a_derived_campaign_shows_every_kind_with_the_stored_numbers(make_db, tm
             assert tables["conflict type"][ctype.replace("_", " ")][0] == str(row["generated"])
     ped, car = expected["actor_kind"]["pedestrian"], expected["actor_kind"]["car"]
     assert ped["ci95"][0] > car["failure_rate"]  # the synthetic weak spot stands out
+    hits = tables["the road user the ego hit"]
+    assert set(hits) == set(expected["hit_kind"]) == {"car", "cyclist", "pedestrian"}
+    for kind, row in expected["hit_kind"].items():
+        assert hits[kind][1] == f"{row['collisions']} / {row['judged']}"
+    # recount: a run hit the stored kind, else its intsit's kind
+    fails = [r for r in runs if r.status == "fail"]
+    for kind, row in expected["hit_kind"].items():
+        n = sum(
+            (r.outcome.metrics.get("collision_kind") or r.situation.values["intsit"]["kind"])
+            == kind
+            for r in fails
+        )
+        assert row["collisions"] == n, kind
+    assert sum(r["share"] for r in expected["hit_kind"].values()) == pytest.approx(1.0)
 
 
 def test_a_stored_trace_without_the_further_actors_is_simulated_again():
