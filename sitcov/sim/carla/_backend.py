@@ -23,16 +23,15 @@ import time
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any, ClassVar
 
-import numpy as np
-
-from sitcov.av._base import EgoState, Observation, RunInfo
+from sitcov.av._base import RunInfo
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
 from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
 from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
-from sitcov.sim.carla._geometry import plan_route, to_sitcov
+from sitcov.sim.carla._episode import Episode, EpisodeSettings, StackFailure
+from sitcov.sim.carla._geometry import carla_transform, plan_route
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
-from sitcov.sim.carla._metrics import MetricTracker, VehicleState
+from sitcov.sim.carla._metrics import MetricTracker
 from sitcov.sim.carla._ovdriver import OVDriver
 
 if TYPE_CHECKING:
@@ -52,10 +51,6 @@ FRICTION_MODES = ("wheels", "trigger", "both")
 LAUNCH_TIMEOUT = 120.0
 #: Pause between connection attempts while a launched server starts [s].
 LAUNCH_POLL = 1.0
-
-
-class _StackFailure(Exception):
-    """Wraps an exception raised by the AV stack, so it is not mistaken for a server error."""
 
 
 class CarlaBackend(Backend):
@@ -281,7 +276,7 @@ class CarlaBackend(Backend):
         for attempt in (1, 2):
             try:
                 outcome = self._run_once(situation, av_stack, seed, record)
-            except _StackFailure as exc:
+            except StackFailure as exc:
                 raise exc.__cause__ from None  # type: ignore[misc]
             except RuntimeError as exc:  # carla's time-outs and disconnects
                 last = exc
@@ -314,9 +309,19 @@ class CarlaBackend(Backend):
         return self._routes[key]
 
     def _transform(self, x: float, y: float, z: float = 0.0, yaw: float = 0.0) -> Any:
-        carla = self._carla
-        return carla.Transform(
-            carla.Location(x=x, y=y, z=z), carla.Rotation(pitch=0.0, yaw=yaw, roll=0.0)
+        return carla_transform(self._carla, x, y, z, yaw)
+
+    def _episode_settings(self) -> EpisodeSettings:
+        """What the step loop needs of this backend (it holds no reference to it)."""
+        return EpisodeSettings(
+            carla=self._carla,
+            carla_map=self._cmap,
+            map_name=self.map.name,
+            goal_tolerance=self.map.goal_tolerance,
+            dt=self.dt,
+            timeout=self.timeout,
+            sim_timeout=self.sim_timeout,
+            camera_every=self.camera_every,
         )
 
     def _weather(self, values: Mapping[str, Any]) -> tuple[Any, dict[str, float]]:
@@ -325,8 +330,6 @@ class CarlaBackend(Backend):
         return self._carla.WeatherParameters(**params), params
 
     def _run_once(self, situation: Situation, stack: AVStack, seed: int, record: bool) -> Outcome:
-        from sitcov.sim.carla._episode import Episode
-
         world, cmap = self._ensure_world()
         ego_mv, ov_mv, label = self._intsit(situation)
         spec = self.map
@@ -360,7 +363,7 @@ class CarlaBackend(Backend):
             friction = self._apply_friction(world, library, (ego, ov), scale, actors)
             if friction.get("error"):
                 return Outcome.errored(friction["error"])
-            episode = Episode(self, world, stack, ego, ov, record=record)
+            episode = Episode(self._episode_settings(), world, stack, ego, ov, record=record)
             episode.attach_sensors(library, sensors)
             info = RunInfo(
                 dt=self.dt,
@@ -373,7 +376,7 @@ class CarlaBackend(Backend):
             try:
                 stack.reset(info)
             except Exception as exc:
-                raise _StackFailure() from exc
+                raise StackFailure() from exc
             sit_conflict = (conflict[0], -conflict[1])
             driver = OVDriver(
                 list(info.route),
@@ -465,31 +468,6 @@ def friction_scale(values: Mapping[str, Any], physics: str = "carla") -> float:
     """
     dry = conditions_from_values({}, profile=physics).mu
     return conditions_from_values(values, profile=physics).mu / dry
-
-
-def image_to_rgb(image: Any) -> np.ndarray:
-    """A carla.Image (BGRA bytes) as an HxWx3 uint8 RGB array."""
-    bgra = np.frombuffer(image.raw_data, dtype=np.uint8).reshape(image.height, image.width, 4)
-    return bgra[:, :, [2, 1, 0]]  # fancy indexing copies into a contiguous array
-
-
-def vehicle_state(actor: Any) -> VehicleState:
-    """An actor's pose, velocity and box in the sitcov frame."""
-    tf = actor.get_transform()
-    vel = actor.get_velocity()
-    x, y, yaw = to_sitcov(tf.location.x, tf.location.y, tf.rotation.yaw)
-    ext = actor.bounding_box.extent
-    return VehicleState(x, y, yaw, vel.x, -vel.y, ext.x, ext.y)
-
-
-def ego_state(state: VehicleState, t: float) -> EgoState:
-    """What the ego's localisation reports."""
-    return EgoState(x=state.x, y=state.y, yaw=state.yaw, speed=state.speed, t=t)
-
-
-def make_observation(t: float, state: VehicleState, image: np.ndarray | None) -> Observation:
-    """Camera-mode observation (detections are the stack's job)."""
-    return Observation(t=t, ego=ego_state(state, t), image=image)
 
 
 def _launch_command(launch: str | None, host: str, port: int) -> str | None:

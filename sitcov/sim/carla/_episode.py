@@ -17,11 +17,13 @@ from __future__ import annotations
 
 import math
 import queue
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from sitcov.sim._base import Outcome, Trace
-from sitcov.sim.carla._geometry import steer_to_carla
+from sitcov.sim.carla._geometry import carla_transform, steer_to_carla
 from sitcov.sim.carla._metrics import relative_speed
+from sitcov.sim.carla._state import image_to_rgb, make_observation, vehicle_state
 
 #: The ego counts as halted below this speed [m/s]; after AEB, a halt of HALT_TIME [s] with
 #: the OV at its goal ends the run early (``stopped``): nothing can change any more.
@@ -30,9 +32,27 @@ HALT_TIME = 2.0
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
-    from sitcov.sim.carla._backend import CarlaBackend
     from sitcov.sim.carla._metrics import MetricTracker
     from sitcov.sim.carla._ovdriver import OVDriver
+
+
+class StackFailure(Exception):
+    """Wraps an exception raised by the AV stack, so it is not mistaken for a server error."""
+
+
+@dataclass(frozen=True)
+class EpisodeSettings:
+    """What the step loop needs of the backend: the client module and the loaded map, the
+    step, the time limits, the camera rate and the map file's goal tolerance."""
+
+    carla: Any
+    carla_map: Any
+    map_name: str
+    goal_tolerance: float
+    dt: float
+    timeout: float
+    sim_timeout: float
+    camera_every: int
 
 
 class RoadMonitor:
@@ -63,7 +83,7 @@ class Episode:
 
     def __init__(
         self,
-        backend: CarlaBackend,
+        settings: EpisodeSettings,
         world: Any,
         stack: AVStack,
         ego: Any,
@@ -71,7 +91,7 @@ class Episode:
         *,
         record: bool = False,
     ) -> None:
-        self.backend, self.world, self.stack = backend, world, stack
+        self.settings, self.world, self.stack = settings, world, stack
         self.ego, self.ov = ego, ov
         self.record = record
         self.images: queue.Queue = queue.Queue()
@@ -84,19 +104,21 @@ class Episode:
         Sensors are appended to ``sensors`` as soon as they exist, so cleanup sees them
         even if a later call fails.
         """
-        backend, cam = self.backend, self.stack.camera
+        carla, cam = self.settings.carla, self.stack.camera
         bp = library.find("sensor.camera.rgb")
         bp.set_attribute("image_size_x", str(int(cam.width)))
         bp.set_attribute("image_size_y", str(int(cam.height)))
         bp.set_attribute("fov", str(float(cam.fov_deg)))
         bp.set_attribute("sensor_tick", "0.0")  # a frame every tick; the stack gets every k-th
         camera = self.world.spawn_actor(
-            bp, backend._transform(cam.mount_x, 0.0, cam.mount_z), attach_to=self.ego
+            bp, carla_transform(carla, cam.mount_x, 0.0, cam.mount_z), attach_to=self.ego
         )
         sensors.append(camera)
         camera.listen(self.images.put)
         collision = self.world.spawn_actor(
-            library.find("sensor.other.collision"), backend._transform(0.0, 0.0), attach_to=self.ego
+            library.find("sensor.other.collision"),
+            carla_transform(carla, 0.0, 0.0),
+            attach_to=self.ego,
         )
         sensors.append(collision)
         collision.listen(self._on_collision)
@@ -109,27 +131,20 @@ class Episode:
         """The camera image of ``frame`` (older frames are dropped)."""
         while True:
             try:
-                image = self.images.get(timeout=self.backend.timeout)
+                image = self.images.get(timeout=self.settings.timeout)
             except queue.Empty:
                 raise RuntimeError(
-                    f"camera frame {frame} not received within {self.backend.timeout:g}s"
+                    f"camera frame {frame} not received within {self.settings.timeout:g}s"
                 ) from None
             if image.frame >= frame:
                 return image
 
     def drive(self, driver: OVDriver, metrics: MetricTracker, goal: tuple[float, float]) -> Outcome:
         """Step until collision, goal, early stop or the simulated time limit."""
-        from sitcov.sim.carla._backend import (
-            _StackFailure,
-            image_to_rgb,
-            make_observation,
-            vehicle_state,
-        )
-
-        backend, world, carla = self.backend, self.world, self.backend._carla
-        dt, timeout = backend.dt, backend.timeout
+        settings, world, carla = self.settings, self.world, self.settings.carla
+        dt, timeout = settings.dt, settings.timeout
         gx, gy = goal[0], -goal[1]
-        tolerance = backend.map.goal_tolerance
+        tolerance = settings.goal_tolerance
         ego_rows: list[tuple[float, float, float, float, float]] = []
         ov_rows: list[tuple[float, float, float, float, float]] = []
         other_hits: list[str] = []
@@ -138,7 +153,7 @@ class Episode:
         status, reason = "pass", "sim_timeout"
         collision_time = collision_speed = None
         aeb_fired = False
-        road = RoadMonitor(carla, backend._cmap)
+        road = RoadMonitor(carla, settings.carla_map)
         while True:
             ego, ov = vehicle_state(self.ego), vehicle_state(self.ov)
             road.update(t, self.ego)
@@ -165,13 +180,13 @@ class Episode:
             if halted >= HALT_TIME and driver.at_goal(ov.x, ov.y):
                 reason = "stopped"
                 break
-            if t >= backend.sim_timeout - 1e-9:
+            if t >= settings.sim_timeout - 1e-9:
                 break
-            rgb = image_to_rgb(image) if step % backend.camera_every == 0 else None
+            rgb = image_to_rgb(image) if step % settings.camera_every == 0 else None
             try:
                 control = self.stack.step(make_observation(t, ego, rgb))
             except Exception as exc:
-                raise _StackFailure() from exc
+                raise StackFailure() from exc
             if control.info.get("aeb") and metrics.aeb_time is None:
                 aeb_fired = True
                 metrics.aeb_time = float(control.info.get("aeb_time", t))
@@ -193,7 +208,7 @@ class Episode:
             t = step * dt
         trace = None
         if self.record:
-            trace = Trace(ego=ego_rows, ov=ov_rows, meta={"map": backend.map.name, "dt": dt})
+            trace = Trace(ego=ego_rows, ov=ov_rows, meta={"map": settings.map_name, "dt": dt})
         return Outcome(
             status=status,
             end_reason=reason,
