@@ -28,6 +28,7 @@ from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraErro
 from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
 from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
+from sitcov.sim.carla._actors import Scene, plan_scene, spawn_twins
 from sitcov.sim.carla._episode import Episode, EpisodeSettings, StackFailure
 from sitcov.sim.carla._geometry import carla_transform, plan_route
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
@@ -295,11 +296,16 @@ class CarlaBackend(Backend):
 
     def _intsit(self, situation: Situation) -> tuple[str, str, str]:
         value = situation.value("intsit")
-        if not isinstance(value, Mapping) or not {"ego", "ov", "conflict"} <= set(value):
+        if not isinstance(value, Mapping) or not {"ego", "ov"} <= set(value):
             raise ConfigError(
                 field="intsit", value=value, expected="a mapping with ego, ov and conflict"
             )
-        return str(value["ego"]), str(value["ov"]), str(value["conflict"])
+        kind = str(value.get("kind", "car"))
+        if kind == "car" and "conflict" not in value:
+            raise ConfigError(
+                field="intsit.conflict", value=value, expected="a conflict point of the map file"
+            )
+        return str(value["ego"]), str(value["ov"]), str(value.get("conflict", ""))
 
     def _route(self, cmap: Any, spawn: SpawnPoint, goal: tuple[float, float]) -> list:
         key = (spawn.x, spawn.y, goal)
@@ -331,13 +337,15 @@ class CarlaBackend(Backend):
 
     def _run_once(self, situation: Situation, stack: AVStack, seed: int, record: bool) -> Outcome:
         world, cmap = self._ensure_world()
-        ego_mv, ov_mv, label = self._intsit(situation)
         spec = self.map
-        ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
-        ego_goal = spec.goal(ego_mv)
+        ego_mv, ov_mv, label = self._intsit(situation)
+        scene = plan_scene(spec, situation.values, seed)  # None: the paper's two cars
+        car_ov = scene is None or scene.car_ov
+        ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
         ego_route = self._route(cmap, ego_sp, ego_goal)
-        ov_route = self._route(cmap, ov_sp, spec.goal(ov_mv))
-        conflict = spec.conflict_point(label)
+        ov_sp = spec.ov_spawn(ov_mv) if car_ov else None
+        ov_route = self._route(cmap, ov_sp, spec.goal(ov_mv)) if ov_sp is not None else []
+        conflict = spec.conflict_point(label) if car_ov else None
         weather, weather_values = self._weather(situation.values)
         scale = friction_scale(situation.values, self.physics)
         original = world.get_settings()
@@ -355,16 +363,13 @@ class CarlaBackend(Backend):
                 self._transform(ego_sp.x, ego_sp.y, ego_sp.z, ego_sp.yaw),
             )
             actors.append(ego)
-            ov_bp = library.find(spec.ov_blueprint)
-            if ov_bp.has_attribute("color"):  # the same colour the embedded backend draws
-                ov_bp.set_attribute("color", ",".join(map(str, ov_color(situation.values, seed))))
-            ov = world.spawn_actor(ov_bp, self._transform(ov_sp.x, ov_sp.y, ov_sp.z, ov_sp.yaw))
-            actors.append(ov)
-            friction = self._apply_friction(world, library, (ego, ov), scale, actors)
+            ov = self._spawn_ov(world, library, ov_sp, situation, seed, actors)
+            twins = spawn_twins(self._carla, world, library, spec, scene, actors) if scene else []
+            wheeled = [tw.carla_actor for tw in twins if tw.actor.kind != "pedestrian"]
+            vehicles = (ego, *wheeled, *([ov] if ov is not None else []))
+            friction = self._apply_friction(world, library, vehicles, scale, actors)
             if friction.get("error"):
                 return Outcome.errored(friction["error"])
-            episode = Episode(self._episode_settings(), world, stack, ego, ov, record=record)
-            episode.attach_sensors(library, sensors)
             info = RunInfo(
                 dt=self.dt,
                 route=tuple((x, -y) for x, y in ego_route),
@@ -373,20 +378,35 @@ class CarlaBackend(Backend):
                 camera=stack.camera,
                 seed=int(seed),
             )
+            mu = conditions_from_values(situation.values, profile=self.physics).mu
+            run_scene = Scene(scene, twins, list(info.route), self.dt, mu) if scene else None
+            primary = ov if ov is not None else twins[0].carla_actor
+            episode = Episode(
+                self._episode_settings(),
+                world,
+                stack,
+                ego,
+                primary,
+                record=record,
+                scene=run_scene,
+                ov_kind="car" if car_ov else twins[0].actor.kind,
+            )
+            episode.attach_sensors(library, sensors)
             try:
                 stack.reset(info)
             except Exception as exc:
                 raise StackFailure() from exc
-            sit_conflict = (conflict[0], -conflict[1])
-            driver = OVDriver(
-                list(info.route),
-                [(x, -y) for x, y in ov_route],
-                sit_conflict,
-                friction["max_steer"],
-                switch_distance=spec.switch_distance(ego_mv, ov_mv),
-            )
-            tracker = MetricTracker(list(info.route), [(x, -y) for x, y in ov_route])
-            outcome = episode.drive(driver, tracker, ego_goal)
+            ov_sit = [(x, -y) for x, y in ov_route] if car_ov else twins[0].route
+            driver = None
+            if conflict is not None:
+                driver = OVDriver(
+                    list(info.route),
+                    ov_sit,
+                    (conflict[0], -conflict[1]),
+                    friction["max_steer"],
+                    switch_distance=spec.switch_distance(ego_mv, ov_mv),
+                )
+            outcome = episode.drive(driver, MetricTracker(list(info.route), ov_sit), ego_goal)
             outcome.metrics.update(
                 friction_scale=scale,
                 physics=self.physics,
@@ -398,11 +418,35 @@ class CarlaBackend(Backend):
                 town=spec.town,
                 carla_server=self._versions.get("server"),
                 carla_client=self._versions.get("client"),
-                ov_released_at=driver.released_at,
+                ov_released_at=driver.released_at if driver is not None else None,
             )
+            if scene is not None and car_ov:
+                outcome.metrics["actors"] = {
+                    "ov": _ov_metrics(ov_mv, outcome),
+                    **outcome.metrics["actors"],
+                }
             return outcome
         finally:
             self._cleanup(world, original, actors, sensors)
+
+    def _spawn_ov(
+        self,
+        world: Any,
+        library: Any,
+        spawn: SpawnPoint | None,
+        situation: Situation,
+        seed: int,
+        actors: list,
+    ) -> Any:
+        """The paper's car OV at its spawn (None when the OV is a pedestrian or cyclist)."""
+        if spawn is None:
+            return None
+        ov_bp = library.find(self.map.ov_blueprint)
+        if ov_bp.has_attribute("color"):  # the same colour the embedded backend draws
+            ov_bp.set_attribute("color", ",".join(map(str, ov_color(situation.values, seed))))
+        ov = world.spawn_actor(ov_bp, self._transform(spawn.x, spawn.y, spawn.z, spawn.yaw))
+        actors.append(ov)
+        return ov
 
     def _apply_friction(
         self, world: Any, library: Any, vehicles: tuple[Any, ...], scale: float, actors: list
@@ -468,6 +512,18 @@ def friction_scale(values: Mapping[str, Any], physics: str = "carla") -> float:
     """
     dry = conditions_from_values({}, profile=physics).mu
     return conditions_from_values(values, profile=physics).mu / dry
+
+
+def _ov_metrics(move: str, outcome: Outcome) -> dict[str, Any]:
+    """The car OV's entry in ``metrics["actors"]``: the run's primary metrics."""
+    return {
+        "kind": "car",
+        "route": move,
+        "behaviour": "timed",
+        "min_distance": outcome.min_distance,
+        "min_ttc": outcome.min_ttc,
+        "pet": outcome.pet,
+    }
 
 
 def _launch_command(launch: str | None, host: str, port: int) -> str | None:
