@@ -12,11 +12,12 @@ embedded actor gets a CARLA twin, spawned at its route's start:
 - cyclists as a two-wheeled ``vehicle.*`` blueprint and extra cars as the OV's blueprint,
   driven with ``carla.VehicleControl``.
 
-Every tick a twin's pose is read back from CARLA into its embedded actor (the actor keeps
-its body model's speed: the speed its controller intends), the controller gives
-``(throttle, brake, steer)``, the embedded body model advances one step under it, and the
-result goes to CARLA: a walker walks at the body's speed along the body's heading; a
-vehicle steers as the controller says and tracks the body's speed with a P controller.
+Every tick a twin's pose and speed are read back from CARLA into its embedded actor and its
+controller gives ``(throttle, brake, steer)`` as in the embedded world. A cyclist or car
+gets them as they are (``carla.VehicleControl``; steer sign flipped for CARLA's frame). A
+pedestrian's body model (``_bodies.Walker``: acceleration limits, turn rate) advances one
+step under them and the walker is told to walk at the body's speed along its heading
+(``carla.WalkerControl``), since CARLA walkers take a direction and a speed.
 
 :class:`Frame` places the embedded map on the CARLA junction: its centre on the map file's
 ``junction``, turned by ``embedded_rotation_deg`` (sitcov's right-handed frame).
@@ -39,10 +40,6 @@ from sitcov.sim.embedded._actors import Actor
 from sitcov.sim.embedded._map import load_map
 from sitcov.sim.embedded._scene import ScenePlan, build_actors, parse_scene
 
-#: Throttle (brake) per m/s a twin vehicle is slower (faster) than its body model [1/(m/s)].
-SPEED_GAIN = 0.5
-#: Below this body speed [m/s] a twin vehicle holds full brake.
-STANDING = 0.05
 #: Spawn height [m] above the map's ground (walkers are placed by their centre).
 SPAWN_Z = {"pedestrian": 1.0, "cyclist": 0.5, "car": 0.5}
 #: An actor within this of its route's end [m] is done (for the early end).
@@ -120,25 +117,31 @@ class Twin:
         return vehicle_state(self.carla_actor)
 
     def sync(self, state: VehicleState) -> None:
-        """Put the embedded actor where CARLA has it (its speed stays the body model's)."""
+        """Put the embedded actor where CARLA has it, at CARLA's speed."""
         body = self.actor.body
         body.x, body.y, body.yaw = self.frame.to_map(state.x, state.y, state.yaw)
+        body.vx, body.vy = state.speed, 0.0
         self.actor.track()
 
-    def act(self, carla: Any, view: SceneView, mu: float, speed: float) -> None:
-        """Controller -> body model -> CARLA control, for one tick; ``speed`` [m/s] is the
-        twin's measured speed."""
+    def act(self, carla: Any, view: SceneView, mu: float) -> None:
+        """The controller's command for one tick, as CARLA control (see the module
+        docstring): a vehicle gets it as it is; a walker's body model turns it into the
+        heading and speed of a ``WalkerControl``."""
         actor, body = self.actor, self.actor.body
         throttle, brake, steer = actor.controller.command(actor, view)
-        body.step(throttle, brake, steer, mu, 0.0, view.dt)
-        if actor.kind == "pedestrian":
-            heading = body.yaw + self.frame.rotation
-            direction = carla.Vector3D(x=math.cos(heading), y=-math.sin(heading), z=0.0)
+        if actor.kind != "pedestrian":
             self.carla_actor.apply_control(
-                carla.WalkerControl(direction=direction, speed=float(body.speed))
+                carla.VehicleControl(
+                    throttle=_clip01(throttle), steer=steer_to_carla(steer), brake=_clip01(brake)
+                )
             )
             return
-        self.carla_actor.apply_control(vehicle_control(carla, body.speed, speed, steer))
+        body.step(throttle, brake, steer, mu, 0.0, view.dt)
+        heading = body.yaw + self.frame.rotation
+        direction = carla.Vector3D(x=math.cos(heading), y=-math.sin(heading), z=0.0)
+        self.carla_actor.apply_control(
+            carla.WalkerControl(direction=direction, speed=float(body.speed))
+        )
 
     def done(self) -> bool:
         """At its route's end, or stopped for good (its controller says so)."""
@@ -146,14 +149,8 @@ class Twin:
         return actor.s >= actor.route.length - END_MARGIN or actor.controller.stuck(actor)
 
 
-def vehicle_control(carla: Any, target: float, speed: float, steer: float) -> Any:
-    """``carla.VehicleControl`` tracking ``target`` speed [m/s] from ``speed``, with the
-    sitcov steer command (positive left)."""
-    if target < STANDING:
-        return carla.VehicleControl(throttle=0.0, steer=steer_to_carla(steer), brake=1.0)
-    u = SPEED_GAIN * (target - speed)
-    throttle, brake = (min(u, 1.0), 0.0) if u >= 0.0 else (0.0, min(-u, 1.0))
-    return carla.VehicleControl(throttle=throttle, steer=steer_to_carla(steer), brake=brake)
+def _clip01(value: float) -> float:
+    return max(0.0, min(1.0, float(value)))
 
 
 @dataclass
@@ -279,7 +276,7 @@ class Scene:
     def act(self, carla: Any) -> None:
         """Command every twin for the coming tick."""
         for tw in self.twins:
-            tw.act(carla, self.view, self.mu, self.states[tw.name].speed)
+            tw.act(carla, self.view, self.mu)
 
     def done(self) -> bool:
         """Every twin at its route's end or stopped for good."""

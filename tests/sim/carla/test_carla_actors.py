@@ -14,8 +14,7 @@ from carla_testkit import SMALL_MAP, WEATHER, DrivingStack, fake_backend, small_
 from sitcov.errors import ConfigError
 from sitcov.hyperspace import Situation
 from sitcov.sim.carla import load_carla_map
-from sitcov.sim.carla._actors import Frame, vehicle_control
-from sitcov.sim.carla._fake import FakeCarla
+from sitcov.sim.carla._actors import Frame
 from sitcov.sim.embedded._bodies import body_spec
 from sitcov.sim.embedded._map import load_map
 from sitcov.sim.embedded._routes import actor_route, kerb_positions
@@ -107,6 +106,26 @@ def test_a_blind_ego_hits_the_timed_cyclist_on_a_two_wheeler(tmp_path: Path) -> 
     assert out.metrics["actors"]["ov"]["blueprint"] == "vehicle.diamondback.century"
 
 
+def test_a_scripted_car_stops_where_its_controller_says(tmp_path: Path) -> None:
+    """The embedded ScriptedController's stop point holds in CARLA within half a metre."""
+    from sitcov.sim.carla._actors import plan_scene
+
+    backend, _ = fake_backend(small_map(tmp_path))
+    sit = scene(
+        {"ego": "B-L", "ov": "L-R", "conflict": "c1"},
+        actor2={"kind": "car", "route": "R-L", "behaviour": "stop"},
+    )
+    out = backend.run(sit, DrivingStack(), seed=1, record=True)
+    (car,) = plan_scene(backend.map, sit.values, 1).actors
+    frame = Frame.of(backend.map)
+    route = car.route
+    rows = out.trace.actors["actor2"]
+    mx, my, _ = frame.to_map(rows[-1][1], rows[-1][2], 0.0)
+    s, _ = route.project(mx, my, 0, 0, len(route.xs))
+    assert rows[-1][4] == pytest.approx(0.0, abs=0.05)  # standing
+    assert s == pytest.approx(car.controller.stop_at, abs=0.75)
+
+
 def test_extra_actors_are_measured_traced_and_deterministic(tmp_path: Path) -> None:
     backend, server = fake_backend(small_map(tmp_path))
     sit = scene(
@@ -176,13 +195,3 @@ def test_frame_round_trip_and_carla_mirror() -> None:
         cx, cy, yaw = frame.to_carla(x, y, h)
         sx, sy, sh = frame.to_sitcov(x, y, h)
         assert (cx, cy, yaw) == pytest.approx((sx, -sy, -math.degrees(sh)))
-
-
-def test_vehicle_control_tracks_the_body_speed() -> None:
-    carla = FakeCarla(None)  # type: ignore[arg-type]
-    faster = vehicle_control(carla, 5.0, 3.0, 0.2)._values
-    slower = vehicle_control(carla, 3.0, 5.0, 0.0)._values
-    still = vehicle_control(carla, 0.0, 0.01, 0.0)._values
-    assert faster[0] > 0.0 and faster[2] == 0.0 and faster[1] == pytest.approx(-0.2)
-    assert slower[0] == 0.0 and slower[2] > 0.0
-    assert still[2] == 1.0
