@@ -2,7 +2,8 @@
 
 Per run: connect (the client is cached), load the town if needed, switch the world to
 synchronous mode with a fixed step (the original settings are restored afterwards), set the
-weather from the situation, spawn ego and OV at the map file's points, scale every wheel's
+weather from the situation, spawn ego and OV at the map file's points and every further
+road user of the situation (pedestrians, cyclists, extra cars: ``_actors``), scale every wheel's
 tyre friction and read it back, attach the ego's RGB camera (the stack's CameraSpec) and a
 collision sensor, then step: the stack gets camera frames in ``Observation.image`` and runs
 its own detector, the OV follows the adversary's timing law. Every actor and sensor is
@@ -34,6 +35,7 @@ from sitcov.sim.carla._geometry import carla_transform, plan_route
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
 from sitcov.sim.carla._metrics import MetricTracker
 from sitcov.sim.carla._ovdriver import OVDriver
+from sitcov.sim.embedded._backend import MAX_ACTOR_SLOT
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
@@ -259,7 +261,16 @@ class CarlaBackend(Backend):
                 "scales every wheel's tire_friction of ego and OV by the friction element, "
                 "read back after applying"
             )
-        out["intsit"] = "ego/OV spawn points, routes and conflict point from the map file"
+        out["intsit"] = (
+            "ego/OV spawn points, routes and conflict point from the map file; a pedestrian "
+            "or cyclist OV (kind) as the actorN slots"
+        )
+        slot = (
+            "walker.pedestrian.* (carla.WalkerControl) or two-wheeled vehicle.* "
+            "(carla.VehicleControl) on the map file's embedded_map routes, driven by the "
+            "embedded controllers"
+        )
+        out.update({f"actor{n}": slot for n in range(2, MAX_ACTOR_SLOT + 1)})
         return out
 
     # -- runs ------------------------------------------------------------------------------
