@@ -195,20 +195,47 @@ def blueprint(library: Any, spec: CarlaMap, actor: Actor) -> Any:
     name = {"pedestrian": spec.walker_blueprint, "cyclist": spec.bicycle_blueprint}.get(
         kind, spec.ov_blueprint
     )
-    bp = library.find(name)
+    bp = _find(library, spec, "bicycle_blueprint" if kind == "cyclist" else "", name)
     if kind == "cyclist":
-        wheels = bp.get_attribute("number_of_wheels").as_int()
-        if wheels != BICYCLE_WHEELS:
-            raise ConfigError(
-                field=f"{spec.name}: bicycle_blueprint",
-                value=f"{name} ({wheels} wheels)",
-                expected="a two-wheeled vehicle.* blueprint, e.g. vehicle.diamondback.century",
-            )
+        _two_wheeled(bp, spec)
     if kind == "pedestrian" and bp.has_attribute("is_invincible"):
         bp.set_attribute("is_invincible", "false")
     if actor.color is not None and bp.has_attribute("color"):
         bp.set_attribute("color", ",".join(map(str, actor.color)))
     return bp
+
+
+def check_blueprints(library: Any, spec: CarlaMap) -> str:
+    """Whether the server has the map file's walker and (two-wheeled) bicycle blueprints;
+    a one-line summary (``sitcov carla-check``).
+
+    Raises:
+        ConfigError: a blueprint is missing, or the bicycle is not a two-wheeler.
+    """
+    _find(library, spec, "walker_blueprint", spec.walker_blueprint)
+    _two_wheeled(_find(library, spec, "bicycle_blueprint", spec.bicycle_blueprint), spec)
+    return f"pedestrians {spec.walker_blueprint}, cyclists {spec.bicycle_blueprint}"
+
+
+def _find(library: Any, spec: CarlaMap, field: str, name: str) -> Any:
+    try:
+        return library.find(name)
+    except IndexError:
+        if not field:
+            raise
+        raise ConfigError(
+            field=f"{spec.name}: {field}", value=name, expected="a blueprint this server has"
+        ) from None
+
+
+def _two_wheeled(bp: Any, spec: CarlaMap) -> None:
+    wheels = bp.get_attribute("number_of_wheels").as_int()
+    if wheels != BICYCLE_WHEELS:
+        raise ConfigError(
+            field=f"{spec.name}: bicycle_blueprint",
+            value=f"{spec.bicycle_blueprint} ({wheels} wheels)",
+            expected="a two-wheeled vehicle.* blueprint, e.g. vehicle.diamondback.century",
+        )
 
 
 def spawn_twins(

@@ -29,7 +29,7 @@ from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraErro
 from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
 from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
-from sitcov.sim.carla._actors import Scene, plan_scene, spawn_twins
+from sitcov.sim.carla._actors import Scene, check_blueprints, plan_scene, spawn_twins
 from sitcov.sim.carla._episode import Episode, EpisodeSettings, StackFailure
 from sitcov.sim.carla._geometry import carla_transform, plan_route
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
@@ -214,9 +214,10 @@ class CarlaBackend(Backend):
         """Smoke test without running a situation: versions, town, and every route.
 
         Plans the route of every spawn entry to every other leg's goal on the server's lane
-        graph (a ConfigError names the first one that cannot be planned).
+        graph (a ConfigError names the first one that cannot be planned), and looks up the
+        map file's walker and bicycle blueprints in the server's library.
         """
-        _, cmap = self._ensure_world()
+        world, cmap = self._ensure_world()
         lengths = []
         for table in (self.map.ego_spawns, self.map.ov_spawns):
             for key, spawn in table.items():
@@ -233,6 +234,7 @@ class CarlaBackend(Backend):
             "town": cmap.name,
             "map_file": self.map.name,
             "routes": f"{len(lengths)} planned, {min(lengths)}-{max(lengths)} points",
+            "road_users": check_blueprints(world.get_blueprint_library(), self.map),
         }
         if report["carla_server"] != report["carla_client"]:
             report["warning"] = "client and server versions differ: install the matching wheel"

@@ -195,3 +195,14 @@ def test_frame_round_trip_and_carla_mirror() -> None:
         cx, cy, yaw = frame.to_carla(x, y, h)
         sx, sy, sh = frame.to_sitcov(x, y, h)
         assert (cx, cy, yaw) == pytest.approx((sx, -sy, -math.degrees(sh)))
+
+
+def test_carla_check_looks_up_the_walker_and_bicycle_blueprints(tmp_path: Path) -> None:
+    backend, _ = fake_backend(small_map(tmp_path))
+    report = backend.check()["road_users"]
+    assert "walker.pedestrian.0001" in report and "vehicle.diamondback.century" in report
+    path = tmp_path / "bad.yaml"
+    path.write_text(SMALL_MAP + "bicycle_blueprint: vehicle.tesla.model3\n", encoding="utf-8")
+    bad, _ = fake_backend(path)
+    with pytest.raises(ConfigError, match="4 wheels"):
+        bad.check()
