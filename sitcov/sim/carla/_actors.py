@@ -185,6 +185,26 @@ def plan_scene(spec: CarlaMap, values: Mapping[str, Any], seed: int) -> ScenePla
     return ScenePlanned(plan, ego, twins, Frame.of(spec))
 
 
+def conflict_point(spec: CarlaMap, values: Mapping[str, Any], label: str) -> tuple[float, float]:
+    """The car OV's conflict point (CARLA frame): the map file's ``conflict_points`` entry
+    for ``label`` (the paper's c1, c2, c4), else the embedded scene's conflict of the OV's
+    route with the ego's (derived situations label theirs k1, k2, ...), placed by
+    :class:`Frame`.
+
+    Raises:
+        ConfigError: neither the map file nor the embedded map has that conflict.
+    """
+    if label in spec.conflict_points:
+        return spec.conflict_points[label]
+    plan = parse_scene(values)
+    _, actors = build_actors(load_map(spec.embedded_map), plan, values, 0, AdversaryParams())
+    conflict = actors[0].conflict
+    if conflict is None:
+        return spec.conflict_point(label)  # raises: names the map file's points
+    x, y, _ = Frame.of(spec).to_carla(*conflict.point, 0.0)
+    return x, y
+
+
 def blueprint(library: Any, spec: CarlaMap, actor: Actor) -> Any:
     """The blueprint of an actor's kind, set up (walkers can be hit; the actor's colour).
 

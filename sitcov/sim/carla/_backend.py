@@ -29,7 +29,13 @@ from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraErro
 from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
 from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
-from sitcov.sim.carla._actors import Scene, check_blueprints, plan_scene, spawn_twins
+from sitcov.sim.carla._actors import (
+    Scene,
+    check_blueprints,
+    conflict_point,
+    plan_scene,
+    spawn_twins,
+)
 from sitcov.sim.carla._episode import Episode, EpisodeSettings, StackFailure
 from sitcov.sim.carla._geometry import carla_transform, plan_route
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
@@ -358,7 +364,7 @@ class CarlaBackend(Backend):
         ego_route = self._route(cmap, ego_sp, ego_goal)
         ov_sp = spec.ov_spawn(ov_mv) if car_ov else None
         ov_route = self._route(cmap, ov_sp, spec.goal(ov_mv)) if ov_sp is not None else []
-        conflict = spec.conflict_point(label) if car_ov else None
+        conflict = conflict_point(spec, situation.values, label) if car_ov else None
         weather, weather_values = self._weather(situation.values)
         scale = friction_scale(situation.values, self.physics)
         original = world.get_settings()

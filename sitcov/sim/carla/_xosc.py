@@ -37,7 +37,7 @@ from typing import Any
 
 from sitcov.errors import ConfigError, MissingExtraError
 from sitcov.sim._conditions import WEATHER_ELEMENTS
-from sitcov.sim.carla._actors import plan_scene
+from sitcov.sim.carla._actors import conflict_point, plan_scene
 from sitcov.sim.carla._mapfile import CarlaMap, load_carla_map
 from sitcov.sim.carla._xosc_actors import (
     Hero,
@@ -160,7 +160,7 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     ego_mv = str(intsit["ego"])
     ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
     junction = (spec.junction.x, spec.junction.y)
-    via = spec.conflict_point(str(intsit["conflict"])) if car_ov else junction
+    via = conflict_point(spec, values, str(intsit["conflict"])) if car_ov else junction
     entities = xosc.Entities()
     entities.add_scenario_object("hero", _vehicle(xosc, spec.ego_blueprint, True))
     init = xosc.Init()
@@ -172,7 +172,7 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     ego_event.add_trigger(_start(xosc))
     groups: list[tuple[str, list[Any]]] = [("hero", [ego_event])]
     if car_ov:
-        groups.append(("adversary", _car_ov(xosc, spec, intsit, entities, init)))
+        groups.append(("adversary", _car_ov(xosc, spec, intsit, via, entities, init)))
     if scene is not None:
         hero = Hero((ego_sp.x, ego_sp.y), junction)
         for actor in scene.actors:
@@ -234,14 +234,19 @@ def _parameters(xosc: Any, situation_id: str, values: Mapping[str, Any]) -> Any:
 
 
 def _car_ov(
-    xosc: Any, spec: CarlaMap, intsit: Mapping[str, Any], entities: Any, init: Any
+    xosc: Any,
+    spec: CarlaMap,
+    intsit: Mapping[str, Any],
+    cp: tuple[float, float],
+    entities: Any,
+    init: Any,
 ) -> list[Any]:
-    """The paper's car OV: entity, teleport, route, and its timed approach and cruise."""
+    """The car OV (conflict point ``cp``, CARLA frame): entity, teleport, route, and its
+    timed approach and cruise."""
     from sitcov.sim._adversary import FALLBACK_SWITCH_DISTANCE
 
     ego_mv, ov_mv = str(intsit["ego"]), str(intsit["ov"])
     ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
-    cp = spec.conflict_point(str(intsit["conflict"]))
     junction = (spec.junction.x, spec.junction.y)
     d_ego = _path_length([(ego_sp.x, ego_sp.y), junction, cp])
     d_ov = _path_length([(ov_sp.x, ov_sp.y), junction, cp])
