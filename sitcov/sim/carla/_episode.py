@@ -304,14 +304,19 @@ class Episode:
             aeb_fired=metrics.aeb_time is not None,
             aeb_time=metrics.aeb_time,
             metrics=extra,
-            trace=self._trace() if self.record else None,
+            trace=self._trace(metrics.ov_route) if self.record else None,
         )
 
-    def _trace(self) -> Trace:
+    def _trace(self, ov_route: list[tuple[float, float]]) -> Trace:
+        """The rows; with a scene also every actor's rows, kind, size and route (a car OV
+        with its CARLA box and lane route)."""
         meta: dict[str, Any] = {"map": self.settings.map_name, "dt": self.settings.dt}
         if self.scene is None:
             return Trace(ego=self.rows[0], ov=self.rows[1], meta=meta)
-        meta["actors"] = self.scene.trace_meta()
+        ext = self.ov.bounding_box.extent
+        car = {"kind": "car", "length": 2.0 * ext.x, "width": 2.0 * ext.y}
+        meta["actors"] = {"ov": {**car, "route": [list(p) for p in ov_route]}}
+        meta["actors"].update(self.scene.trace_meta())  # a pedestrian or cyclist OV wins
         actors = {"ov": self.rows[1], **self.scene.rows}
         return Trace(ego=self.rows[0], ov=self.rows[1], meta=meta, actors=actors)
 

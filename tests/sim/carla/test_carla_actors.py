@@ -141,6 +141,9 @@ def test_extra_actors_are_measured_traced_and_deterministic(tmp_path: Path) -> N
     kinds = {name: m["kind"] for name, m in a.metrics["actors"].items()}
     assert kinds == {"ov": "car", "actor2": "pedestrian", "actor3": "cyclist"}
     assert set(a.trace.actors) == {"ov", "actor2", "actor3"}
+    meta = a.trace.meta["actors"]
+    assert {n: m["kind"] for n, m in meta.items()} == kinds
+    assert meta["ov"]["length"] == pytest.approx(4.8) and len(meta["ov"]["route"]) > 10
     assert all(m["min_distance"] is not None for m in a.metrics["actors"].values())
     # the scripted cyclist moved along its route
     rows = a.trace.actors["actor3"]
