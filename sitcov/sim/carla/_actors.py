@@ -26,7 +26,7 @@ step under them and the walker is told to walk at the body's speed along its hea
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -39,6 +39,7 @@ from sitcov.sim.carla._state import vehicle_state
 from sitcov.sim.embedded._actors import Actor
 from sitcov.sim.embedded._map import load_map
 from sitcov.sim.embedded._scene import ScenePlan, build_actors, parse_scene
+from sitcov.sim.embedded._world import World
 
 #: Spawn height [m] above the map's ground (walkers are placed by their centre).
 SPAWN_Z = {"pedestrian": 1.0, "cyclist": 0.5, "car": 0.5}
@@ -83,21 +84,16 @@ class Frame:
         return sx, -sy, -math.degrees(sh)
 
 
-class SceneView:
-    """What the embedded controllers read of the world (``_controllers``' ``world``)."""
+class SceneView(World):
+    """The embedded world as its controllers read it (``ego``, ``ego_speed``, ``t``, ``dt``,
+    ``bodies_except``); CARLA moves the bodies, so there is no driver, wind nor ``step``."""
 
-    def __init__(self, ego: Actor, actors: list[Actor], dt: float) -> None:
-        self.ego, self.actors, self.dt = ego, actors, dt
-        self.t = 0.0
-        self.ego_speed = 0.0
+    def __init__(self, ego: Actor, actors: list[Actor], dt: float, mu: float) -> None:
+        super().__init__(ego, actors, None, None, mu, dt)  # type: ignore[arg-type]
 
-    def bodies_except(self, actor: Actor) -> Iterator[Actor]:
-        """Every actor (the ego included) but ``actor``."""
-        if actor is not self.ego:
-            yield self.ego
-        for other in self.actors:
-            if other is not actor and other.active:
-                yield other
+    def step(self) -> None:
+        """Not used: CARLA advances the world."""
+        raise NotImplementedError("CARLA advances the world")
 
 
 class Twin:
@@ -295,7 +291,7 @@ class Scene:
         mu: float,
     ) -> None:
         self.scene, self.twins, self.mu = scene, twins, mu
-        self.view = SceneView(scene.ego, [tw.actor for tw in twins], dt)
+        self.view = SceneView(scene.ego, [tw.actor for tw in twins], dt, mu)
         self.trackers = {tw.name: MetricTracker(ego_route, tw.route) for tw in twins}
         self.states: dict[str, VehicleState] = {}
         self.rows: dict[str, list[tuple[float, float, float, float, float]]] = {
