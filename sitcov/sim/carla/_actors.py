@@ -26,6 +26,7 @@ step under them and the walker is told to walk at the body's speed along its hea
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -45,6 +46,8 @@ from sitcov.sim.embedded._world import World
 SPAWN_Z = {"pedestrian": 1.0, "cyclist": 0.5, "car": 0.5}
 #: An actor within this of its route's end [m] is done (for the early end).
 END_MARGIN = 1.0
+#: Conflict labels of derived hyperspaces (``sitcov hyperspace derive``): k1, k2, ...
+DERIVED_CONFLICT = re.compile(r"k\d+")
 #: Number of wheels a cyclist's blueprint must have.
 BICYCLE_WHEELS = 2
 
@@ -188,10 +191,11 @@ def conflict_point(spec: CarlaMap, values: Mapping[str, Any], label: str) -> tup
     :class:`Frame`.
 
     Raises:
-        ConfigError: neither the map file nor the embedded map has that conflict.
+        ConfigError: the map file lacks the label and it is no derived ``k<n>`` label, or
+            the embedded routes do not meet.
     """
-    if label in spec.conflict_points:
-        return spec.conflict_points[label]
+    if label in spec.conflict_points or not DERIVED_CONFLICT.fullmatch(label):
+        return spec.conflict_point(label)  # a typo stays an error naming the map's points
     plan = parse_scene(values)
     _, actors = build_actors(load_map(spec.embedded_map), plan, values, 0, AdversaryParams())
     conflict = actors[0].conflict
