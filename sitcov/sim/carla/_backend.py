@@ -22,6 +22,7 @@ import shlex
 import subprocess
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from sitcov.av._base import RunInfo
@@ -31,6 +32,8 @@ from sitcov.sim._base import Backend, Outcome
 from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
 from sitcov.sim.carla._actors import (
     Scene,
+    ScenePlanned,
+    Twin,
     check_blueprints,
     conflict_point,
     plan_scene,
@@ -60,6 +63,38 @@ FRICTION_MODES = ("wheels", "trigger", "both")
 LAUNCH_TIMEOUT = 120.0
 #: Pause between connection attempts while a launched server starts [s].
 LAUNCH_POLL = 1.0
+
+
+@dataclass(frozen=True)
+class _RunPlan:
+    """What one run needs before spawning: movements, spawns, lane routes (CARLA frame),
+    the scene's further road users and the car OV's conflict point."""
+
+    ego_move: str
+    ov_move: str
+    scene: ScenePlanned | None
+    ego_spawn: SpawnPoint
+    ego_goal: tuple[float, float]
+    ego_route: list[tuple[float, float]]
+    ov_spawn: SpawnPoint | None
+    ov_route: list[tuple[float, float]]
+    conflict: tuple[float, float] | None
+
+    @property
+    def car_ov(self) -> bool:
+        """The OV is a car (the paper's OV driver drives it)."""
+        return self.ov_spawn is not None
+
+
+@dataclass(frozen=True)
+class _Spawned:
+    """The world, its blueprint library and the actors spawned for one run."""
+
+    world: Any
+    library: Any
+    ego: Any
+    ov: Any
+    twins: list[Twin]
 
 
 class CarlaBackend(Backend):
@@ -356,15 +391,7 @@ class CarlaBackend(Backend):
 
     def _run_once(self, situation: Situation, stack: AVStack, seed: int, record: bool) -> Outcome:
         world, cmap = self._ensure_world()
-        spec = self.map
-        ego_mv, ov_mv, label = self._intsit(situation)
-        scene = plan_scene(spec, situation.values, seed)  # None: the paper's two cars
-        car_ov = scene is None or scene.car_ov
-        ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
-        ego_route = self._route(cmap, ego_sp, ego_goal)
-        ov_sp = spec.ov_spawn(ov_mv) if car_ov else None
-        ov_route = self._route(cmap, ov_sp, spec.goal(ov_mv)) if ov_sp is not None else []
-        conflict = conflict_point(spec, situation.values, label) if car_ov else None
+        plan = self._plan(cmap, situation, seed)
         weather, weather_values = self._weather(situation.values)
         scale = friction_scale(situation.values, self.physics)
         original = world.get_settings()
@@ -377,55 +404,16 @@ class CarlaBackend(Backend):
             world.apply_settings(settings)
             world.set_weather(weather)
             library = world.get_blueprint_library()
-            ego = world.spawn_actor(
-                library.find(spec.ego_blueprint),
-                self._transform(ego_sp.x, ego_sp.y, ego_sp.z, ego_sp.yaw),
-            )
-            actors.append(ego)
-            ov = self._spawn_ov(world, library, ov_sp, situation, seed, actors)
-            twins = spawn_twins(self._carla, world, library, spec, scene, actors) if scene else []
+            ego, ov, twins = self._spawn(world, library, plan, situation, seed, actors)
             wheeled = [tw.carla_actor for tw in twins if tw.actor.kind != "pedestrian"]
             vehicles = (ego, *wheeled, *([ov] if ov is not None else []))
             friction = self._apply_friction(world, library, vehicles, scale, actors)
             if friction.get("error"):
                 return Outcome.errored(friction["error"])
-            info = RunInfo(
-                dt=self.dt,
-                route=tuple((x, -y) for x, y in ego_route),
-                goal=(ego_goal[0], -ego_goal[1]),
-                map_name=spec.name,
-                camera=stack.camera,
-                seed=int(seed),
+            run = _Spawned(world, library, ego, ov, twins)
+            outcome, driver = self._drive(
+                run, plan, stack, situation, seed, friction, record, sensors
             )
-            mu = conditions_from_values(situation.values, profile=self.physics).mu
-            run_scene = Scene(scene, twins, list(info.route), self.dt, mu) if scene else None
-            primary = ov if ov is not None else twins[0].carla_actor
-            episode = Episode(
-                self._episode_settings(),
-                world,
-                stack,
-                ego,
-                primary,
-                record=record,
-                scene=run_scene,
-                ov_kind="car" if car_ov else twins[0].actor.kind,
-            )
-            episode.attach_sensors(library, sensors)
-            try:
-                stack.reset(info)
-            except Exception as exc:
-                raise StackFailure() from exc
-            ov_sit = [(x, -y) for x, y in ov_route] if car_ov else twins[0].route
-            driver = None
-            if conflict is not None:
-                driver = OVDriver(
-                    list(info.route),
-                    ov_sit,
-                    (conflict[0], -conflict[1]),
-                    friction["max_steer"],
-                    switch_distance=spec.switch_distance(ego_mv, ov_mv),
-                )
-            outcome = episode.drive(driver, MetricTracker(list(info.route), ov_sit), ego_goal)
             outcome.metrics.update(
                 friction_scale=scale,
                 physics=self.physics,
@@ -433,20 +421,115 @@ class CarlaBackend(Backend):
                 tire_friction=friction["readback"],
                 friction_mode=self.friction_mode,
                 weather=weather_values,
-                map=spec.name,
-                town=spec.town,
+                map=self.map.name,
+                town=self.map.town,
                 carla_server=self._versions.get("server"),
                 carla_client=self._versions.get("client"),
                 ov_released_at=driver.released_at if driver is not None else None,
             )
-            if scene is not None and car_ov:
+            if plan.scene is not None and plan.car_ov:
                 outcome.metrics["actors"] = {
-                    "ov": _ov_metrics(ov_mv, outcome),
+                    "ov": _ov_metrics(plan.ov_move, outcome),
                     **outcome.metrics["actors"],
                 }
             return outcome
         finally:
             self._cleanup(world, original, actors, sensors)
+
+    def _plan(self, cmap: Any, situation: Situation, seed: int) -> _RunPlan:
+        """Movements, spawns, lane routes, the scene's further road users and the car OV's
+        conflict point (raises ConfigError on bad values before anything is spawned)."""
+        spec = self.map
+        ego_mv, ov_mv, label = self._intsit(situation)
+        scene = plan_scene(spec, situation.values, seed)  # None: the paper's two cars
+        car_ov = scene is None or scene.car_ov
+        ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
+        ov_sp = spec.ov_spawn(ov_mv) if car_ov else None
+        return _RunPlan(
+            ego_move=ego_mv,
+            ov_move=ov_mv,
+            scene=scene,
+            ego_spawn=ego_sp,
+            ego_goal=ego_goal,
+            ego_route=self._route(cmap, ego_sp, ego_goal),
+            ov_spawn=ov_sp,
+            ov_route=self._route(cmap, ov_sp, spec.goal(ov_mv)) if ov_sp is not None else [],
+            conflict=conflict_point(spec, situation.values, label) if car_ov else None,
+        )
+
+    def _spawn(
+        self,
+        world: Any,
+        library: Any,
+        plan: _RunPlan,
+        situation: Situation,
+        seed: int,
+        actors: list,
+    ) -> tuple[Any, Any, list[Twin]]:
+        """Ego, the car OV (None for a pedestrian or cyclist OV) and every scene twin; each
+        is appended to ``actors`` as soon as it exists."""
+        sp = plan.ego_spawn
+        ego = world.spawn_actor(
+            library.find(self.map.ego_blueprint), self._transform(sp.x, sp.y, sp.z, sp.yaw)
+        )
+        actors.append(ego)
+        ov = self._spawn_ov(world, library, plan.ov_spawn, situation, seed, actors)
+        twins = []
+        if plan.scene is not None:
+            twins = spawn_twins(self._carla, world, library, self.map, plan.scene, actors)
+        return ego, ov, twins
+
+    def _drive(
+        self,
+        run: _Spawned,
+        plan: _RunPlan,
+        stack: AVStack,
+        situation: Situation,
+        seed: int,
+        friction: dict[str, Any],
+        record: bool,
+        sensors: list,
+    ) -> tuple[Outcome, OVDriver | None]:
+        """Sensors, the stack's reset, the OV driver, then the episode's step loop."""
+        info = RunInfo(
+            dt=self.dt,
+            route=tuple((x, -y) for x, y in plan.ego_route),
+            goal=(plan.ego_goal[0], -plan.ego_goal[1]),
+            map_name=self.map.name,
+            camera=stack.camera,
+            seed=int(seed),
+        )
+        twins = run.twins
+        mu = conditions_from_values(situation.values, profile=self.physics).mu
+        scene = Scene(plan.scene, twins, list(info.route), self.dt, mu) if plan.scene else None
+        primary = run.ov if run.ov is not None else twins[0].carla_actor
+        episode = Episode(
+            self._episode_settings(),
+            run.world,
+            stack,
+            run.ego,
+            primary,
+            record=record,
+            scene=scene,
+            ov_kind="car" if plan.car_ov else twins[0].actor.kind,
+        )
+        episode.attach_sensors(run.library, sensors)
+        try:
+            stack.reset(info)
+        except Exception as exc:
+            raise StackFailure() from exc
+        ov_sit = [(x, -y) for x, y in plan.ov_route] if plan.car_ov else twins[0].route
+        driver = None
+        if plan.conflict is not None:
+            driver = OVDriver(
+                list(info.route),
+                ov_sit,
+                (plan.conflict[0], -plan.conflict[1]),
+                friction["max_steer"],
+                switch_distance=self.map.switch_distance(plan.ego_move, plan.ov_move),
+            )
+        tracker = MetricTracker(list(info.route), ov_sit)
+        return episode.drive(driver, tracker, plan.ego_goal), driver
 
     def _spawn_ov(
         self,
