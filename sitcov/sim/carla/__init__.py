@@ -5,9 +5,10 @@ The ``carla`` module is imported only when a backend is built; everything else h
 without it.
 """
 
-from sitcov.sim.carla._backend import CarlaBackend, friction_scale, image_to_rgb
+from sitcov.sim.carla._backend import CarlaBackend, friction_scale
 from sitcov.sim.carla._mapfile import CarlaMap, available_maps, load_carla_map
 from sitcov.sim.carla._options import backend_for_worker, carla_backend_options, parse_servers
+from sitcov.sim.carla._state import image_to_rgb
 from sitcov.sim.carla._surface import SURFACE
 from sitcov.sim.carla._xosc import (
     export_xosc,

@@ -2,7 +2,8 @@
 
 Per run: connect (the client is cached), load the town if needed, switch the world to
 synchronous mode with a fixed step (the original settings are restored afterwards), set the
-weather from the situation, spawn ego and OV at the map file's points, scale every wheel's
+weather from the situation, spawn ego and OV at the map file's points and every further
+road user of the situation (pedestrians, cyclists, extra cars: ``_actors``), scale every wheel's
 tyre friction and read it back, attach the ego's RGB camera (the stack's CameraSpec) and a
 collision sensor, then step: the stack gets camera frames in ``Observation.image`` and runs
 its own detector, the OV follows the adversary's timing law. Every actor and sensor is
@@ -21,19 +22,29 @@ import shlex
 import subprocess
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
-import numpy as np
-
-from sitcov.av._base import EgoState, Observation, RunInfo
+from sitcov.av._base import RunInfo
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
 from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
 from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
-from sitcov.sim.carla._geometry import plan_route, to_sitcov
+from sitcov.sim.carla._actors import (
+    Scene,
+    ScenePlanned,
+    Twin,
+    check_blueprints,
+    conflict_point,
+    plan_scene,
+    spawn_twins,
+)
+from sitcov.sim.carla._episode import Episode, EpisodeSettings, StackFailure
+from sitcov.sim.carla._geometry import carla_transform, plan_route
 from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
-from sitcov.sim.carla._metrics import MetricTracker, VehicleState
+from sitcov.sim.carla._metrics import MetricTracker
 from sitcov.sim.carla._ovdriver import OVDriver
+from sitcov.sim.embedded._backend import MAX_ACTOR_SLOT
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack
@@ -54,8 +65,36 @@ LAUNCH_TIMEOUT = 120.0
 LAUNCH_POLL = 1.0
 
 
-class _StackFailure(Exception):
-    """Wraps an exception raised by the AV stack, so it is not mistaken for a server error."""
+@dataclass(frozen=True)
+class _RunPlan:
+    """What one run needs before spawning: movements, spawns, lane routes (CARLA frame),
+    the scene's further road users and the car OV's conflict point."""
+
+    ego_move: str
+    ov_move: str
+    scene: ScenePlanned | None
+    ego_spawn: SpawnPoint
+    ego_goal: tuple[float, float]
+    ego_route: list[tuple[float, float]]
+    ov_spawn: SpawnPoint | None
+    ov_route: list[tuple[float, float]]
+    conflict: tuple[float, float] | None
+
+    @property
+    def car_ov(self) -> bool:
+        """The OV is a car (the paper's OV driver drives it)."""
+        return self.ov_spawn is not None
+
+
+@dataclass(frozen=True)
+class _Spawned:
+    """The world, its blueprint library and the actors spawned for one run."""
+
+    world: Any
+    library: Any
+    ego: Any
+    ov: Any
+    twins: list[Twin]
 
 
 class CarlaBackend(Backend):
@@ -216,9 +255,10 @@ class CarlaBackend(Backend):
         """Smoke test without running a situation: versions, town, and every route.
 
         Plans the route of every spawn entry to every other leg's goal on the server's lane
-        graph (a ConfigError names the first one that cannot be planned).
+        graph (a ConfigError names the first one that cannot be planned), and looks up the
+        map file's walker and bicycle blueprints in the server's library.
         """
-        _, cmap = self._ensure_world()
+        world, cmap = self._ensure_world()
         lengths = []
         for table in (self.map.ego_spawns, self.map.ov_spawns):
             for key, spawn in table.items():
@@ -235,6 +275,7 @@ class CarlaBackend(Backend):
             "town": cmap.name,
             "map_file": self.map.name,
             "routes": f"{len(lengths)} planned, {min(lengths)}-{max(lengths)} points",
+            "road_users": check_blueprints(world.get_blueprint_library(), self.map),
         }
         if report["carla_server"] != report["carla_client"]:
             report["warning"] = "client and server versions differ: install the matching wheel"
@@ -263,7 +304,16 @@ class CarlaBackend(Backend):
                 "scales every wheel's tire_friction of ego and OV by the friction element, "
                 "read back after applying"
             )
-        out["intsit"] = "ego/OV spawn points, routes and conflict point from the map file"
+        out["intsit"] = (
+            "ego/OV spawn points, routes and conflict point from the map file; a pedestrian "
+            "or cyclist OV (kind) as the actorN slots"
+        )
+        slot = (
+            "walker.pedestrian.* (carla.WalkerControl) or two-wheeled vehicle.* "
+            "(carla.VehicleControl) on the map file's embedded_map routes, driven by the "
+            "embedded controllers"
+        )
+        out.update({f"actor{n}": slot for n in range(2, MAX_ACTOR_SLOT + 1)})
         return out
 
     # -- runs ------------------------------------------------------------------------------
@@ -281,7 +331,7 @@ class CarlaBackend(Backend):
         for attempt in (1, 2):
             try:
                 outcome = self._run_once(situation, av_stack, seed, record)
-            except _StackFailure as exc:
+            except StackFailure as exc:
                 raise exc.__cause__ from None  # type: ignore[misc]
             except RuntimeError as exc:  # carla's time-outs and disconnects
                 last = exc
@@ -300,11 +350,16 @@ class CarlaBackend(Backend):
 
     def _intsit(self, situation: Situation) -> tuple[str, str, str]:
         value = situation.value("intsit")
-        if not isinstance(value, Mapping) or not {"ego", "ov", "conflict"} <= set(value):
+        if not isinstance(value, Mapping) or not {"ego", "ov"} <= set(value):
             raise ConfigError(
                 field="intsit", value=value, expected="a mapping with ego, ov and conflict"
             )
-        return str(value["ego"]), str(value["ov"]), str(value["conflict"])
+        kind = str(value.get("kind", "car"))
+        if kind == "car" and "conflict" not in value:
+            raise ConfigError(
+                field="intsit.conflict", value=value, expected="a conflict point of the map file"
+            )
+        return str(value["ego"]), str(value["ov"]), str(value.get("conflict", ""))
 
     def _route(self, cmap: Any, spawn: SpawnPoint, goal: tuple[float, float]) -> list:
         key = (spawn.x, spawn.y, goal)
@@ -314,9 +369,19 @@ class CarlaBackend(Backend):
         return self._routes[key]
 
     def _transform(self, x: float, y: float, z: float = 0.0, yaw: float = 0.0) -> Any:
-        carla = self._carla
-        return carla.Transform(
-            carla.Location(x=x, y=y, z=z), carla.Rotation(pitch=0.0, yaw=yaw, roll=0.0)
+        return carla_transform(self._carla, x, y, z, yaw)
+
+    def _episode_settings(self) -> EpisodeSettings:
+        """What the step loop needs of this backend (it holds no reference to it)."""
+        return EpisodeSettings(
+            carla=self._carla,
+            carla_map=self._cmap,
+            map_name=self.map.name,
+            goal_tolerance=self.map.goal_tolerance,
+            dt=self.dt,
+            timeout=self.timeout,
+            sim_timeout=self.sim_timeout,
+            camera_every=self.camera_every,
         )
 
     def _weather(self, values: Mapping[str, Any]) -> tuple[Any, dict[str, float]]:
@@ -325,16 +390,8 @@ class CarlaBackend(Backend):
         return self._carla.WeatherParameters(**params), params
 
     def _run_once(self, situation: Situation, stack: AVStack, seed: int, record: bool) -> Outcome:
-        from sitcov.sim.carla._episode import Episode
-
         world, cmap = self._ensure_world()
-        ego_mv, ov_mv, label = self._intsit(situation)
-        spec = self.map
-        ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
-        ego_goal = spec.goal(ego_mv)
-        ego_route = self._route(cmap, ego_sp, ego_goal)
-        ov_route = self._route(cmap, ov_sp, spec.goal(ov_mv))
-        conflict = spec.conflict_point(label)
+        plan = self._plan(cmap, situation, seed)
         weather, weather_values = self._weather(situation.values)
         scale = friction_scale(situation.values, self.physics)
         original = world.get_settings()
@@ -347,43 +404,16 @@ class CarlaBackend(Backend):
             world.apply_settings(settings)
             world.set_weather(weather)
             library = world.get_blueprint_library()
-            ego = world.spawn_actor(
-                library.find(spec.ego_blueprint),
-                self._transform(ego_sp.x, ego_sp.y, ego_sp.z, ego_sp.yaw),
-            )
-            actors.append(ego)
-            ov_bp = library.find(spec.ov_blueprint)
-            if ov_bp.has_attribute("color"):  # the same colour the embedded backend draws
-                ov_bp.set_attribute("color", ",".join(map(str, ov_color(situation.values, seed))))
-            ov = world.spawn_actor(ov_bp, self._transform(ov_sp.x, ov_sp.y, ov_sp.z, ov_sp.yaw))
-            actors.append(ov)
-            friction = self._apply_friction(world, library, (ego, ov), scale, actors)
+            ego, ov, twins = self._spawn(world, library, plan, situation, seed, actors)
+            wheeled = [tw.carla_actor for tw in twins if tw.actor.kind != "pedestrian"]
+            vehicles = (ego, *wheeled, *([ov] if ov is not None else []))
+            friction = self._apply_friction(world, library, vehicles, scale, actors)
             if friction.get("error"):
                 return Outcome.errored(friction["error"])
-            episode = Episode(self, world, stack, ego, ov, record=record)
-            episode.attach_sensors(library, sensors)
-            info = RunInfo(
-                dt=self.dt,
-                route=tuple((x, -y) for x, y in ego_route),
-                goal=(ego_goal[0], -ego_goal[1]),
-                map_name=spec.name,
-                camera=stack.camera,
-                seed=int(seed),
+            run = _Spawned(world, library, ego, ov, twins)
+            outcome, driver = self._drive(
+                run, plan, stack, situation, seed, friction, record, sensors
             )
-            try:
-                stack.reset(info)
-            except Exception as exc:
-                raise _StackFailure() from exc
-            sit_conflict = (conflict[0], -conflict[1])
-            driver = OVDriver(
-                list(info.route),
-                [(x, -y) for x, y in ov_route],
-                sit_conflict,
-                friction["max_steer"],
-                switch_distance=spec.switch_distance(ego_mv, ov_mv),
-            )
-            tracker = MetricTracker(list(info.route), [(x, -y) for x, y in ov_route])
-            outcome = episode.drive(driver, tracker, ego_goal)
             outcome.metrics.update(
                 friction_scale=scale,
                 physics=self.physics,
@@ -391,15 +421,134 @@ class CarlaBackend(Backend):
                 tire_friction=friction["readback"],
                 friction_mode=self.friction_mode,
                 weather=weather_values,
-                map=spec.name,
-                town=spec.town,
+                map=self.map.name,
+                town=self.map.town,
                 carla_server=self._versions.get("server"),
                 carla_client=self._versions.get("client"),
-                ov_released_at=driver.released_at,
+                ov_released_at=driver.released_at if driver is not None else None,
             )
+            if plan.scene is not None and plan.car_ov:
+                outcome.metrics["actors"] = {
+                    "ov": _ov_metrics(plan.ov_move, outcome),
+                    **outcome.metrics["actors"],
+                }
             return outcome
         finally:
             self._cleanup(world, original, actors, sensors)
+
+    def _plan(self, cmap: Any, situation: Situation, seed: int) -> _RunPlan:
+        """Movements, spawns, lane routes, the scene's further road users and the car OV's
+        conflict point (raises ConfigError on bad values before anything is spawned)."""
+        spec = self.map
+        ego_mv, ov_mv, label = self._intsit(situation)
+        scene = plan_scene(spec, situation.values, seed)  # None: the paper's two cars
+        car_ov = scene is None or scene.car_ov
+        ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
+        ov_sp = spec.ov_spawn(ov_mv) if car_ov else None
+        return _RunPlan(
+            ego_move=ego_mv,
+            ov_move=ov_mv,
+            scene=scene,
+            ego_spawn=ego_sp,
+            ego_goal=ego_goal,
+            ego_route=self._route(cmap, ego_sp, ego_goal),
+            ov_spawn=ov_sp,
+            ov_route=self._route(cmap, ov_sp, spec.goal(ov_mv)) if ov_sp is not None else [],
+            conflict=conflict_point(spec, situation.values, label) if car_ov else None,
+        )
+
+    def _spawn(
+        self,
+        world: Any,
+        library: Any,
+        plan: _RunPlan,
+        situation: Situation,
+        seed: int,
+        actors: list,
+    ) -> tuple[Any, Any, list[Twin]]:
+        """Ego, the car OV (None for a pedestrian or cyclist OV) and every scene twin; each
+        is appended to ``actors`` as soon as it exists."""
+        sp = plan.ego_spawn
+        ego = world.spawn_actor(
+            library.find(self.map.ego_blueprint), self._transform(sp.x, sp.y, sp.z, sp.yaw)
+        )
+        actors.append(ego)
+        ov = self._spawn_ov(world, library, plan.ov_spawn, situation, seed, actors)
+        twins = []
+        if plan.scene is not None:
+            twins = spawn_twins(self._carla, world, library, self.map, plan.scene, actors)
+        return ego, ov, twins
+
+    def _drive(
+        self,
+        run: _Spawned,
+        plan: _RunPlan,
+        stack: AVStack,
+        situation: Situation,
+        seed: int,
+        friction: dict[str, Any],
+        record: bool,
+        sensors: list,
+    ) -> tuple[Outcome, OVDriver | None]:
+        """Sensors, the stack's reset, the OV driver, then the episode's step loop."""
+        info = RunInfo(
+            dt=self.dt,
+            route=tuple((x, -y) for x, y in plan.ego_route),
+            goal=(plan.ego_goal[0], -plan.ego_goal[1]),
+            map_name=self.map.name,
+            camera=stack.camera,
+            seed=int(seed),
+        )
+        twins = run.twins
+        mu = conditions_from_values(situation.values, profile=self.physics).mu
+        scene = Scene(plan.scene, twins, list(info.route), self.dt, mu) if plan.scene else None
+        primary = run.ov if run.ov is not None else twins[0].carla_actor
+        episode = Episode(
+            self._episode_settings(),
+            run.world,
+            stack,
+            run.ego,
+            primary,
+            record=record,
+            scene=scene,
+            ov_kind="car" if plan.car_ov else twins[0].actor.kind,
+        )
+        episode.attach_sensors(run.library, sensors)
+        try:
+            stack.reset(info)
+        except Exception as exc:
+            raise StackFailure() from exc
+        ov_sit = [(x, -y) for x, y in plan.ov_route] if plan.car_ov else twins[0].route
+        driver = None
+        if plan.conflict is not None:
+            driver = OVDriver(
+                list(info.route),
+                ov_sit,
+                (plan.conflict[0], -plan.conflict[1]),
+                friction["max_steer"],
+                switch_distance=self.map.switch_distance(plan.ego_move, plan.ov_move),
+            )
+        tracker = MetricTracker(list(info.route), ov_sit)
+        return episode.drive(driver, tracker, plan.ego_goal), driver
+
+    def _spawn_ov(
+        self,
+        world: Any,
+        library: Any,
+        spawn: SpawnPoint | None,
+        situation: Situation,
+        seed: int,
+        actors: list,
+    ) -> Any:
+        """The paper's car OV at its spawn (None when the OV is a pedestrian or cyclist)."""
+        if spawn is None:
+            return None
+        ov_bp = library.find(self.map.ov_blueprint)
+        if ov_bp.has_attribute("color"):  # the same colour the embedded backend draws
+            ov_bp.set_attribute("color", ",".join(map(str, ov_color(situation.values, seed))))
+        ov = world.spawn_actor(ov_bp, self._transform(spawn.x, spawn.y, spawn.z, spawn.yaw))
+        actors.append(ov)
+        return ov
 
     def _apply_friction(
         self, world: Any, library: Any, vehicles: tuple[Any, ...], scale: float, actors: list
@@ -467,29 +616,16 @@ def friction_scale(values: Mapping[str, Any], physics: str = "carla") -> float:
     return conditions_from_values(values, profile=physics).mu / dry
 
 
-def image_to_rgb(image: Any) -> np.ndarray:
-    """A carla.Image (BGRA bytes) as an HxWx3 uint8 RGB array."""
-    bgra = np.frombuffer(image.raw_data, dtype=np.uint8).reshape(image.height, image.width, 4)
-    return bgra[:, :, [2, 1, 0]]  # fancy indexing copies into a contiguous array
-
-
-def vehicle_state(actor: Any) -> VehicleState:
-    """An actor's pose, velocity and box in the sitcov frame."""
-    tf = actor.get_transform()
-    vel = actor.get_velocity()
-    x, y, yaw = to_sitcov(tf.location.x, tf.location.y, tf.rotation.yaw)
-    ext = actor.bounding_box.extent
-    return VehicleState(x, y, yaw, vel.x, -vel.y, ext.x, ext.y)
-
-
-def ego_state(state: VehicleState, t: float) -> EgoState:
-    """What the ego's localisation reports."""
-    return EgoState(x=state.x, y=state.y, yaw=state.yaw, speed=state.speed, t=t)
-
-
-def make_observation(t: float, state: VehicleState, image: np.ndarray | None) -> Observation:
-    """Camera-mode observation (detections are the stack's job)."""
-    return Observation(t=t, ego=ego_state(state, t), image=image)
+def _ov_metrics(move: str, outcome: Outcome) -> dict[str, Any]:
+    """The car OV's entry in ``metrics["actors"]``: the run's primary metrics."""
+    return {
+        "kind": "car",
+        "route": move,
+        "behaviour": "timed",
+        "min_distance": outcome.min_distance,
+        "min_ttc": outcome.min_ttc,
+        "pet": outcome.pet,
+    }
 
 
 def _launch_command(launch: str | None, host: str, port: int) -> str | None:

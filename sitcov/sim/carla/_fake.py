@@ -4,7 +4,8 @@
 (``carla_module=``): a client connects to the :class:`FakeServer`, which keeps the world
 settings, weather, actors, a lane graph built from a map file (straight lanes from every
 spawn point to the junction and from the junction to every goal), simple kinematic
-vehicles, camera frames and collision events, and logs every call that changes state.
+vehicles, walkers that walk as commanded, camera frames and collision events (with vehicles
+and walkers), and logs every call that changes state.
 Public members of the fake classes are exactly those of ``_surface.SURFACE`` (a test
 checks it); test hooks live on :class:`FakeServer`.
 """
@@ -63,6 +64,12 @@ class VehicleControl:
         self._values = (float(throttle), float(steer), float(brake))
 
 
+class WalkerControl:
+    def __init__(self, direction: Vector3D | None = None, speed: float = 0.0) -> None:
+        d = direction or Vector3D(1.0, 0.0, 0.0)
+        self._direction, self._speed = (d.x, d.y), float(speed)
+
+
 class WheelPhysicsControl:
     def __init__(self, tire_friction: float = 2.0, max_steer_angle: float = 70.0) -> None:
         self.tire_friction = tire_friction
@@ -84,12 +91,25 @@ class CollisionEvent:
         self.frame, self.other_actor = frame, other_actor
 
 
+class ActorAttribute:
+    def __init__(self, value: str) -> None:
+        self._value = value
+
+    def as_int(self) -> int:
+        return int(self._value)
+
+
 class ActorBlueprint:
     def __init__(self, blueprint_id: str, attributes: dict[str, str]) -> None:
         self._id, self._attributes = blueprint_id, dict(attributes)
 
     def has_attribute(self, name: str) -> bool:
         return name in self._attributes
+
+    def get_attribute(self, id: str) -> ActorAttribute:  # noqa: A002 - carla's keyword
+        if id not in self._attributes:
+            raise IndexError(f"blueprint {self._id!r} has no attribute {id!r}")
+        return ActorAttribute(self._attributes[id])
 
     def set_attribute(self, name: str, value: str) -> None:
         if name not in self._attributes or not isinstance(value, str):
@@ -114,10 +134,19 @@ _BLUEPRINTS = {
 }
 
 
+#: Two-wheeled vehicle blueprints of CARLA 0.9.x (bicycles); other ``vehicle.*`` have 4 wheels.
+TWO_WHEELERS = ("vehicle.diamondback.century", "vehicle.gazelle.omafiets", "vehicle.bh.crossbike")
+#: Half extents [m] of the fake's actors by blueprint family (CARLA reports its own).
+EXTENTS = {"walker": (0.25, 0.25, 0.9), "bicycle": (0.9, 0.3, 0.85), "car": (2.4, 1.0, 0.75)}
+
+
 class BlueprintLibrary:
     def find(self, id: str) -> ActorBlueprint:  # noqa: A002 - carla's keyword
         if id.startswith("vehicle."):
-            return ActorBlueprint(id, {"role_name": "autopilot"})
+            wheels = "2" if id in TWO_WHEELERS else "4"
+            return ActorBlueprint(id, {"role_name": "autopilot", "number_of_wheels": wheels})
+        if id.startswith("walker.pedestrian."):
+            return ActorBlueprint(id, {"role_name": "pedestrian", "is_invincible": "true"})
         if id not in _BLUEPRINTS:
             raise IndexError(f"blueprint {id!r} not found")
         return ActorBlueprint(id, _BLUEPRINTS[id])
@@ -134,7 +163,12 @@ class Actor:
         server._next_id += 1
         self.id = server._next_id
         self.type_id = blueprint._id
-        self.bounding_box = BoundingBox(Vector3D(2.4, 1.0, 0.75))
+        family = (
+            "walker"
+            if self.type_id.startswith("walker.")
+            else ("bicycle" if self.type_id in TWO_WHEELERS else "car")
+        )
+        self.bounding_box = BoundingBox(Vector3D(*EXTENTS[family]))
         self._server, self._parent = server, parent
         self._attributes = blueprint._attributes
         self._x, self._y, self._yaw = (
@@ -195,6 +229,29 @@ class Vehicle(Actor):
         rad = math.radians(self._yaw)
         self._x += self._speed * math.cos(rad) * dt
         self._y += self._speed * math.sin(rad) * dt
+
+
+class Walker(Actor):
+    """A pedestrian: walks at the commanded speed along the commanded direction."""
+
+    def __init__(self, *args: Any) -> None:
+        super().__init__(*args)
+        self._walk = (0.0, 0.0, 0.0)  # direction x, y and speed
+
+    def apply_control(self, control: WalkerControl) -> None:
+        (dx, dy), speed = control._direction, control._speed
+        norm = math.hypot(dx, dy)
+        if norm > 0.0:
+            self._walk = (dx / norm, dy / norm, speed)
+        self._server.log.append(("walker_control", self.id, dx, dy, speed))
+
+    def _step(self, dt: float) -> None:
+        dx, dy, speed = self._walk
+        self._speed = speed
+        if speed > 0.0:
+            self._yaw = math.degrees(math.atan2(dy, dx))
+            self._x += speed * dx * dt
+            self._y += speed * dy * dt
 
 
 class Sensor(Actor):
@@ -290,11 +347,8 @@ class World:
     ) -> Actor:
         server = self._server
         server._check()
-        cls = (
-            Vehicle
-            if blueprint._id.startswith("vehicle.")
-            else (Sensor if blueprint._id.startswith("sensor.") else Actor)
-        )
+        family = blueprint._id.split(".", 1)[0]
+        cls = {"vehicle": Vehicle, "sensor": Sensor, "walker": Walker}.get(family, Actor)
         actor = cls(server, blueprint, transform, attach_to)
         if cls is Vehicle:
             server._episode_ticks = 0
@@ -325,7 +379,9 @@ class FakeServer:
         self.ignore_physics = False
         self.fail_ticks = 0  # the next N ticks raise a time-out
         self.collide_at_tick: int | None = None  # counted from the last vehicle spawn
-        self.collision_radius = 3.0  # centres closer than this collide [m]
+        # car centres closer than this collide [m]; walkers and bicycles collide when their
+        # boxes touch the ego's
+        self.collision_radius = 3.0
         self.road_half_width = 3.5  # driving lanes reach this far from a lane's line [m]
         self.log: list[tuple] = []
         self.weather: dict[str, float] = {}
@@ -372,8 +428,8 @@ class FakeServer:
         if not self._settings.synchronous_mode:
             raise RuntimeError("tick() outside synchronous mode (fake)")
         dt = self._settings.fixed_delta_seconds or 0.05
-        vehicles = [a for a in self._actors.values() if isinstance(a, Vehicle)]
-        for v in vehicles:
+        movers = [a for a in self._actors.values() if isinstance(a, Vehicle | Walker)]
+        for v in movers:
             v._step(dt)
         self.frame += 1
         self.ticks += 1
@@ -386,18 +442,36 @@ class FakeServer:
                 raw = self._frame_bytes.setdefault((w, h), bytes(w * h * 4))
                 sensor._callback(Image(self.frame, w, h, raw))
             elif sensor.type_id == "sensor.other.collision":
-                for other in self._collisions(sensor._parent, vehicles):
+                for other in self._collisions(sensor._parent, movers):
                     sensor._callback(CollisionEvent(self.frame, other))
         return self.frame
 
-    def _collisions(self, ego: Actor, vehicles: list[Vehicle]) -> list[Actor]:
+    def _collisions(self, ego: Actor, movers: list[Actor]) -> list[Actor]:
         if self.collide_at_tick is not None and self._episode_ticks == self.collide_at_tick:
-            return [v for v in vehicles if v is not ego][:1]
-        return [
-            v
-            for v in vehicles
-            if v is not ego and math.hypot(v._x - ego._x, v._y - ego._y) < self.collision_radius
-        ]
+            return [v for v in movers if v is not ego][:1]
+        out = []
+        for v in movers:
+            if v is ego:
+                continue
+            if v.bounding_box.extent.x < EXTENTS["car"][0]:  # walkers, bicycles: their boxes
+                if _box_gap(ego, v) <= 0.0:
+                    out.append(v)
+            elif math.hypot(v._x - ego._x, v._y - ego._y) < self.collision_radius:
+                out.append(v)
+        return out
+
+
+def _box_gap(a: Actor, b: Actor) -> float:
+    """Distance [m] between two actors' footprint boxes (0 when they overlap)."""
+    from sitcov.sim.carla._geometry import box_corners, box_distance
+
+    boxes = [
+        box_corners(
+            o._x, o._y, math.radians(o._yaw), o.bounding_box.extent.x, o.bounding_box.extent.y
+        )
+        for o in (a, b)
+    ]
+    return box_distance(*boxes)
 
 
 def _lane_graph(carla_map: Any) -> list[tuple[tuple[float, float], tuple[float, float], list[int]]]:
@@ -425,6 +499,9 @@ class FakeCarla:
     WorldSettings = WorldSettings
     WeatherParameters = WeatherParameters
     VehicleControl = VehicleControl
+    WalkerControl = WalkerControl
+    ActorAttribute = ActorAttribute
+    Walker = Walker
     VehiclePhysicsControl = VehiclePhysicsControl
     WheelPhysicsControl = WheelPhysicsControl
     Image = Image

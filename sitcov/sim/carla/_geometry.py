@@ -29,6 +29,13 @@ def to_sitcov(x: float, y: float, yaw_deg: float) -> tuple[float, float, float]:
     return x, -y, -math.radians(yaw_deg)
 
 
+def carla_transform(carla: Any, x: float, y: float, z: float = 0.0, yaw: float = 0.0) -> Any:
+    """A ``carla.Transform`` at (x, y, z) [m] with heading ``yaw`` [deg], CARLA frame."""
+    return carla.Transform(
+        carla.Location(x=x, y=y, z=z), carla.Rotation(pitch=0.0, yaw=yaw, roll=0.0)
+    )
+
+
 def steer_to_carla(steer: float) -> float:
     """sitcov steer (positive = left) -> carla.VehicleControl.steer (positive = right)."""
     return -max(-1.0, min(1.0, steer))

@@ -64,6 +64,18 @@ class CarlaMap(_Strict):
     goals: dict[str, tuple[float, float]] = Field(min_length=2)
     ego_blueprint: str = "vehicle.tesla.model3"
     ov_blueprint: str = "vehicle.audi.tt"
+    #: pedestrians (a ``walker.pedestrian.*`` blueprint) and cyclists (a two-wheeled
+    #: ``vehicle.*`` blueprint)
+    walker_blueprint: str = Field(
+        default="walker.pedestrian.0001", pattern=r"^walker\.pedestrian\."
+    )
+    bicycle_blueprint: str = Field(default="vehicle.diamondback.century", pattern=r"^vehicle\.")
+    #: the embedded map (``sitcov.sim.embedded``) whose junction this one matches: the routes
+    #: of pedestrians, cyclists and extra cars come from it (``actor_route``), its centre
+    #: placed on ``junction`` and turned by ``embedded_rotation_deg`` (counter-clockwise in
+    #: sitcov's right-handed frame)
+    embedded_map: str = Field(default="t-junction", min_length=1)
+    embedded_rotation_deg: float = 0.0
     goal_tolerance: float = Field(default=3.0, gt=0)
     source: str = ""
     #: "EGO/OV" -> the ego's distance to the conflict point [m] at which the OV stops

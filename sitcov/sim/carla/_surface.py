@@ -66,6 +66,8 @@ SURFACE: dict[str, Use] = {
     "BlueprintLibrary.find": Use("call", 1),
     "ActorBlueprint.has_attribute": Use("call", 1),
     "ActorBlueprint.set_attribute": Use("call", 2),
+    "ActorBlueprint.get_attribute": Use("call", 1),
+    "ActorAttribute.as_int": Use("call"),
     # geometry
     "Location": Use("new", keywords=("x", "y", "z")),
     "Location.x": GET,
@@ -76,6 +78,7 @@ SURFACE: dict[str, Use] = {
     "Transform": Use("new", 2),
     "Transform.location": GET,
     "Transform.rotation": GET,
+    "Vector3D": Use("new", keywords=("x", "y", "z")),
     "Vector3D.x": GET,
     "Vector3D.y": GET,
     "BoundingBox.extent": GET,
@@ -93,6 +96,9 @@ SURFACE: dict[str, Use] = {
     "VehiclePhysicsControl.wheels": SET,
     "WheelPhysicsControl.tire_friction": SET,
     "WheelPhysicsControl.max_steer_angle": GET,
+    # pedestrians (walker.pedestrian.*); bicycles are Vehicles
+    "Walker.apply_control": Use("call", 1),
+    "WalkerControl": Use("new", keywords=("direction", "speed")),
     # sensors and their data
     "Sensor.listen": Use("call", 1),
     "Sensor.stop": Use("call"),

@@ -3,8 +3,9 @@
 One ``.xosc`` per situation, written with ``scenariogeneration`` so ScenarioRunner and
 esmini users can replay what sitcov found. Contents:
 
-- entities ``hero`` (the ego, ScenarioRunner's ``type=ego_vehicle``) and ``adversary``,
-  the map file's blueprints as vehicle names, teleported to the map file's spawn points;
+- entities ``hero`` (the ego, ScenarioRunner's ``type=ego_vehicle``) and ``adversary`` (a
+  car OV), the map file's blueprints as vehicle names, teleported to the map file's spawn
+  points;
 - the environment: cloud state, fog visual range, rain and sun from the situation's
   weather values, and ``RoadCondition frictionScaleFactor`` = the backend's friction
   scale; the exact CARLA weather values are kept as ``carla_*`` parameters;
@@ -14,7 +15,12 @@ esmini users can replay what sitcov found. Contents:
   ego moves, holds the constant speed that brings it to the conflict point when the ego
   (at 25 km/h) arrives there, and switches to 15 km/h once the ego is within the
   adversary's switch distance of the conflict point (no closed-loop timing law);
-- a stop trigger: collision hero/adversary, the ego at its goal, or 60 s.
+- every further road user of the situation (a pedestrian or cyclist OV, the ``actor2``,
+  ``actor3``, ... slots): a ``Pedestrian`` or a bicycle ``Vehicle`` (an extra car: a car
+  ``Vehicle``), on its route from the embedded map, with events that say what its
+  controller does (``sitcov.sim.carla._xosc_actors``); a pedestrian or cyclist OV is the
+  entity ``adversary``, the slots keep their names;
+- a stop trigger: collision of the hero with any other entity, the ego at its goal, or 60 s.
 
 OpenSCENARIO's world frame is right-handed (y to the left, heading counter-clockwise),
 CARLA's is left-handed: positions are written as (x, −y) and headings as −yaw [rad], the
@@ -31,7 +37,18 @@ from typing import Any
 
 from sitcov.errors import ConfigError, MissingExtraError
 from sitcov.sim._conditions import WEATHER_ELEMENTS
+from sitcov.sim.carla._actors import conflict_point, plan_scene
 from sitcov.sim.carla._mapfile import CarlaMap, load_carla_map
+from sitcov.sim.carla._xosc_actors import (
+    Hero,
+    actor_entity,
+    actor_events,
+    actor_init,
+    hero_moves,
+    reaches,
+    speed_action,
+    world_position,
+)
 
 #: The ego's cruise speed assumed for the OV's timing [m/s] (25 km/h).
 EGO_SPEED = 25.0 / 3.6
@@ -56,8 +73,7 @@ def _xosc() -> Any:
 
 
 def _world(xosc: Any, x: float, y: float, yaw_deg: float | None = None) -> Any:
-    h = None if yaw_deg is None else -math.radians(yaw_deg)
-    return xosc.WorldPosition(x=x, y=-y, z=0.0, h=h)
+    return world_position(xosc, x, y, yaw_deg)
 
 
 def _path_length(points: list[tuple[float, float]]) -> float:
@@ -128,100 +144,59 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     """The ``scenariogeneration`` Scenario of one situation (see the module docstring).
 
     Raises:
-        ConfigError: the situation has no usable ``intsit`` for this map.
+        ConfigError: the situation has no usable ``intsit`` (or actor slot) for this map.
         MissingExtraError: scenariogeneration is not installed.
     """
     xosc = _xosc()
     spec = carla_map or load_carla_map("Town03")
     values = dict(situation.values)
     intsit = values.get("intsit")
-    if not isinstance(intsit, Mapping) or not {"ego", "ov", "conflict"} <= set(intsit):
+    if not isinstance(intsit, Mapping) or not {"ego", "ov"} <= set(intsit):
         raise ConfigError(field="intsit", value=intsit, expected="a mapping with ego, ov, conflict")
-    ego_mv, ov_mv = str(intsit["ego"]), str(intsit["ov"])
-    ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
-    cp = spec.conflict_point(str(intsit["conflict"]))
+    scene = plan_scene(spec, values, seed=0)  # the seed only picks colours
+    car_ov = scene is None or scene.car_ov
+    if car_ov and "conflict" not in intsit:
+        raise ConfigError(field="intsit", value=intsit, expected="a mapping with ego, ov, conflict")
+    ego_mv = str(intsit["ego"])
+    ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
     junction = (spec.junction.x, spec.junction.y)
-    ego_goal, ov_goal = spec.goal(ego_mv), spec.goal(ov_mv)
-    d_ego = _path_length([(ego_sp.x, ego_sp.y), junction, cp])
-    d_ov = _path_length([(ov_sp.x, ov_sp.y), junction, cp])
-    v_ov = approach_speed(d_ego, d_ov)
-
-    params = xosc.ParameterDeclarations()
-    params.add_parameter(
-        xosc.Parameter("sitcov_situation", xosc.ParameterType.string, situation.id)
-    )
-    for name in WEATHER_ELEMENTS + ("friction",):
-        if name in values:
-            params.add_parameter(
-                xosc.Parameter(f"carla_{name}", xosc.ParameterType.double, str(float(values[name])))
-            )
+    via = conflict_point(spec, values, str(intsit["conflict"])) if car_ov else junction
     entities = xosc.Entities()
     entities.add_scenario_object("hero", _vehicle(xosc, spec.ego_blueprint, True))
-    entities.add_scenario_object("adversary", _vehicle(xosc, spec.ov_blueprint, False))
-
     init = xosc.Init()
     init.add_global_action(xosc.EnvironmentAction(_weather(xosc, values)))
     init.add_init_action("hero", xosc.TeleportAction(_world(xosc, ego_sp.x, ego_sp.y, ego_sp.yaw)))
-    init.add_init_action(
-        "adversary", xosc.TeleportAction(_world(xosc, ov_sp.x, ov_sp.y, ov_sp.yaw))
-    )
-    init.add_init_action("hero", _route(xosc, "hero_route", [(ego_sp.x, ego_sp.y), cp, ego_goal]))
-    init.add_init_action("adversary", _route(xosc, "ov_route", [(ov_sp.x, ov_sp.y), cp, ov_goal]))
-
-    def speed(v: float) -> Any:
-        dyn = xosc.TransitionDynamics(
-            xosc.DynamicsShapes.linear, xosc.DynamicsDimension.rate, ACCEL
-        )
-        return xosc.AbsoluteSpeedAction(round(v, 3), dyn)
-
-    start = xosc.ValueTrigger(
-        "start",
-        0.0,
-        xosc.ConditionEdge.none,
-        xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan),
-    )
+    init.add_init_action("hero", _route(xosc, "hero_route", [(ego_sp.x, ego_sp.y), via, ego_goal]))
     ego_event = xosc.Event("hero_drive", xosc.Priority.overwrite)
-    ego_event.add_action("hero_speed", speed(EGO_SPEED))
-    ego_event.add_trigger(start)
-
-    from sitcov.sim._adversary import FALLBACK_SWITCH_DISTANCE
-
-    switch = spec.switch_distance(ego_mv, ov_mv) or FALLBACK_SWITCH_DISTANCE
-    ov_go = xosc.Event("adversary_approach", xosc.Priority.overwrite)
-    ov_go.add_action("adversary_timed_speed", speed(v_ov))
-    ov_go.add_trigger(
-        xosc.EntityTrigger(
-            "hero_moves",
-            0.0,
-            xosc.ConditionEdge.rising,
-            xosc.SpeedCondition(0.1, xosc.Rule.greaterThan),
-            "hero",
-        )
-    )
-    ov_cruise = xosc.Event("adversary_cruise", xosc.Priority.overwrite)
-    ov_cruise.add_action("adversary_cruise_speed", speed(OV_CRUISE))
-    ov_cruise.add_trigger(
-        xosc.EntityTrigger(
-            "hero_near_conflict",
-            0.0,
-            xosc.ConditionEdge.rising,
-            xosc.ReachPositionCondition(_world(xosc, *cp), switch),
-            "hero",
-        )
-    )
-    storyboard = xosc.StoryBoard(init, _stop_trigger(xosc, ego_goal, spec.goal_tolerance))
-    for actor, events in (("hero", [ego_event]), ("adversary", [ov_go, ov_cruise])):
-        maneuver = xosc.Maneuver(f"{actor}_maneuver")
+    ego_event.add_action("hero_speed", speed_action(xosc, EGO_SPEED))
+    ego_event.add_trigger(_start(xosc))
+    groups: list[tuple[str, list[Any]]] = [("hero", [ego_event])]
+    if car_ov:
+        groups.append(("adversary", _car_ov(xosc, spec, intsit, via, entities, init)))
+    if scene is not None:
+        hero = Hero((ego_sp.x, ego_sp.y), junction)
+        for actor in scene.actors:
+            name = entity_name(actor.name)
+            entity = _vehicle(xosc, spec.ov_blueprint, False)
+            if actor.kind != "car":
+                entity = actor_entity(xosc, spec, actor)
+            entities.add_scenario_object(name, entity)
+            actor_init(xosc, init, name, scene.frame, actor)
+            groups.append((name, actor_events(xosc, name, scene.frame, actor, hero)))
+    others = [name for name, _ in groups[1:]]
+    storyboard = xosc.StoryBoard(init, _stop_trigger(xosc, ego_goal, spec.goal_tolerance, others))
+    for actor_name, events in groups:
+        maneuver = xosc.Maneuver(f"{actor_name}_maneuver")
         for event in events:
             maneuver.add_event(event)
-        group = xosc.ManeuverGroup(f"{actor}_group")
-        group.add_actor(actor)
+        group = xosc.ManeuverGroup(f"{actor_name}_group")
+        group.add_actor(actor_name)
         group.add_maneuver(maneuver)
-        storyboard.add_maneuver_group(group, starttrigger=start)
+        storyboard.add_maneuver_group(group, starttrigger=_start(xosc))
     return xosc.Scenario(
         f"sitcov_{situation.id}",
         "sitcov",
-        params,
+        _parameters(xosc, situation.id, values),
         entities,
         storyboard,
         xosc.RoadNetwork(roadfile=spec.town),
@@ -231,16 +206,82 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     )
 
 
-def _stop_trigger(xosc: Any, goal: tuple[float, float], tolerance: float) -> Any:
+def entity_name(actor: str) -> str:
+    """The entity of a scene actor: the primary road user is ``adversary`` as ever."""
+    return "adversary" if actor == "ov" else actor
+
+
+def _start(xosc: Any) -> Any:
+    return xosc.ValueTrigger(
+        "start",
+        0.0,
+        xosc.ConditionEdge.none,
+        xosc.SimulationTimeCondition(0.0, xosc.Rule.greaterThan),
+    )
+
+
+def _parameters(xosc: Any, situation_id: str, values: Mapping[str, Any]) -> Any:
+    params = xosc.ParameterDeclarations()
+    params.add_parameter(
+        xosc.Parameter("sitcov_situation", xosc.ParameterType.string, situation_id)
+    )
+    for name in WEATHER_ELEMENTS + ("friction",):
+        if name in values:
+            params.add_parameter(
+                xosc.Parameter(f"carla_{name}", xosc.ParameterType.double, str(float(values[name])))
+            )
+    return params
+
+
+def _car_ov(
+    xosc: Any,
+    spec: CarlaMap,
+    intsit: Mapping[str, Any],
+    cp: tuple[float, float],
+    entities: Any,
+    init: Any,
+) -> list[Any]:
+    """The car OV (conflict point ``cp``, CARLA frame): entity, teleport, route, and its
+    timed approach and cruise."""
+    from sitcov.sim._adversary import FALLBACK_SWITCH_DISTANCE
+
+    ego_mv, ov_mv = str(intsit["ego"]), str(intsit["ov"])
+    ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
+    junction = (spec.junction.x, spec.junction.y)
+    d_ego = _path_length([(ego_sp.x, ego_sp.y), junction, cp])
+    d_ov = _path_length([(ov_sp.x, ov_sp.y), junction, cp])
+    entities.add_scenario_object("adversary", _vehicle(xosc, spec.ov_blueprint, False))
+    init.add_init_action(
+        "adversary", xosc.TeleportAction(_world(xosc, ov_sp.x, ov_sp.y, ov_sp.yaw))
+    )
+    init.add_init_action(
+        "adversary", _route(xosc, "ov_route", [(ov_sp.x, ov_sp.y), cp, spec.goal(ov_mv)])
+    )
+    ov_go = xosc.Event("adversary_approach", xosc.Priority.overwrite)
+    ov_go.add_action("adversary_timed_speed", speed_action(xosc, approach_speed(d_ego, d_ov)))
+    ov_go.add_trigger(hero_moves(xosc, "hero_moves"))
+    switch = spec.switch_distance(ego_mv, ov_mv) or FALLBACK_SWITCH_DISTANCE
+    ov_cruise = xosc.Event("adversary_cruise", xosc.Priority.overwrite)
+    ov_cruise.add_action("adversary_cruise_speed", speed_action(xosc, OV_CRUISE))
+    ov_cruise.add_trigger(
+        reaches(xosc, "hero_near_conflict", "hero", _world(xosc, *cp), switch, rising=True)
+    )
+    return [ov_go, ov_cruise]
+
+
+def _stop_trigger(xosc: Any, goal: tuple[float, float], tolerance: float, others: list[str]) -> Any:
     trigger = xosc.Trigger("stop")
     conditions = [
         xosc.EntityTrigger(
-            "collision",
+            "collision" if other == "adversary" else f"collision_{other}",
             0.0,
             xosc.ConditionEdge.rising,
-            xosc.CollisionCondition("adversary"),
+            xosc.CollisionCondition(other),
             "hero",
-        ),
+        )
+        for other in others
+    ]
+    conditions += [
         xosc.EntityTrigger(
             "ego_at_goal",
             0.0,

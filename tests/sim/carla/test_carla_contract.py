@@ -96,6 +96,8 @@ def test_the_real_objects_the_adapter_builds_take_its_values() -> None:
     settings.synchronous_mode = True
     settings.fixed_delta_seconds = 0.05
     assert settings.synchronous_mode and settings.fixed_delta_seconds == pytest.approx(0.05)
+    walk = carla.WalkerControl(direction=carla.Vector3D(x=0.6, y=-0.8, z=0.0), speed=1.4)
+    assert (walk.direction.x, walk.direction.y, walk.speed) == pytest.approx((0.6, -0.8, 1.4))
     wheel = carla.WheelPhysicsControl()
     wheel.tire_friction = 1.4
     physics = carla.VehiclePhysicsControl()
@@ -109,7 +111,12 @@ def _public(obj: Any) -> set[str]:
     return names
 
 
-_BASES = {"Vehicle": ["Actor"], "Sensor": ["Actor"], "Location": ["Vector3D"]}
+_BASES = {
+    "Vehicle": ["Actor"],
+    "Walker": ["Actor"],
+    "Sensor": ["Actor"],
+    "Location": ["Vector3D"],
+}
 
 
 def _allowed(cls_name: str) -> set[str]:
@@ -150,6 +157,13 @@ def test_fake_implements_exactly_the_surface(tmp_path: Any) -> None:
         "Waypoint": fake.Map(server, "m").get_waypoint(_fake.Location()),
         "BlueprintLibrary": fake.BlueprintLibrary(),
         "ActorBlueprint": fake.BlueprintLibrary().find("sensor.other.collision"),
+        "ActorAttribute": fake.BlueprintLibrary()
+        .find("vehicle.bh.crossbike")
+        .get_attribute("number_of_wheels"),
+        "WalkerControl": _fake.WalkerControl(_fake.Vector3D(1, 0, 0), 1.0),
+        "Walker": fake.World(server).spawn_actor(
+            _fake.ActorBlueprint("walker.pedestrian.0001", {}), _fake.Transform()
+        ),
         "Client": fake.Client(host="h", port=1),
         "Vehicle": fake.World(server).spawn_actor(
             _fake.ActorBlueprint("vehicle.x", {}), _fake.Transform()
@@ -159,3 +173,12 @@ def test_fake_implements_exactly_the_surface(tmp_path: Any) -> None:
     for cls_name, obj in samples.items():
         extra = _public(obj) - _allowed(cls_name)
         assert not extra, f"fake {cls_name} has members outside the surface: {extra}"
+
+
+def test_the_real_classes_the_scene_actors_use() -> None:
+    """Walkers are Actors with their own control; bicycles are Vehicles (client side)."""
+    assert issubclass(carla.Walker, carla.Actor)
+    assert "apply_control" in vars(carla.Walker)  # its own overload, not the vehicle's
+    assert set(members("WalkerControl")["__init__"].keywords) <= {
+        n for n in dir(carla.WalkerControl) if not n.startswith("_")
+    }
