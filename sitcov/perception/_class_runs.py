@@ -16,9 +16,10 @@ as in the agreement experiment (stream A).
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from functools import lru_cache
 from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -173,3 +174,39 @@ def class_camera_runs(
         if progress is not None:
             progress(len(out))
     return sorted(out, key=lambda r: r.index)
+
+
+def check_class_seeds(
+    seeds: Sequence[int], kind: str, pem_classes: str | None, *, allow: bool
+) -> None:
+    """Refuse evaluation seeds the per-class PEM was calibrated on (``meta.calibration_seeds``
+    of the per-class file), or a file that does not say, unless ``allow``.
+
+    Raises:
+        ConfigError: one line naming the seeds and the file.
+    """
+    import yaml
+
+    from sitcov.perception._pem_classes import PEM_CLASSES_FILE
+
+    if kind not in CLASS_KINDS:
+        raise ConfigError(field="--kind", value=kind, expected=" | ".join(CLASS_KINDS))
+    if allow:
+        return
+    path = PEM_CLASSES_FILE if pem_classes is None else pem_classes
+    try:
+        meta = (yaml.safe_load(Path(path).read_text()) or {}).get("meta") or {}
+    except (OSError, yaml.YAMLError, AttributeError) as exc:
+        raise ConfigError(f"{path}: cannot read the per-class PEM file: {exc}") from None
+    calibrated = meta.get("calibration_seeds")
+    if not isinstance(calibrated, list):
+        raise ConfigError(
+            f"{path}: meta.calibration_seeds is missing, so held-out seeds cannot be checked; "
+            "pass --allow-calibration-seeds to evaluate anyway"
+        )
+    overlap = sorted(set(seeds) & {int(s) for s in calibrated})
+    if overlap:
+        raise ConfigError(
+            f"--seeds: {overlap} calibrated the per-class PEM ({path}: calibration seeds "
+            f"{calibrated}); choose held-out seeds or pass --allow-calibration-seeds"
+        )
