@@ -574,6 +574,12 @@ def experiment_agreement_cmd(
     camera_rows: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--camera-rows", help="Reuse the camera-mode rows of an earlier rows file."
     ),
+    kind: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--kind", help="pedestrian | cyclist: that kind's derived t-junction situations."
+    ),
+    pem_classes: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--pem-classes", help="Per-class PEM file (default: shipped pem_classes.yaml)."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ) -> None:
     """PEM vs camera, camera vs camera, PEM vs PEM: verdict agreement on held-out seeds."""
@@ -605,11 +611,13 @@ def experiment_agreement_cmd(
             pem_file=None if pem is None else str(pem), model=None if model is None else str(model),
             workers=workers, allow_calibration_seeds=allow_calibration_seeds,
             camera_rows=camera_rows, on_plan=plan, progress=lambda _row: bar.advance(task),
+            kind=kind, pem_classes=None if pem_classes is None else str(pem_classes),
         )  # fmt: skip
     summary["command"] = ag.command_line(
         seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
         pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
-        camera_rows=None if camera_rows is None else str(camera_rows),
+        camera_rows=None if camera_rows is None else str(camera_rows), kind=kind,
+        pem_classes=None if pem_classes is None else str(pem_classes),
     )  # fmt: skip
     summary_path = summary_out or out.with_name(out.stem + ".summary.json")
     summary_path.write_text(json.dumps(summary, indent=2) + "\n")
@@ -871,6 +879,9 @@ def calibrate_cmd(
     samples_out: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--samples", help="Also write the per-frame samples as JSON lines."
     ),
+    classes: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--classes", help="pedestrian,cyclist: fit the per-class PEM (pem_classes.yaml)."
+    ),
 ) -> None:
     """Sweep distance, bearing, view and weather through renderer + detector; fit the PEM."""
     import json
@@ -878,6 +889,10 @@ def calibrate_cmd(
     from dataclasses import asdict
 
     from rich.progress import Progress
+
+    if classes is not None:
+        _calibrate_classes_cmd(classes, out, frames, runs, seed, workers, model, samples_out)
+        return
 
     from sitcov.perception._calibrate import calibrate, pem_yaml
 
@@ -913,6 +928,46 @@ def calibrate_cmd(
         err_console.print(
             f"{cand}: PEM agrees with camera mode on {row['agreement']:.1%} of the "
             f"runs (PEM failures {row['failure_rate']:.1%})",
+            highlight=False,
+        )
+
+
+def _calibrate_classes_cmd(
+    classes: str, out: Path | None, frames: int, runs: int, seed: int, workers: int,
+    model: Path | None, samples_out: Path | None,
+) -> None:  # fmt: skip
+    """``sitcov calibrate --classes``: the per-class PEM file (owner: classes)."""
+    import shlex
+
+    from rich.progress import Progress
+
+    from sitcov.perception import _calibrate_classes as cc
+
+    kinds = cc.parse_classes(classes)
+    with Progress(console=err_console, transient=True) as bar:
+        tasks = {k: bar.add_task(f"calibrating {k}", total=frames + runs) for k in kinds}
+        results = cc.calibrate_classes(
+            kinds, frames, runs, seed=seed, model=None if model is None else str(model),
+            workers=workers, progress=lambda k, i: bar.update(tasks[k], completed=i),
+        )  # fmt: skip
+    command = f"sitcov calibrate --classes {','.join(kinds)} --frames {frames} --runs {runs}"
+    command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
+    if out is not None:
+        command += f" --out {shlex.quote(str(out))}"
+    text = cc.classes_yaml(results, command, seed)
+    if out is not None:
+        out.write_text(text)
+        err_console.print(f"wrote {out}")
+    else:
+        console.print(text, highlight=False, markup=False)
+    if samples_out is not None:
+        cc.write_samples(samples_out, results)
+    for r in results:
+        cam = r.summary.get("camera_runs", {})
+        err_console.print(
+            f"{r.kind}: clear, box >= 10% height: detected {r.summary['clear_box_ge_10pct_rate']}"
+            f"; {cam.get('runs', 0)} camera runs fail {cam.get('failure_rate_camera')}, "
+            f"bias shift {cam.get('bias_shift')}",
             highlight=False,
         )
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import abc
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from sitcov.perception._base import CameraSpec, Detection
@@ -103,6 +105,12 @@ class AVStack(abc.ABC):
     #: a stack that declares it promises detections narrower than this never change its
     #: control.
     min_box_width: float = 0.0
+    #: Per detection class (``car``, ``person``, ``bicycle``): the smallest box the stack
+    #: acts on, (width as a fraction of the image width, height as a fraction of the image
+    #: height); e.g. ``{"person": (0.0, 0.2)}`` = persons from 20 % of the image height.
+    #: A camera-mode backend may skip frames in which no actor of a listed class comes near
+    #: its size (unlisted vehicles: ``min_box_width``; unlisted others: any visible box).
+    min_box_sizes: Mapping[str, tuple[float, float]] = MappingProxyType({})
 
     @abc.abstractmethod
     def reset(self, info: RunInfo) -> None:

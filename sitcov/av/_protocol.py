@@ -73,7 +73,7 @@ def hello(*, step_timeout: float, grey_box: bool, version: str) -> dict[str, Any
 
 def parse_hello(message: dict[str, Any], *, who: str) -> dict[str, Any]:
     """Validate the stack's hello; returns ``{"name", "wants", "image_transport"}`` and,
-    if the stack declared it, ``"min_box_width"``."""
+    if the stack declared them, ``"min_box_width"`` and ``"min_box_sizes"`` (per class)."""
     expect(message, "hello", who=who)
     version = message.get("protocol")
     if version != PROTOCOL_VERSION:
@@ -100,7 +100,30 @@ def parse_hello(message: dict[str, Any], *, who: str) -> dict[str, Any]:
                 f"of the image width), got {width!r}"
             )
         peer["min_box_width"] = float(width)
+    if "min_box_sizes" in message:
+        peer["min_box_sizes"] = _min_box_sizes(message["min_box_sizes"], who)
     return peer
+
+
+def _min_box_sizes(sizes: Any, who: str) -> dict[str, tuple[float, float]]:
+    """The hello's ``min_box_sizes``: class -> {width, height}, fractions in [0, 1]."""
+    out: dict[str, tuple[float, float]] = {}
+    if isinstance(sizes, dict):
+        for label, size in sizes.items():
+            wh = [size.get(k, 0.0) if isinstance(size, dict) else None for k in ("width", "height")]
+            if not all(_fraction(v) for v in wh):
+                break
+            out[str(label)] = (float(wh[0]), float(wh[1]))
+        else:
+            return out
+    raise StackError(
+        f"{who}: hello field 'min_box_sizes' must map classes to {{width, height}} fractions "
+        f'in [0, 1] of the image, e.g. {{"person": {{"height": 0.2}}}}, got {sizes!r}'
+    )
+
+
+def _fraction(value: Any) -> bool:
+    return not isinstance(value, bool) and isinstance(value, int | float) and 0 <= value <= 1
 
 
 def camera_dict(camera: CameraSpec) -> dict[str, Any]:

@@ -82,6 +82,20 @@ def aeb_min_box_width(distance: float) -> float:
     return max(0.0, 1.0 - min(tenth + 0.05, 1.0) ** 0.25)
 
 
+def aeb_min_box_sizes(
+    distance: float, classes: Collection[str], camera: CameraSpec
+) -> dict[str, tuple[float, float]]:
+    """Per class judged by height (:data:`CLASS_SIZE`): the smallest box (width, height
+    fractions of the image) whose scaled height can pass the distance test."""
+    width = aeb_min_box_width(distance)
+    out: dict[str, tuple[float, float]] = {}
+    for cls in classes:
+        axis, scale = CLASS_SIZE.get(cls, ("width", 1.0))
+        if axis == "height":
+            out[cls] = (0.0, min(1.0, width * camera.width / (scale * camera.height)))
+    return out
+
+
 class ReferenceStack(AVStack):
     """The paper's ego stack, with faults and every parameter configurable.
 
@@ -119,6 +133,9 @@ class ReferenceStack(AVStack):
         self.min_box_width = aeb_min_box_width(self._distance) if self.aeb else math.inf
         self._label = p["label"]
         self._classes = frozenset((*p["classes"], p["label"]))
+        self.min_box_sizes = (
+            aeb_min_box_sizes(self._distance, self._classes, self.camera) if self.aeb else {}
+        )
         self._target = p["target_speed_kmh"]
         self._la_base = p["lookahead_base"]
         self._la_gain = p["lookahead_gain"]

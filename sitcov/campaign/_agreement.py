@@ -211,10 +211,15 @@ def check_seeds(
 
 @dataclass(frozen=True)
 class SideSettings:
-    """What a side needs to run: the PEM file and the detector model (None = defaults)."""
+    """What a side needs to run: the PEM file and the detector model (None = defaults);
+    ``kind``: situations of the derived hyperspace with a pedestrian or a cyclist only
+    (:func:`sitcov.perception._class_runs.class_hyperspace`); ``pem_classes``: the
+    per-class PEM file (None = shipped)."""
 
     pem_file: str | None = None
     model: str | None = None
+    kind: str | None = None
+    pem_classes: str | None = None
 
 
 class SideRunner:
@@ -227,10 +232,9 @@ class SideRunner:
 
     def __init__(self, settings: SideSettings) -> None:
         from sitcov.generation import make_generator
-        from sitcov.hyperspace import load_hyperspace
 
         self.settings = settings
-        self.generator = make_generator("random", load_hyperspace())
+        self.generator = make_generator("random", _hyperspace(settings.kind))
         self._sides: dict[str, tuple[Any, Any]] = {}
 
     def _side(self, perception: str) -> tuple[Any, Any]:
@@ -240,9 +244,8 @@ class SideRunner:
             from sitcov.sim.embedded import EmbeddedBackend
 
             if perception == "pem":
-                backend = EmbeddedBackend(
-                    perception="pem", sensor=PEMSensor(self.settings.pem_file)
-                )
+                sensor = PEMSensor(self.settings.pem_file, classes=self.settings.pem_classes)
+                backend = EmbeddedBackend(perception="pem", sensor=sensor)
                 stack = ReferenceStack()
             else:
                 from sitcov.perception import SSDDetector
@@ -272,6 +275,17 @@ class SideRunner:
             "cpu_s": round(cpu, 4),
             "wall_s": round(wall, 4),
         }
+
+
+def _hyperspace(kind: str | None) -> Any:
+    """The situations' hyperspace: the default one, or one kind's (``kind``)."""
+    if kind is None:
+        from sitcov.hyperspace import load_hyperspace
+
+        return load_hyperspace()
+    from sitcov.perception._class_runs import class_hyperspace
+
+    return class_hyperspace(kind)
 
 
 _WORKER: dict[SideSettings, SideRunner] = {}
@@ -456,13 +470,14 @@ def summarise(
     return result
 
 
-def situation_bins(seeds: Sequence[int], situations: int) -> dict[tuple[int, int], dict]:
+def situation_bins(
+    seeds: Sequence[int], situations: int, kind: str | None = None
+) -> dict[tuple[int, int], dict]:
     """(seed, index) -> the situation's bins (regenerated: the random generator is cheap)."""
     from sitcov._seeding import ask_rng
     from sitcov.generation import make_generator
-    from sitcov.hyperspace import load_hyperspace
 
-    gen = make_generator("random", load_hyperspace())
+    gen = make_generator("random", _hyperspace(kind))
     return {(s, i): dict(gen.ask(ask_rng(s, i)).bins) for s in seeds for i in range(situations)}
 
 
@@ -511,6 +526,8 @@ def run_agreement(
     workers: int = 1,
     allow_calibration_seeds: bool = False,
     camera_rows: Path | None = None,
+    kind: str | None = None,
+    pem_classes: str | None = None,
     run_job: Callable[[Job], dict[str, Any]] | None = None,
     on_plan: Callable[[list[Job]], None] | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
@@ -522,6 +539,8 @@ def run_agreement(
     detector model. ``on_plan`` then gets the jobs (to print the plan), ``progress`` each
     row as it finishes. ``camera_rows``: a rows file of an earlier run whose camera-mode
     rows are taken instead of simulated again (see :func:`reusable_camera_rows`).
+    ``kind``: pedestrian or cyclist situations only (their PEM: ``pem_classes``, whose
+    calibration seeds are refused too).
 
     Raises:
         ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
@@ -537,6 +556,10 @@ def run_agreement(
     load_pem_params(pem_file)
     calibrated = calibration_seeds(pem_file)
     check_seeds(seeds, calibrated, allow=allow_calibration_seeds, pem_file=pem_name)
+    if kind is not None:
+        from sitcov.perception._class_runs import check_class_seeds
+
+        check_class_seeds(seeds, kind, pem_classes, allow=allow_calibration_seeds)
     jobs = plan_jobs(seeds, situations, pairs)
     reused = reusable_camera_rows(camera_rows, jobs) if camera_rows is not None else {}
     jobs = [j for j in jobs if _job_key(j) not in reused]
@@ -544,7 +567,10 @@ def run_agreement(
         from sitcov.perception._models import model_path
 
         model = str(model_path(model))
-    settings = SideSettings(pem_file=None if pem_file is None else str(pem_file), model=model)
+    settings = SideSettings(
+        pem_file=None if pem_file is None else str(pem_file), model=model, kind=kind,
+        pem_classes=pem_classes,
+    )  # fmt: skip
     if on_plan is not None:
         on_plan(jobs)
     start = time.perf_counter()
@@ -564,7 +590,7 @@ def run_agreement(
     rows = sort_rows(rows)
     write_rows(out, rows)
     summary = summarise(rows, pairs, seeds)
-    bins = situation_bins(seeds, situations)
+    bins = situation_bins(seeds, situations, kind)
     for pair in pairs:
         summary["pairs"][pair]["bin_differences"] = bin_differences(rows, pair, bins)
     summary.update(
@@ -582,6 +608,8 @@ def run_agreement(
             "camera_reused": len(reused),
         },  # fmt: skip
         camera_rows_from=None if camera_rows is None else str(camera_rows),
+        kind=kind,
+        pem_classes=pem_classes,
         wall_s=round(wall, 1),
         rows_file=str(out),
     )
@@ -640,6 +668,8 @@ def command_line(
     pem: str | None,
     allow: bool,
     camera_rows: str | None = None,
+    kind: str | None = None,
+    pem_classes: str | None = None,
 ) -> str:
     """The ``sitcov experiment agreement`` command that reproduces a summary."""
     import shlex
@@ -654,6 +684,10 @@ def command_line(
         parts.append("--allow-calibration-seeds")
     if camera_rows is not None:
         parts += ["--camera-rows", camera_rows]
+    if kind is not None:
+        parts += ["--kind", kind]
+    if pem_classes is not None:
+        parts += ["--pem-classes", pem_classes]
     return " ".join(p if i == 0 else shlex.quote(p) for i, p in enumerate(parts))
 
 

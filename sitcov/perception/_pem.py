@@ -358,6 +358,8 @@ class PEMSensor(Sensor):
             overrides of the shipped values, or a path to a YAML file.
         camera: the dash-cam whose image the boxes are in.
         frame_dt: time between two ``detect`` calls [s]; sets the AR(1) coefficient.
+        classes: the pedestrians' and cyclists' parameters: None (the shipped
+            ``pem_classes.yaml``), a path to such a file, or kind -> (label, parameters).
     """
 
     def __init__(
@@ -365,6 +367,7 @@ class PEMSensor(Sensor):
         params: PEMParams | Mapping[str, Any] | str | Path | None = None,
         camera: CameraSpec | None = None,
         frame_dt: float = FRAME_DT,
+        classes: str | Path | Mapping[str, tuple[str, PEMParams]] | None = None,
     ) -> None:
         if params is None:
             self.params = load_pem_params()
@@ -381,7 +384,10 @@ class PEMSensor(Sensor):
         self._rng: Any = None
         self._tracks: dict[int, _Track] = {}
         self._frame = 0
-        self._classes: dict[str, tuple[str, PEMParams]] | None = None  # per kind, lazily
+        self._classes_file = classes if not isinstance(classes, Mapping) else None
+        self._classes: dict[str, tuple[str, PEMParams]] | None = (
+            dict(classes) if isinstance(classes, Mapping) else None
+        )  # per kind, lazily
         self._color_key: Any = None
         self._color_value: tuple[float, ...] = (
             DEFAULT_CONTRAST,
@@ -436,7 +442,7 @@ class PEMSensor(Sensor):
         if self._classes is None:
             from sitcov.perception._pem_classes import load_class_params
 
-            self._classes = load_class_params()
+            self._classes = load_class_params(self._classes_file)
         label, params = self._classes.get(kind, ("car", self.params))
         return params, label
 

@@ -9,12 +9,11 @@ pem_logit`) gets its own coefficients per kind, stored in ``data/pem_classes.yam
       cyclist: {label: bicycle, params: {...}}
 
 Missing parameter names take the car PEM's values. The label is the class the detection
-carries. The file is the output of :func:`calibrate_classes`, run as::
+carries. The file is the output of ``sitcov calibrate --classes pedestrian,cyclist``
+(:mod:`sitcov.perception._calibrate_classes`), which fits on the static frames of
+:func:`class_sweep` and on frames along recorded camera-mode runs; its command heads the file.
 
-    python -m sitcov.perception._pem_classes --frames 1200 --seed 1 \\
-        --out sitcov/perception/data/pem_classes.yaml
-
-The fit: random frames of one actor of the kind (distance log-uniform 4-40 m, bearing
+The sweep: random frames of one actor of the kind (distance log-uniform 4-40 m, bearing
 within +-40 deg, any heading, a random shirt colour and height; clear weather in 35 % of
 frames, otherwise one weather element at a random level) are rendered and run through the
 SSD; the score of the best detection of an accepted class (pedestrian: person; cyclist:
@@ -28,7 +27,6 @@ for the event "score >= 0.3" (the reporting floor) given that shape. ``size_min_
 
 from __future__ import annotations
 
-import argparse
 import math
 from collections.abc import Callable, Mapping, Sequence
 from functools import lru_cache
@@ -38,7 +36,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from sitcov.errors import ConfigError
+from sitcov.errors import ConfigError, SitcovError
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 from sitcov.perception._pem import PEMFeatures, PEMParams, load_pem_params
 
@@ -220,7 +218,9 @@ def fit_class(samples: Sequence[tuple[PEMFeatures, float]], base: PEMParams) -> 
     scores = np.asarray([s for _, s in samples])
     hit = scores >= USE_FLOOR
     if hit.sum() < 10 or (scores >= THRESHOLD).sum() < 10:
-        raise ValueError(f"only {int(hit.sum())} frames detected at >= {USE_FLOOR}: too few to fit")
+        raise SitcovError(
+            f"only {int(hit.sum())} frames detected at >= {USE_FLOOR}: too few to fit the PEM"
+        )
     heights = np.asarray([f.height_px for f in feats])
     lo = float(np.percentile(heights[hit], 1))
     hi = float(np.percentile(heights[hit], 98))
@@ -264,50 +264,3 @@ def summary(samples: Sequence[tuple[PEMFeatures, float]], camera: CameraSpec) ->
         if clear
         else None,
     }
-
-
-def calibrate_classes(
-    kinds: Sequence[str], frames: int, seed: int, model: str | None = None
-) -> dict[str, Any]:
-    """Sweep and fit every kind; the YAML document of ``pem_classes.yaml`` (without header)."""
-    from sitcov.perception._detector import SSDDetector
-    from sitcov.perception._renderer import KIND_CLASS
-
-    detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
-    base = load_pem_params()
-    classes, meta = {}, {}
-    for kind in kinds:
-        if kind not in SHAPES:
-            raise ConfigError(field="--classes", value=kind, expected=f"one of {', '.join(SHAPES)}")
-        samples = class_sweep(kind, frames, detector, seed=seed)
-        params = fit_class(samples, base).to_dict()
-        classes[kind] = {"label": KIND_CLASS[kind], "params": params}
-        meta[kind] = summary(samples, CameraSpec())
-    return {"meta": meta, "classes": classes}
-
-
-def main(argv: Sequence[str] | None = None) -> None:
-    """``python -m sitcov.perception._pem_classes``: fit and write the per-class file."""
-    parser = argparse.ArgumentParser(description="Fit the per-class PEM (pedestrians, cyclists).")
-    parser.add_argument("--classes", default="pedestrian,cyclist")
-    parser.add_argument("--frames", type=int, default=1200)
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--out", default=str(PEM_CLASSES_FILE))
-    args = parser.parse_args(argv)
-    doc = calibrate_classes(args.classes.split(","), args.frames, args.seed)
-    command = (
-        f"python -m sitcov.perception._pem_classes --classes {args.classes} "
-        f"--frames {args.frames} --seed {args.seed} --out {args.out}"
-    )
-    header = (
-        "# Per-class PEM parameters (pedestrians, cyclists): sitcov/perception/_pem_classes.py,\n"
-        "# docs/camera.md#per-class-pem. Missing names take the car PEM's (pem.yaml). Fitted by:\n"
-        f"#   {command}\n"
-    )
-    doc["meta"] = {"command": command, **doc["meta"]}
-    Path(args.out).write_text(header + yaml.safe_dump(doc, sort_keys=False))
-    print(f"wrote {args.out}")
-
-
-if __name__ == "__main__":
-    main()

@@ -42,20 +42,22 @@ def test_detections_carry_the_class_of_each_kind() -> None:
 
 
 def test_pedestrian_detection_falls_with_distance_and_fog() -> None:
+    """Reported (>= floor) near, not far; fog at 12 m pulls the score under the AEB's 0.5
+    in most frames (the shipped fit: 97 % -> 9 % of 200 frames; tolerance 30 points)."""
     sensor = PEMSensor()
 
-    def rate(x: float, cond) -> float:
+    def rate(x: float, cond, threshold: float = 0.0) -> float:
         hits = 0
         for seed in range(200):
-            hits += bool(
-                sensor.detect(EGO, (_actor("pedestrian", x),), cond, np.random.default_rng(seed))
-            )
+            dets = sensor.detect(EGO, (_actor("pedestrian", x),), cond, np.random.default_rng(seed))
+            hits += any(d.score >= threshold for d in dets)
         return hits / 200
 
     near, far = rate(7.0, CLEAR), rate(30.0, CLEAR)
     assert near > 0.8 and far < near - 0.3, (near, far)
     fog = conditions_from_values({"fog_density": 100, "fog_distance": 0})
-    assert rate(9.0, fog) < rate(9.0, CLEAR)
+    assert rate(12.0, fog) <= rate(12.0, CLEAR)
+    assert rate(12.0, fog, 0.5) < rate(12.0, CLEAR, 0.5) - 0.3
 
 
 def test_bad_class_file_is_one_config_error(tmp_path) -> None:

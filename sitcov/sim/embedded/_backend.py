@@ -196,6 +196,7 @@ class EmbeddedBackend(Backend):
         self.vehicle = default_params()
         self._render_frame: Any = None
         self._geometry: dict[str, Any] | None = None
+        self._min_sizes: dict[str, tuple[float, float]] = {}  # per class, this run's gate
 
     def effects(self) -> dict[str, str]:
         """Every element this backend uses, and how (in this backend's physics profile)."""
@@ -239,12 +240,24 @@ class EmbeddedBackend(Backend):
         wanted = self.frame_gate * float(getattr(stack, "min_box_width", 0.0)) * camera.width
         return max(MIN_VISIBLE_PX, wanted)
 
+    def _gate_sizes(self, stack: AVStack, camera: CameraSpec) -> dict[str, tuple[float, float]]:
+        """Per class: the true box (width, height) [px] below which an actor of that class
+        does not make a camera frame worth rendering (the stack's ``min_box_sizes``)."""
+        if not self.skip_empty_frames:
+            return {}
+        sizes = getattr(stack, "min_box_sizes", None) or {}
+        g = self.frame_gate
+        return {
+            str(label): (g * float(w) * camera.width, g * float(h) * camera.height)
+            for label, (w, h) in sizes.items()
+        }
+
     def _needs_frame(self, camera, pose, actors, min_px: float) -> bool:
         if min_px <= 0.0:
             return True
-        from sitcov.perception._renderer import vehicles_in_view
+        from sitcov.perception._renderer import actors_in_view
 
-        return vehicles_in_view(camera, pose, actors, min_px)
+        return actors_in_view(camera, pose, actors, min_px, self._min_sizes)
 
     def _map_ref(self) -> str:
         """The map's name if it is built in (portable across machines), else its file."""
@@ -301,6 +314,7 @@ class EmbeddedBackend(Backend):
         if sensor is not None and hasattr(sensor, "reset"):
             sensor.reset(frame_dt=self.sensor_every * self.dt)  # per-run noise state (PEM)
         gate_px = self._gate_px(av_stack, camera) if sensor is None else 0.0
+        self._min_sizes = self._gate_sizes(av_stack, camera)
         return EgoDriver(
             self,
             av_stack,

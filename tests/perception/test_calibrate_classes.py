@@ -1,0 +1,113 @@
+"""Per-class calibration: one kind's situations, the frames the fit uses, the intercept
+shift chosen on verdicts, the stored file and the held-out seed check."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from sitcov.errors import ConfigError
+from sitcov.generation import make_generator
+from sitcov.perception import PEMFeatures
+from sitcov.perception._calibrate_classes import (
+    ClassCalibration,
+    choose_shift,
+    class_agreement,
+    classes_yaml,
+    fit_frames,
+    parse_classes,
+)
+from sitcov.perception._camera_runs import CameraRun, RunFrame
+from sitcov.perception._class_runs import check_class_seeds, class_hyperspace
+from sitcov.perception._pem_classes import load_class_params
+
+
+@pytest.mark.parametrize("kind", ["pedestrian", "cyclist"])
+def test_class_hyperspace_holds_only_that_kind(kind: str) -> None:
+    space = class_hyperspace(kind)
+    gen = make_generator("random", space)
+    rng = np.random.default_rng(3)
+    for _ in range(60):
+        values = gen.ask(rng).values
+        assert values["intsit"]["kind"] == kind
+        assert values["actor2"] == "none"
+
+
+def test_class_hyperspace_refuses_other_kinds() -> None:
+    with pytest.raises(ConfigError, match="kind"):
+        class_hyperspace("car")
+    with pytest.raises(ConfigError, match="map"):
+        class_hyperspace("pedestrian", "no-such-map")
+
+
+def _feats(height: float) -> PEMFeatures:
+    return PEMFeatures(height, 0.0, 0.0, 1.0, 1.0, 0.0, 0.3 * height, 0.0, 0.0, 0.0, 0.0, 0.0,
+                       0.0, 0.0)  # fmt: skip
+
+
+def _run(index: int, heights: list[float], failed: bool, situation: dict | None = None):
+    frames = tuple(RunFrame(_feats(h), 0.6, None, 0.3 * h) for h in heights)
+    return CameraRun(index, 1000 + index, situation or {}, failed, None, frames)
+
+
+def test_fit_uses_every_run_frame_and_sweep_frames_below_the_runs() -> None:
+    sweep = [(_feats(h), 0.4) for h in (10.0, 30.0, 44.0, 50.0, 120.0)]
+    runs = [_run(0, [45.0, 80.0], False), _run(1, [60.0], True)]
+    used = fit_frames(sweep, runs)
+    assert sorted(f.height_px for f, _ in used) == [10.0, 30.0, 44.0, 45.0, 60.0, 80.0]
+    assert len(fit_frames(sweep, [])) == len(sweep)
+
+
+def test_parse_classes() -> None:
+    assert parse_classes("pedestrian, cyclist") == ["pedestrian", "cyclist"]
+    for bad in ("", "car", "pedestrian,pedestrian"):
+        with pytest.raises(ConfigError, match="--classes"):
+            parse_classes(bad)
+
+
+def _situations(kind: str, n: int) -> list[dict]:
+    gen = make_generator("random", class_hyperspace(kind))
+    rng = np.random.default_rng(11)
+    return [gen.ask(rng).to_dict() for _ in range(n)]
+
+
+def test_choose_shift_follows_the_camera_verdicts() -> None:
+    """Camera verdicts that all fail pull the intercept down (the PEM fails more), all
+    passing pull it up; each choice agrees with the camera at least as well as shift 0."""
+    label, params = load_class_params()["pedestrian"]
+    sits = _situations("pedestrian", 12)
+    shifts = (-1.5, 0.0, 1.5)
+    for failed, sign in ((True, -1), (False, 1)):
+        runs = [_run(i, [], failed, s) for i, s in enumerate(sits)]
+        chosen, table = choose_shift("pedestrian", label, params, runs, shifts)
+        shift = chosen.bias - params.bias
+        assert table[f"shift={shift:g}"]["agreement"] >= table["shift=0"]["agreement"]
+        assert shift * sign >= 0, (failed, table)
+    agree, rate = class_agreement("pedestrian", label, replace(params, bias=-9.0), runs)
+    assert rate >= table["shift=0"]["failure_rate"]  # a PEM that never sees fails more
+    assert agree == pytest.approx(1.0 - rate)  # every camera run passed
+
+
+def test_stored_file_round_trips(tmp_path) -> None:
+    label, params = load_class_params()["cyclist"]
+    cal = ClassCalibration("cyclist", label, replace(params, bias=0.123), [], [], {"frames": 0})
+    path = tmp_path / "pem_classes.yaml"
+    path.write_text(classes_yaml([cal], "sitcov calibrate --classes cyclist", seed=1))
+    assert path.read_text().splitlines()[2].endswith("sitcov calibrate --classes cyclist")
+    loaded = load_class_params(path)
+    assert loaded["cyclist"] == (label, replace(params, bias=0.123))
+    with pytest.raises(ConfigError, match=r"\[1\]"):
+        check_class_seeds([1, 2], "cyclist", str(path), allow=False)
+    check_class_seeds([2, 4], "cyclist", str(path), allow=False)
+    check_class_seeds([1], "cyclist", str(path), allow=True)
+
+
+def test_a_file_without_calibration_seeds_is_refused(tmp_path) -> None:
+    path = tmp_path / "c.yaml"
+    path.write_text("classes: {}\n")
+    with pytest.raises(ConfigError, match="calibration_seeds"):
+        check_class_seeds([2], "pedestrian", str(path), allow=False)
+    with pytest.raises(ConfigError, match="kind"):
+        check_class_seeds([2], "truck", str(path), allow=True)

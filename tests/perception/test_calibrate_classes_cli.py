@@ -1,0 +1,46 @@
+"""``sitcov calibrate --classes``: bad input is one message; a small fit writes a file the
+PEM loads, headed by the command that made it, with its calibration seed."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from sitcov.perception._pem_classes import load_class_params
+
+
+def sitcov(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-c", "from sitcov.cli import main; main()", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+@pytest.mark.parametrize("classes", ["car", "pedestrian,bogus", ""])
+def test_bad_classes_are_one_message(classes: str) -> None:
+    result = sitcov("calibrate", "--classes", classes, "--frames", "50")
+    assert result.returncode == 2
+    assert "--classes" in result.stderr
+    assert "Traceback" not in result.stderr + result.stdout
+
+
+@pytest.mark.slow
+def test_small_fit_writes_a_loadable_file(tmp_path: Path, ssd_model: Path) -> None:
+    out = tmp_path / "pem_classes.yaml"
+    args = ("calibrate", "--classes", "pedestrian", "--frames", "120", "--runs", "3",
+            "--seed", "5", "--model", str(ssd_model), "--out", str(out))  # fmt: skip
+    result = sitcov(*args, timeout=900)
+    assert result.returncode == 0, result.stderr
+    text = out.read_text()
+    assert "sitcov calibrate --classes pedestrian --frames 120 --runs 3 --seed 5" in text[:400]
+    meta = yaml.safe_load(text)["meta"]
+    assert meta["calibration_seeds"] == [5]
+    assert meta["pedestrian"]["camera_runs"]["runs"] == 3
+    label, params = load_class_params(out)["pedestrian"]
+    assert label == "person" and params.noise_sigma > 0
