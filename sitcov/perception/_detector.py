@@ -41,6 +41,8 @@ ROAD_USER_CLASSES: Mapping[str, tuple[str, ...]] = {
 }
 #: The letterbox's grey (128) as a network input, computed as the image pixels are.
 _PAD = np.full(3, 128.0, dtype=np.float32) * (2.0 / 255.0) - 1.0
+_PADDED = np.ascontiguousarray(np.broadcast_to(_PAD, (1, INPUT_SIZE, INPUT_SIZE, 3)))
+_PADDED.flags.writeable = False
 #: The class label a detector reports for each ActorView kind (a cyclist counts as found
 #: when either its bicycle or its rider is detected).
 KIND_LABELS: Mapping[str, tuple[str, ...]] = {
@@ -156,8 +158,7 @@ class SSDDetector(Detector):
         scale, px, py = cls.letterbox(image.shape)
         size = (max(1, round(img.width * scale)), max(1, round(img.height * scale)))
         small = np.asarray(img.resize(size, Image.BILINEAR), dtype=np.float32)
-        out = np.empty((1, INPUT_SIZE, INPUT_SIZE, 3), dtype=np.float32)
-        out[...] = _PAD
+        out = _PADDED.copy()  # a memcpy; filling from the 3-vector is 20x slower
         x, y = round(px), round(py)
         out[0, y : y + size[1], x : x + size[0]] = small * (2.0 / 255.0) - 1.0
         return out
