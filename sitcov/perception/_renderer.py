@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import TYPE_CHECKING, Any
 
@@ -177,8 +177,7 @@ def render_frame(
     expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
     tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
     gain, offset = gain * expo * tint, offset * expo * tint
-    img = img * gain + offset
-    pil = Image.fromarray(np.clip(img, 0, 255).astype(np.uint8)).resize(
+    pil = Image.fromarray(_expose(img, gain, offset)).resize(
         (camera.width, camera.height), Image.BILINEAR
     )
     # --- road users, far to near ---
@@ -215,6 +214,19 @@ def render_frame(
     return np.asarray(pil, dtype=np.uint8)
 
 
+def _expose(img: np.ndarray, gain: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """``clip(img * gain + offset, 0, 255)`` as uint8, per channel, computed in place.
+
+    The per-channel gain and offset are tiled along a row, so numpy runs long inner loops
+    over rows instead of three-element ones (the same float32 operations, 5x faster).
+    """
+    rows = img.reshape(img.shape[0], -1)
+    np.multiply(rows, np.tile(gain, img.shape[1]), out=rows)
+    np.add(rows, np.tile(offset, img.shape[1]), out=rows)
+    np.clip(rows, 0, 255, out=rows)
+    return img.astype(np.uint8)
+
+
 def _actor_polygons(
     camera: CameraSpec,
     ego_pose: Pose,
@@ -242,87 +254,147 @@ def _background(
     hor: np.ndarray,
     tex: Any,
 ) -> np.ndarray:
-    """Sky, ground, wet road, puddles and fog as a float32 HxWx3 image."""
-    h_px, w_px = camera.height, camera.width
-    horizon = 0.5 * h_px
-    img = np.empty((h_px, w_px, 3), dtype=np.float32)
-    g = _sky_gradient(h_px, horizon)[:, None]
-    img[:] = (hor[None, :] * (1 - g) + zen[None, :] * g)[:, None, :].astype(np.float32)
-    sky_row = img[:, 0, :].copy()
-    fwd, right, dist, haze, first, hazy = _ground_rays(camera)
+    """Sky, ground, wet road, puddles and fog as a float32 HxWx3 image.
+
+    Everything that depends only on the camera and the weather (the sky with its fog,
+    the per-pixel fog transmittance, the far haze, the sky mirrored in the wet road) is
+    computed once per (camera, weather) by :func:`_layers`; each frame samples the road
+    texture under the ego's pose and blends it with those layers.
+    """
+    layers = _layers(camera, tuple(sorted(w.items())), tuple(zen), tuple(hor))
+    img = layers.sky.copy()
+    fwd, right, _, _, first, _ = _ground_rays(camera)
     if fwd.size:
         c, s = math.cos(ego_pose.yaw), math.sin(ego_pose.yaw)
         cam_x = ego_pose.x + camera.mount_x * c
         cam_y = ego_pose.y + camera.mount_x * s
         wx = cam_x + fwd * c + right * s
         wy = cam_y + fwd * s - right * c
-        ground, kind, puddle = tex.sample(wx, wy)
-        ground = _wet_ground(ground, kind, puddle, w, sky_row, first, horizon)
-        ground = _fog(ground, dist, haze, hazy, w, hor)
+        ground, kind, puddle = tex.sample(
+            wx, wy, kind=layers.wet is not None, puddle=layers.puddle_level is not None
+        )
+        ground = _wet_ground(ground, kind, puddle, layers)
+        ground = _fog(ground, layers)
         img[first : first + ground.shape[0]] = ground
-        if first + ground.shape[0] < h_px:  # pragma: no cover - only with an odd camera
+        if first + ground.shape[0] < camera.height:  # pragma: no cover - only with an odd camera
             img[first + ground.shape[0] :] = ground[-1:]
+    return img
+
+
+@dataclass(frozen=True)
+class _Layers:
+    """What a frame's background shares with every other frame of one camera and weather.
+
+    Attributes:
+        sky: the whole frame's sky (rows above the ground fogged as the sky is) [float32].
+        haze: far-haze blend of the hazy ground rows: (1 - weight, horizon colour x weight).
+        fog: fog blend of the ground: (transmittance, fog colour x (1 - transmittance)),
+            None without fog.
+        wet: wet-road darkening per surface kind, and the sheen of the first ground rows:
+            (lut, sheen weight per row, mirrored sky x 0.8 on those rows), None when dry.
+        puddle_level: puddle-field value below which a road texel is a puddle (None: no
+            deposits), with the mirrored sky x 0.55 per ground row.
+    """
+
+    sky: np.ndarray
+    haze: tuple[np.ndarray, np.ndarray]
+    fog: tuple[np.ndarray, np.ndarray] | None
+    wet: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+    puddle_level: float | None
+    puddle_sky: np.ndarray
+
+
+@lru_cache(maxsize=8)
+def _layers(
+    camera: CameraSpec,
+    weather: tuple[tuple[str, float], ...],
+    zen_t: tuple[float, ...],
+    hor_t: tuple[float, ...],
+) -> _Layers:
+    """The per-(camera, weather) layers of :func:`_background` (cached: a run renders all
+    its frames in one weather)."""
+    w = dict(weather)
+    zen, hor = np.array(zen_t), np.array(hor_t)
+    h_px, w_px = camera.height, camera.width
+    horizon = 0.5 * h_px
+    sky = np.empty((h_px, w_px, 3), dtype=np.float32)
+    g = _sky_gradient(h_px, horizon)[:, None]
+    sky[:] = (hor[None, :] * (1 - g) + zen[None, :] * g)[:, None, :].astype(np.float32)
+    sky_row = sky[:, 0, :].copy()
+    _, _, dist, haze, first, _ = _ground_rays(camera)
     # Sky under fog: infinitely far, so fully fog-coloured once there is any fog.
     if w["beta"] > 0:
         t_sky = math.exp(-w["beta"] * max(0.0, FAR * 2 - w["fog_start"]))
-        img[:first] = img[:first] * t_sky + _fog_color(w, hor) * (1 - t_sky)
-    return img
+        sky[:first] = sky[:first] * t_sky + _fog_color(w, hor) * (1 - t_sky)
+    hor32 = hor.astype(np.float32)
+    fog = None
+    if w["beta"] > 0:
+        t = np.exp(np.float32(-w["beta"]) * np.maximum(dist - np.float32(w["fog_start"]), 0))
+        t = _full(t[..., None])
+        fog = (t, _fog_color(w, hor).astype(np.float32) * (1 - t))
+    reflect, graze = _mirrored_sky(sky_row, first, dist.shape[0], horizon)
+    wet_level = max(w["wet"], 0.6 * w["rain"])
+    wet = None
+    if wet_level > 0 or w["deposits"] > 0:
+        lut = np.array([1.0 - 0.15 * wet_level] + [1.0 - 0.4 * wet_level] * 3, dtype=np.float32)
+        m = int(np.count_nonzero(graze > 0)) if wet_level > 0 else 0
+        sheen = (0.35 * wet_level * graze[:m, None, None]).astype(np.float32)
+        wet = (lut, _full(sheen, camera.width), _full(reflect[:m] * 0.8, camera.width))
+    puddle = 0.55 * w["deposits"] if w["deposits"] > 0 else None
+    haze_blend = (_full(1 - haze), hor32 * haze)
+    return _Layers(sky, haze_blend, fog, wet, puddle, reflect[:, 0] * 0.55)
+
+
+def _full(a: np.ndarray, width: int | None = None) -> np.ndarray:
+    """``a`` (rows x width-or-1 x 3-or-1) broadcast to rows x width x 3 and stored so:
+    blending with a whole ground array then runs numpy's long, contiguous inner loops."""
+    return np.ascontiguousarray(np.broadcast_to(a, (a.shape[0], width or a.shape[1], 3)))
+
+
+def _mirrored_sky(
+    sky_row: np.ndarray, first: int, n: int, horizon: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per ground row: the sky colour it mirrors when wet (n x 1 x 3, float32) and the
+    grazing weight of its wet sheen (1 at the horizon, 0 from half-way down)."""
+    rows = np.arange(first, first + n)
+    mirror = np.clip((2 * horizon - rows - 1).astype(int), 0, len(sky_row) - 1)
+    reflect = sky_row[mirror][:, None, :].astype(np.float32)
+    graze = np.clip(1.0 - (rows - horizon) / (0.5 * horizon), 0.0, 1.0)
+    return reflect, graze
 
 
 def _fog_color(w: dict[str, float], hor: np.ndarray) -> np.ndarray:
     return FOG * (1 - 0.3 * w["cloud"]) * 0.6 + hor * 0.4
 
 
-def _fog(
-    ground: np.ndarray,
-    dist: np.ndarray,
-    haze: np.ndarray,
-    hazy: int,
-    w: dict[str, float],
-    hor: np.ndarray,
-) -> np.ndarray:
+def _fog(ground: np.ndarray, layers: _Layers) -> np.ndarray:
     """Blend to the fog colour by Beer-Lambert transmittance; far ground fades into haze."""
-    hor32 = hor.astype(np.float32)
+    keep, hazed = layers.haze
+    hazy = keep.shape[0]
     if hazy:
-        ground[:hazy] = ground[:hazy] * (1 - haze) + hor32 * haze
-    if w["beta"] <= 0:
+        ground[:hazy] = ground[:hazy] * keep + hazed
+    if layers.fog is None:
         return ground
-    t = np.exp(np.float32(-w["beta"]) * np.maximum(dist - np.float32(w["fog_start"]), 0))
-    t = t[..., None]
-    return ground * t + _fog_color(w, hor).astype(np.float32) * (1 - t)
+    t, fogged = layers.fog
+    return ground * t + fogged
 
 
 def _wet_ground(
-    ground: np.ndarray,
-    kind: np.ndarray,
-    puddle: np.ndarray,
-    w: dict[str, float],
-    sky_row: np.ndarray,
-    first: int,
-    horizon: float,
+    ground: np.ndarray, kind: np.ndarray | None, puddle: np.ndarray | None, layers: _Layers
 ) -> np.ndarray:
     """Darken the wet road and mirror the sky in puddles (by precipitation deposits)."""
-    wet = max(w["wet"], 0.6 * w["rain"])
-    if wet <= 0 and w["deposits"] <= 0:
+    if layers.wet is None or kind is None:
         return ground
+    lut, sheen_row, reflect = layers.wet
     road = kind >= 1
-    lut = np.array([1.0 - 0.15 * wet, 1.0 - 0.4 * wet, 1.0 - 0.4 * wet, 1.0 - 0.4 * wet],
-                   dtype=np.float32)  # fmt: skip
     ground *= lut[kind][..., None]
-    n = ground.shape[0]
-    rows = np.arange(first, first + n)
-    mirror = np.clip((2 * horizon - rows - 1).astype(int), 0, len(sky_row) - 1)
-    reflect = sky_row[mirror][:, None, :].astype(np.float32)
-    # A wet sheen at grazing angles: rows near the horizon mirror the sky.
-    graze = np.clip(1.0 - (rows - horizon) / (0.5 * horizon), 0.0, 1.0)
-    m = int(np.count_nonzero(graze > 0))
-    if wet > 0 and m:
-        sheen = (0.35 * wet * graze[:m, None, None]).astype(np.float32) * road[:m, :, None]
-        ground[:m] = ground[:m] * (1 - sheen) + reflect[:m] * 0.8 * sheen
-    if w["deposits"] > 0:
-        pud = (puddle < 0.55 * w["deposits"]) & road
-        r, c = np.nonzero(pud)
-        ground[r, c] = ground[r, c] * 0.35 + reflect[r, 0] * 0.55
+    m = sheen_row.shape[0]
+    if m:
+        sheen = sheen_row * np.repeat(road[:m, :, None], 3, axis=2)
+        ground[:m] = ground[:m] * (1 - sheen) + reflect * sheen
+    if layers.puddle_level is not None and puddle is not None:
+        r, c = np.nonzero((puddle < layers.puddle_level) & road)
+        ground[r, c] = ground[r, c] * 0.35 + layers.puddle_sky[r]
     return ground
 
 
@@ -396,8 +468,14 @@ def _rain(img: Image.Image, w: dict[str, float], rng: np.random.Generator) -> Im
     tile = _rain_tile(h, wd, max(1, round(10 * w["rain"])), round(10 * w["wind"]))
     oy, ox = int(rng.integers(0, h)), int(rng.integers(0, wd))
     mask = Image.fromarray(tile[oy : oy + h, ox : ox + wd])
-    washed = Image.blend(img, Image.new("RGB", img.size, (190, 190, 190)), 0.12 * w["rain"])
-    return Image.composite(Image.new("RGB", img.size, (215, 215, 215)), washed, mask)
+    washed = Image.blend(img, _flat_image(img.size, 190), 0.12 * w["rain"])
+    return Image.composite(_flat_image(img.size, 215), washed, mask)
+
+
+@lru_cache(maxsize=4)
+def _flat_image(size: tuple[int, int], grey: int) -> Image.Image:
+    """A uniform grey RGB image (cached; Pillow's blend and composite do not modify it)."""
+    return Image.new("RGB", size, (grey, grey, grey))
 
 
 #: A vehicle narrower than this in the frame [px] is below one input pixel of the 300x300

@@ -45,8 +45,14 @@ class GroundTexture:
     kind: np.ndarray
     puddle: np.ndarray
 
-    def sample(self, wx: np.ndarray, wy: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Nearest-texel colour (float32), kind and puddle value at world points [m]."""
+    def sample(
+        self, wx: np.ndarray, wy: np.ndarray, *, kind: bool = True, puddle: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """Nearest-texel colour (float32), kind and puddle value at world points [m].
+
+        ``kind=False`` / ``puddle=False`` skip looking those up (None is returned in their
+        place): a dry road needs neither, a road without deposits no puddles.
+        """
         h, w = self.kind.shape
         ix = ((wx - self.x0) / self.res).astype(np.int64)
         iy = ((wy - self.y0) / self.res).astype(np.int64)
@@ -55,13 +61,13 @@ class GroundTexture:
         np.clip(iy, 0, h - 1, out=iy)
         flat = iy * w + ix
         color = self.color.reshape(-1, 3)[flat].astype(np.float32)
-        kind = self.kind.reshape(-1)[flat]
-        puddle = self.puddle.reshape(-1)[flat]
+        kinds = self.kind.reshape(-1)[flat] if kind else None
+        puddles = self.puddle.reshape(-1)[flat] if puddle else None
         if not inside.all():
             color[~inside] = GRASS
-            kind = np.where(inside, kind, 0)
-            puddle = np.where(inside, puddle, 1.0)
-        return color, kind, puddle
+            kinds = None if kinds is None else np.where(inside, kinds, 0)
+            puddles = None if puddles is None else np.where(inside, puddles, 1.0)
+        return color, kinds, puddles
 
 
 _CACHE: dict[int, tuple[Any, GroundTexture]] = {}

@@ -1,0 +1,111 @@
+"""The camera path's speed work keeps its outputs: cached layers, in-place exposure,
+letterbox buffer and best-logit scores give what the plain computations give."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from sitcov.perception import ActorView, CameraSpec, Pose, render_frame
+from sitcov.perception import _renderer as R
+from sitcov.perception._texture import ground_texture
+from sitcov.sim import conditions_from_values
+
+CAM = CameraSpec()
+WET_FOG = {"precipitation": 60, "precipitation_deposits": 70, "wetness": 50, "fog_density": 30}
+
+
+def _scene(ego: Pose) -> tuple[ActorView, ...]:
+    c, s = math.cos(ego.yaw), math.sin(ego.yaw)
+
+    def at(fwd: float, left: float) -> Pose:
+        return Pose(ego.x + fwd * c - left * s, ego.y + fwd * s + left * c, ego.yaw + 0.6)
+
+    return (
+        ActorView(at(14.0, 1.0), 4.5, 1.9, 1.5, color=(30, 60, 160)),
+        ActorView(at(9.0, -2.0), 0.5, 0.5, 1.75, speed=1.2, kind="pedestrian"),
+    )
+
+
+def _render(geometry, ego, values, seed=3) -> np.ndarray:
+    cond = conditions_from_values(values)
+    return render_frame(CAM, ego, _scene(ego), cond, geometry, np.random.default_rng(seed))
+
+
+def test_cached_weather_layers_do_not_leak_between_weathers(tjunction_geometry) -> None:
+    geometry, ego = tjunction_geometry
+    R._layers.cache_clear()
+    wet_first = _render(geometry, ego, WET_FOG)
+    clear_after_wet = _render(geometry, ego, {})
+    wet_again = _render(geometry, ego, WET_FOG)
+    R._layers.cache_clear()
+    clear_fresh = _render(geometry, ego, {})
+    assert np.array_equal(wet_first, wet_again)
+    assert np.array_equal(clear_after_wet, clear_fresh)
+    assert np.abs(wet_first.astype(int) - clear_fresh.astype(int)).mean() > 5.0
+
+
+def test_background_layers_match_the_per_frame_formulas(tjunction_geometry) -> None:
+    """Fog and haze from the cached layers equal Beer-Lambert computed on the frame."""
+    geometry, ego = tjunction_geometry
+    small = CameraSpec(width=CAM.width // 2, height=CAM.height // 2)
+    cond = conditions_from_values({"fog_density": 50, "fog_distance": 5})
+    w = R._weather(cond)
+    zen, hor = R._sky_colors(w)
+    img = R._background(small, ego, w, zen, hor, ground_texture(geometry))
+    fwd, right, dist, haze, first, hazy = R._ground_rays(small)
+    c, s = math.cos(ego.yaw), math.sin(ego.yaw)
+    cx, cy = ego.x + small.mount_x * c, ego.y + small.mount_x * s
+    ground = ground_texture(geometry).sample(cx + fwd * c + right * s, cy + fwd * s - right * c)[0]
+    ground[:hazy] = ground[:hazy] * (1 - haze) + hor.astype(np.float32) * haze
+    t = np.exp(-w["beta"] * np.maximum(dist.astype(np.float64) - w["fog_start"], 0))[..., None]
+    want = ground * t + R._fog_color(w, hor) * (1 - t)
+    got = img[first : first + ground.shape[0]]
+    assert np.abs(got - want).max() < 1e-3  # float32 vs float64 rounding only
+
+
+def test_expose_is_the_clipped_affine_map() -> None:
+    rng = np.random.default_rng(0)
+    img = (rng.random((9, 7, 3)) * 400 - 50).astype(np.float32)
+    gain = np.array([1.3, 0.9, 1.05], dtype=np.float32)
+    offset = np.array([-4.0, 2.5, 10.0], dtype=np.float32)
+    want = np.clip(img * gain + offset, 0, 255).astype(np.uint8)
+    assert np.array_equal(R._expose(img.copy(), gain, offset), want)
+
+
+def test_texture_lookup_skips_what_the_weather_does_not_use(tjunction_geometry) -> None:
+    geometry, _ = tjunction_geometry
+    tex = ground_texture(geometry)
+    wx = np.linspace(tex.x0 - 5.0, tex.x0 + 60.0, 40, dtype=np.float32)[None, :]
+    wy = np.full_like(wx, tex.y0 + 30.0)
+    color, kind, puddle = tex.sample(wx, wy)
+    color2, kind2, puddle2 = tex.sample(wx, wy, kind=False, puddle=False)
+    assert kind2 is None and puddle2 is None
+    assert np.array_equal(color, color2)
+    assert kind is not None and puddle is not None and (kind[:, :5] == 0).all()
+
+
+@pytest.mark.parametrize("shape", [(450, 800), (800, 450), (300, 300), (37, 121)])
+def test_letterbox_equals_pasting_on_a_grey_canvas(shape) -> None:
+    from PIL import Image
+
+    from sitcov.perception import SSDDetector
+
+    image = np.random.default_rng(1).integers(0, 256, (*shape, 3), dtype=np.uint8)
+    scale, px, py = SSDDetector.letterbox(image.shape)
+    size = (max(1, round(shape[1] * scale)), max(1, round(shape[0] * scale)))
+    canvas = Image.new("RGB", (300, 300), (128, 128, 128))
+    canvas.paste(Image.fromarray(image).resize(size, Image.BILINEAR), (round(px), round(py)))
+    want = (np.asarray(canvas, dtype=np.float32) * (2.0 / 255.0) - 1.0)[None]
+    assert np.array_equal(SSDDetector.preprocess(image), want)
+
+
+def test_scores_are_the_best_member_sigmoid(ssd_detector) -> None:
+    logits = np.random.default_rng(2).normal(0.0, 4.0, (1917, 24)).astype(np.float32)
+    scores, groups = ssd_detector._scores(logits)
+    sig = 1.0 / (1.0 + np.exp(-logits.astype(np.float64)))
+    want = np.concatenate([sig[:, idx].max(axis=1) for _, idx in ssd_detector._groups])
+    assert np.array_equal(scores, want)
+    assert np.array_equal(groups, np.repeat(np.arange(len(ssd_detector._groups)), 1917))
