@@ -7,6 +7,8 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from sitcov._frozen import fast_init
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -37,6 +39,7 @@ class CameraSpec:
         return self.width / (2.0 * math.tan(math.radians(self.fov_deg) / 2.0))
 
 
+@fast_init
 @dataclass(frozen=True)
 class Detection:
     """One detected object in image coordinates.
@@ -52,6 +55,7 @@ class Detection:
     label: str = "car"
 
 
+@fast_init
 @dataclass(frozen=True)
 class Pose:
     """A planar pose: position [m] and heading [rad], counter-clockwise from +x."""
@@ -61,6 +65,7 @@ class Pose:
     yaw: float
 
 
+@fast_init
 @dataclass(frozen=True)
 class ActorView:
     """What a sensor needs to know about another road user.
