@@ -263,11 +263,12 @@ class PETMonitor:
                 ]
             self.zones.append([*zone, None, None, None, None])
         self.half_e = ego.half_l
+        self._pairs = list(zip(world.actors, self.zones, strict=True))
 
     def update(self, world: Any) -> None:
         """Entry and exit times of the ego and each active actor."""
         t, s_e, hl = world.t, world.ego.s, self.half_e
-        for a, z in zip(world.actors, self.zones, strict=True):
+        for a, z in self._pairs:
             if z[5] is None:
                 if z[4] is None and s_e + hl >= z[0]:
                     z[4] = t
@@ -417,10 +418,11 @@ class LeaveMapRule:
 
     def __init__(self, world: Any) -> None:
         self.ends = [a.route.length - GOAL_TOLERANCE for a in world.actors]
+        self._pairs = list(zip(world.actors, self.ends, strict=True))
 
     def update(self, world: Any) -> None:
         """Deactivate actors at the end of their routes."""
-        for a, end in zip(world.actors, self.ends, strict=True):
+        for a, end in self._pairs:
             if a.active and a.s >= end:
                 a.active = False
 
