@@ -237,6 +237,16 @@ def _kernel() -> Any:
     return _INTEGRATE
 
 
+def _constants(k: tuple[float, ...]) -> Any:
+    """``Vehicle._k`` as the integrator takes it fastest: a float array for the compiled
+    one (numba checks one array's type faster than 14 floats'), else the tuple."""
+    if _kernel() is integrate:
+        return k
+    import numpy as np
+
+    return np.array(k, dtype=np.float64)
+
+
 _DEFAULT: VehicleParams | None = None
 
 
@@ -256,7 +266,7 @@ class Vehicle:
     vehicle never reverses (there is no reverse gear in :class:`~sitcov.av.Control`).
     """
 
-    __slots__ = ("p", "x", "y", "yaw", "vx", "vy", "r", "steer", "_k")
+    __slots__ = ("p", "x", "y", "yaw", "vx", "vy", "r", "steer", "_k", "_kc")
 
     def __init__(
         self, params: VehicleParams, x: float, y: float, yaw: float, speed: float = 0.0
@@ -285,6 +295,7 @@ class Vehicle:
             params.drag,
             params.roll * m * g,
         )
+        self._kc: Any = None  # _k as the integrator takes it (set at the first step)
 
     @property
     def speed(self) -> float:
@@ -315,8 +326,11 @@ class Vehicle:
         brake = 0.0 if brake < 0.0 else (1.0 if brake > 1.0 else brake)
         steer = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
         self.steer = delta = steer * self.p.steer_max
+        kc = self._kc
+        if kc is None:
+            kc = self._kc = _constants(self._k)
         x, y, yaw, self.vx, self.vy, self.r = (_INTEGRATE or _kernel())(
-            self._k, self.x, self.y, self.yaw, vx, vy, r, throttle, brake, delta, mu,
+            kc, self.x, self.y, self.yaw, vx, vy, r, throttle, brake, delta, mu,
             lateral_accel, dt, substeps,
         )  # fmt: skip
         if yaw > math.pi or yaw < -math.pi:
