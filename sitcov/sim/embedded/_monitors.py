@@ -223,8 +223,10 @@ class EgoRouteMonitor:
         ego = world.ego
         b, i, t = ego.body, ego.hint, world.t
         lat = -(b.x - self.xs[i]) * self.sin[i] + (b.y - self.ys[i]) * self.cos[i]
-        self.lane.update(t, b.x, b.y, b.yaw, i, lat)
-        self.road.update(t, b.x, b.y, b.yaw, i, lat)
+        if self.lane.time is None:  # each records only its first departure
+            self.lane.update(t, b.x, b.y, b.yaw, i, lat)
+        if self.road.time is None:
+            self.road.update(t, b.x, b.y, b.yaw, i, lat)
         lat = -lat if lat < 0.0 else lat
         if lat > self.max_lat:
             self.max_lat = lat
