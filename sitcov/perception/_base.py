@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import abc
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -33,9 +34,10 @@ class CameraSpec:
     mount_x: float = 2.5
     mount_z: float = 1.0
 
-    @property
+    @functools.cached_property
     def focal_px(self) -> float:
-        """Focal length [px] from the horizontal field of view."""
+        """Focal length [px] from the horizontal field of view (computed once: every
+        projection reads it)."""
         return self.width / (2.0 * math.tan(math.radians(self.fov_deg) / 2.0))
 
 
