@@ -89,3 +89,44 @@ def test_no_jit_switch_runs_the_python_code(monkeypatch) -> None:
     monkeypatch.setenv("SITCOV_NO_JIT", "1")
     assert not enabled()
     assert compiled(_dynamics.integrate) is None
+
+
+def _not_compilable(x: float) -> object:
+    return object()  # numba's nopython mode cannot build arbitrary objects
+
+
+def test_a_numba_failure_warns_and_falls_back_to_python() -> None:
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    with pytest.warns(RuntimeWarning, match="numba could not compile _not_compilable"):
+        assert compiled(_not_compilable, 1.0) is None
+
+
+def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
+    """A whole braking turn through ``Vehicle.step`` (whichever integrator this process
+    uses) equals the plain-Python integrator's, step by step."""
+    car = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.3, 8.0)
+    ref = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.3, 8.0)
+    for i in range(120):
+        brake = 1.0 if i > 60 else 0.0
+        car.step(0.3 * (i < 60), brake, 0.5, 0.6, 0.2)
+        state = (ref.x, ref.y, ref.yaw, ref.vx, ref.vy, ref.r)
+        if not (0.3 * (i < 60) == 0.0 and ref.vx == ref.vy == ref.r == 0.0):
+            delta = 0.5 * ref.p.steer_max
+            out = _dynamics.integrate(
+                ref._k, *state, 0.3 * (i < 60), brake, delta, 0.6, 0.2, 0.05, 2
+            )
+            x, y, yaw, ref.vx, ref.vy, ref.r = out
+            if yaw > math.pi or yaw < -math.pi:
+                yaw = math.atan2(math.sin(yaw), math.cos(yaw))
+            ref.x, ref.y, ref.yaw = x, y, yaw
+        assert (car.x, car.y, car.yaw, car.vx, car.vy, car.r) == (
+            ref.x,
+            ref.y,
+            ref.yaw,
+            ref.vx,
+            ref.vy,
+            ref.r,
+        ), f"step {i}"
+    assert car.speed == 0.0  # the run really braked to a stop

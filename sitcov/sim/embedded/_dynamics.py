@@ -233,14 +233,18 @@ def _kernel() -> Any:
     if _INTEGRATE is None:
         from sitcov.sim.embedded._jit import compiled
 
-        _INTEGRATE = compiled(integrate) or integrate
+        k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
+        example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
+        _INTEGRATE = compiled(integrate, *example) or integrate
     return _INTEGRATE
 
 
-def _constants(k: tuple[float, ...]) -> Any:
+def _constants(k: tuple[float, ...], as_array: bool | None = None) -> Any:
     """``Vehicle._k`` as the integrator takes it fastest: a float array for the compiled
     one (numba checks one array's type faster than 14 floats'), else the tuple."""
-    if _kernel() is integrate:
+    if as_array is None:
+        as_array = _kernel() is not integrate
+    if not as_array:
         return k
     import numpy as np
 

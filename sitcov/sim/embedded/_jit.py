@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 import os
 import types
+import warnings
 from collections.abc import Callable
 from typing import Any
 
@@ -102,15 +103,32 @@ def hypot_cr() -> Callable[[float, float], float]:
     return _HYPOT
 
 
-def compiled(fn: Callable[..., Any]) -> Callable[..., Any] | None:
+def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None:
     """``fn`` compiled by numba (its ``hypot`` global bound to :func:`hypot_cr`), or None
-    when numba is not :func:`enabled`."""
+    when numba is not :func:`enabled`.
+
+    With ``example`` arguments the function is compiled (or loaded from the cache) right
+    away by calling it once; if numba fails there (e.g. a numba too old or too new for
+    the installed numpy), a warning says so and None is returned: the Python code runs.
+    """
     if not enabled():
         return None
-    import numba
+    try:
+        import numba
 
-    namespace = {**fn.__globals__, "hypot": hypot_cr()}
-    clone = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__)
-    clone.__qualname__ = fn.__qualname__
-    clone.__module__ = fn.__module__
-    return numba.njit(cache=True)(clone)
+        namespace = {**fn.__globals__, "hypot": hypot_cr()}
+        clone = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__)
+        clone.__qualname__ = fn.__qualname__
+        clone.__module__ = fn.__module__
+        fast = numba.njit(cache=True)(clone)
+        if example:
+            fast(*example)
+    except Exception as exc:  # noqa: BLE001 - any numba failure: run the Python code
+        warnings.warn(
+            f"numba could not compile {fn.__name__} ({type(exc).__name__}: {exc}); "
+            "running the Python code (same results, slower)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return None
+    return fast
