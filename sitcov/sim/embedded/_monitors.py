@@ -385,30 +385,35 @@ class ActorCollisionMonitor:
     def __init__(self, world: Any) -> None:
         self.events: list[dict[str, Any]] = []
         self.seen: set[tuple[str, str]] = set()
+        actors = world.actors
+        # every pair once, in the order of the actors, with its squared reach
+        self.pairs = [
+            (a, b, (a.radius + b.radius) * (a.radius + b.radius))
+            for i, a in enumerate(actors)
+            for b in actors[i + 1 :]
+        ]
 
     def update(self, world: Any) -> None:
         """Bounding circles first, boxes when those touch."""
-        actors = [a for a in world.actors if a.active]
-        for i, a in enumerate(actors):
-            ba = a.body
-            for b in actors[i + 1 :]:
-                bb = b.body
-                reach = a.radius + b.radius
-                dx, dy = bb.x - ba.x, bb.y - ba.y
-                if dx * dx + dy * dy > reach * reach or (a.name, b.name) in self.seen:
-                    continue
-                if overlap(a.box(), b.box()):
-                    self.seen.add((a.name, b.name))
-                    (avx, avy), (bvx, bvy) = a.velocity(), b.velocity()
-                    self.events.append(
-                        {
-                            "actors": [a.name, b.name],
-                            "kinds": [a.kind, b.kind],
-                            "time": round(world.t, 10),
-                            "speed": math.hypot(bvx - avx, bvy - avy),
-                        }
-                    )
-                    a.crashed = b.crashed = True
+        for a, b, reach2 in self.pairs:
+            if not (a.active and b.active):
+                continue
+            ba, bb = a.body, b.body
+            dx, dy = bb.x - ba.x, bb.y - ba.y
+            if dx * dx + dy * dy > reach2 or (a.name, b.name) in self.seen:
+                continue
+            if overlap(a.box(), b.box()):
+                self.seen.add((a.name, b.name))
+                (avx, avy), (bvx, bvy) = a.velocity(), b.velocity()
+                self.events.append(
+                    {
+                        "actors": [a.name, b.name],
+                        "kinds": [a.kind, b.kind],
+                        "time": round(world.t, 10),
+                        "speed": math.hypot(bvx - avx, bvy - avy),
+                    }
+                )
+                a.crashed = b.crashed = True
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """``actor_collisions``: a list of {actors, kinds, time, speed} (extended scenes)."""
