@@ -18,7 +18,8 @@ function runs as it is. Either way a run gives the same bits:
   Newton correction of the square root), so it agrees with CPython's.
 
 Compiled code is cached on disk next to this module (numba's ``cache=True``), so a new
-process loads it in milliseconds instead of compiling it again (about 1-2 s).
+process loads it instead of compiling it again (a few seconds; importing numba itself
+costs about a second of CPU per process).
 ``tests/sim/test_sim_jit.py`` checks the compiled and the Python integrator against each
 other bit for bit.
 """
