@@ -18,6 +18,16 @@ from typing import TypeVar
 T = TypeVar("T")
 
 
+class _Factory:
+    """Default of a field with a default factory (shown as ``<factory>``, as dataclasses do)."""
+
+    def __repr__(self) -> str:
+        return "<factory>"
+
+
+_FACTORY = _Factory()
+
+
 def fast_init(cls: type[T]) -> type[T]:
     """Replace ``cls.__init__`` (a frozen dataclass without ``__post_init__`` or slots)."""
     if (
@@ -27,7 +37,7 @@ def fast_init(cls: type[T]) -> type[T]:
         or hasattr(cls, "__slots__")
     ):
         raise TypeError(f"fast_init: {cls.__name__} is not a plain frozen dataclass")
-    namespace: dict[str, object] = {"_FACTORY": object()}
+    namespace: dict[str, object] = {"_FACTORY": _FACTORY}
     params, body = [], ["    d = self.__dict__"]
     for f in dataclasses.fields(cls):
         if not f.init:
