@@ -6,7 +6,9 @@ Random default-hyperspace situations (the ``random`` generator, as ``sitcov benc
 reference stack, PEM; the extra actors are the first ``count - 2`` of :data:`EXTRA`
 (pedestrians on crosswalks, cyclists, scripted cars). CPU time of this process
 (``time.process_time``), so other load on the machine counts less; per run and per
-simulated step (runs end at different times).
+simulated step (runs end at different times). The first ``--warmup`` situations of each
+count run once untimed first (imports, compiled kernels, per-route caches: paid once per
+process, not per run).
 """
 
 from __future__ import annotations
@@ -41,11 +43,13 @@ def with_actors(situation: Situation, count: int) -> Situation:
     return Situation(bins=bins, values=values)
 
 
-def measure(count: int, runs: int, seed: int) -> dict[str, float]:
+def measure(count: int, runs: int, seed: int, warmup: int = 5) -> dict[str, float]:
     """CPU ms per run and us per step for scenes of ``count`` actors."""
     generator = make_generator("random", load_hyperspace())
     situations = [with_actors(generator.ask(ask_rng(seed, i)), count) for i in range(runs)]
     backend, stack = EmbeddedBackend(), make_stack("reference")
+    for i, s in enumerate(situations[:warmup]):
+        backend.run(s, stack, run_seed(seed, i))
     steps = 0
     cpu0 = time.process_time()
     for i, s in enumerate(situations):
@@ -66,9 +70,10 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=100)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--counts", default="2,3,5,9")
+    parser.add_argument("--warmup", type=int, default=5)
     args = parser.parse_args()
     for count in (int(c) for c in args.counts.split(",")):
-        r = measure(count, args.runs, args.seed)
+        r = measure(count, args.runs, args.seed, args.warmup)
         print(
             f"actors={r['actors']} runs/s={r['runs_per_s']:.1f} ms/run={r['ms_per_run']:.2f} "
             f"us/step={r['us_per_step']:.1f} mean_steps={r['mean_steps']:.1f}"

@@ -787,7 +787,8 @@ def bench_cmd(
         f"  ms/run: {result['ms_per_run']:.2f}\n"
         f"  mean sim steps/run: {result['mean_steps']:.1f}\n"
         f"  failures: {result['failures']}  end reasons: {result['end_reasons']}\n"
-        f"  wall time: {result['wall_s']:.2f} s (CPU {result['cpu_s']:.2f} s)",
+        f"  wall time: {result['wall_s']:.2f} s (CPU {result['cpu_s']:.2f} s; warm-up "
+        f"{result['warmup_cpu_s']:.2f} s CPU, numba {'on' if result['jit'] else 'off'})",
         highlight=False,
     )
 

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, ClassVar
 
+from sitcov._frozen import fast_init
 from sitcov.perception._base import CameraSpec, Detection
 
 if TYPE_CHECKING:
@@ -39,6 +40,7 @@ class RunInfo:
     situation: Situation | None = None
 
 
+@fast_init
 @dataclass(frozen=True)
 class EgoState:
     """The ego's own state (what its localisation would report)."""
@@ -50,6 +52,7 @@ class EgoState:
     t: float
 
 
+@fast_init
 @dataclass(frozen=True)
 class Observation:
     """What the stack sees at one control step.
@@ -65,6 +68,7 @@ class Observation:
     image: np.ndarray | None = None
 
 
+@fast_init
 @dataclass(frozen=True)
 class Control:
     """The stack's command for the next control period.

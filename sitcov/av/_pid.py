@@ -70,7 +70,13 @@ class LateralPID(_WindowPID):
 
     def step(self, x: float, y: float, yaw: float, tx: float, ty: float) -> float:
         """Steer command in [-1, 1] towards target (tx, ty) from pose (x, y, yaw)."""
-        u = self.update(heading_error(x, y, yaw, tx, ty))
+        wx, wy = tx - x, ty - y  # heading_error(), inlined: this runs every step
+        if wx == 0.0 and wy == 0.0:
+            error = 0.0
+        else:
+            hx, hy = math.cos(yaw), math.sin(yaw)
+            error = math.atan2(hx * wy - hy * wx, hx * wx + hy * wy)
+        u = self.update(error)
         return 1.0 if u > 1.0 else (-1.0 if u < -1.0 else u)
 
 

@@ -172,7 +172,11 @@ class ReferenceStack(AVStack):
         """One control step: perception and AEB first, then route following."""
         if self._fired_at is not None:
             return Control(0.0, 1.0, self._steer, {"aeb": True, "aeb_time": self._fired_at})
-        if self.aeb and self._perceive(observation):
+        if (
+            self.aeb
+            and (observation.detections is not None or observation.image is not None)
+            and self._perceive(observation)
+        ):  # a new frame (between frames the last decision holds)
             self._fired_at = observation.t
             return Control(0.0, 1.0, self._steer, {"aeb": True, "aeb_time": self._fired_at})
         return self._drive(observation)

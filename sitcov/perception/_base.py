@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import abc
+import functools
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
+
+from sitcov._frozen import fast_init
 
 if TYPE_CHECKING:
     import numpy as np
@@ -31,12 +34,14 @@ class CameraSpec:
     mount_x: float = 2.5
     mount_z: float = 1.0
 
-    @property
+    @functools.cached_property
     def focal_px(self) -> float:
-        """Focal length [px] from the horizontal field of view."""
+        """Focal length [px] from the horizontal field of view (computed once: every
+        projection reads it)."""
         return self.width / (2.0 * math.tan(math.radians(self.fov_deg) / 2.0))
 
 
+@fast_init
 @dataclass(frozen=True)
 class Detection:
     """One detected object in image coordinates.
@@ -52,6 +57,7 @@ class Detection:
     label: str = "car"
 
 
+@fast_init
 @dataclass(frozen=True)
 class Pose:
     """A planar pose: position [m] and heading [rad], counter-clockwise from +x."""
@@ -61,6 +67,7 @@ class Pose:
     yaw: float
 
 
+@fast_init
 @dataclass(frozen=True)
 class ActorView:
     """What a sensor needs to know about another road user.

@@ -131,9 +131,12 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     top = actor.height - camera.mount_z  # roof above the camera [m]
     v0 = cy - f * top / (d_min if top > 0.0 else d_max)
     v1 = cy + f * camera.mount_z / (d_min if camera.mount_z > 0.0 else d_max)
-    # Clamping each coordinate keeps the order, so an off-image box collapses to an edge.
-    bx0, bx1 = min(max(u0, 0.0), w), min(max(u1, 0.0), w)
-    by0, by1 = min(max(v0, 0.0), h), min(max(v1, 0.0), h)
+    # Clamping each coordinate keeps the order, so an off-image box collapses to an edge
+    # (min(max(u, 0), w) written out: no builtin calls in this per-frame path).
+    bx0 = 0.0 if u0 < 0.0 else (w if u0 > w else u0)
+    bx1 = 0.0 if u1 < 0.0 else (w if u1 > w else u1)
+    by0 = 0.0 if v0 < 0.0 else (h if v0 > h else v0)
+    by1 = 0.0 if v1 < 0.0 else (h if v1 > h else v1)
     visible = bx1 > bx0 and by1 > by0
     raw_area = (u1 - u0) * (v1 - v0)
     truncation = 1.0 - (bx1 - bx0) * (by1 - by0) / raw_area if raw_area > 0.0 else 1.0
@@ -145,7 +148,7 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     return (
         (bx0, by0, bx1, by1),
         (u0, v0, u1, v1),
-        min(1.0, max(0.0, truncation)),
+        (1.0 if truncation >= 1.0 else truncation) if truncation > 0.0 else 0.0,
         math.hypot(dx, dy),
         math.atan2(-r_c, d_c),
         view,

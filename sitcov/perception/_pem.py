@@ -389,13 +389,7 @@ class PEMSensor(Sensor):
             dict(classes) if isinstance(classes, Mapping) else None
         )  # per kind, lazily
         self._color_key: Any = None
-        self._color_value: tuple[float, ...] = (
-            DEFAULT_CONTRAST,
-            DEFAULT_DETAIL,
-            DEFAULT_CHROMA,
-            DEFAULT_RED_GREEN,
-            DEFAULT_YELLOW_BLUE,
-        )
+        self._color_cache: dict[Any, tuple[float, ...]] = {}
 
     def reset(self, frame_dt: float | None = None) -> None:
         """Start a new run: forget every actor's noise state (optionally set ``frame_dt`` [s])."""
@@ -425,13 +419,22 @@ class PEMSensor(Sensor):
         )
 
     def _colors(self, color: Any, conditions: Conditions) -> tuple[float, ...]:
-        """:func:`color_features` then :func:`chroma_features`, cached for the last
-        (colour, conditions) pair: both are constant over a run."""
-        key = self._color_key
-        if key is None or key[0] != color or key[1] is not conditions:
-            self._color_key = (color, conditions)  # holds conditions: no id reuse
-            self._color_value = (*color_features(color, conditions), *chroma_features(color))
-        return self._color_value
+        """:func:`color_features` then :func:`chroma_features`, cached per colour for the
+        last conditions: both are constant over a run (one entry per actor colour, so
+        scenes with several actors do not recompute them every frame)."""
+        if self._color_key is not conditions:
+            self._color_key = conditions  # holds conditions: no id reuse
+            self._color_cache = {}
+        try:
+            return self._color_cache[color]
+        except KeyError:
+            value = self._color_cache[color] = (
+                *color_features(color, conditions),
+                *chroma_features(color),
+            )
+        except TypeError:  # an unhashable colour (a list): not cached
+            value = (*color_features(color, conditions), *chroma_features(color))
+        return value
 
     def _class_params(self, kind: str) -> tuple[PEMParams, str]:
         """The PEM parameters and detection label for an actor kind: vehicles use

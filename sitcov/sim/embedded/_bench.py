@@ -17,6 +17,7 @@ def bench(
     perception: str = "pem",
     physics: str = "carla",
     judge: str = "default",
+    warmup: int = 5,
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, Any]:
     """Run ``runs`` random default-hyperspace situations with the reference stack.
@@ -25,17 +26,20 @@ def bench(
     ``run_seed(seed, i)``, as a campaign would; outcomes are judged by ``judge`` and the
     world uses the ``physics`` profile, as in a campaign with the same settings. Time is
     CPU time of this process (``time.process_time``), so other load does not count;
-    wall time is reported too.
+    wall time is reported too. The first ``warmup`` situations run once untimed before
+    (``warmup_cpu_s``): what a process pays once (lazy imports, the compiled kernels of
+    ``_jit.py``, per-route caches) is not a per-run cost.
 
     Returns:
         ``{"runs", "runs_per_s", "ms_per_run", "mean_steps", "failures", "wall_s", "cpu_s",
-        "end_reasons"}``.
+        "warmup_cpu_s", "jit", "end_reasons"}``.
     """
     from sitcov.av import make_stack
     from sitcov.generation import make_generator
     from sitcov.hyperspace import load_hyperspace
     from sitcov.sim._judge import Judge
     from sitcov.sim.embedded._backend import EmbeddedBackend
+    from sitcov.sim.embedded._jit import enabled
 
     hyperspace = load_hyperspace()
     generator = make_generator("random", hyperspace)
@@ -43,6 +47,10 @@ def bench(
     backend = EmbeddedBackend(perception=perception, physics=physics)
     verdict = Judge.from_spec(judge)
     stack = make_stack("reference", fault=fault)
+    cpu0 = time.process_time()
+    for i, situation in enumerate(situations[:warmup]):
+        backend.run(situation, stack, run_seed(seed, i))
+    warm = time.process_time() - cpu0
     steps = failures = 0
     reasons: dict[str, int] = {}
     wall0, cpu0 = time.perf_counter(), time.process_time()
@@ -64,5 +72,7 @@ def bench(
         "failures": failures,
         "cpu_s": cpu,
         "wall_s": wall,
+        "warmup_cpu_s": warm,
+        "jit": enabled(),
         "end_reasons": reasons,
     }

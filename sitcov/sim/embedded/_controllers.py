@@ -134,6 +134,8 @@ class TimingController:
         self.switch_gap: float | None = None
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
+        # AdversaryController.lookahead's constants, read every step
+        self._la_min, self._la_time = params.lookahead_min, params.lookahead_time
 
     def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
         """(throttle, brake, steer) for this step."""
@@ -144,9 +146,11 @@ class TimingController:
         if self.switch_time is None and law.phase == "cruise":
             self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
         self.brake = brk
-        if self._steer is None:
-            self._steer = lateral_controller(actor, world.dt)
-        return thr, brk, self._steer(law.lookahead(speed))
+        steer = self._steer
+        if steer is None:
+            steer = self._steer = lateral_controller(actor, world.dt)
+        ahead = self._la_time * speed  # law.lookahead(speed), inlined
+        return thr, brk, steer(ahead if ahead > self._la_min else self._la_min)
 
     def reach_speed(self, actor: Actor) -> float:
         """The speed the actor may still reach [m/s] (for the early end)."""

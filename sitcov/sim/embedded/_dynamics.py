@@ -18,6 +18,9 @@ CommonRoad's functions, which are far too slow to call every 25 ms sub-step:
   from the tyres too, so its accelerations (path curvature, snapping the direction of
   travel) never exceed ``mu * g``.
 
+The integrator is one plain-float function (:func:`integrate`) that numba compiles when
+it is installed (``_jit.py``: same bits, about three times as fast per call).
+
 See ``docs/embedded.md`` for the equations.
 """
 
@@ -25,6 +28,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from math import atan, atan2, cos, sin, sqrt, tan, tanh
+from typing import Any
 
 G = 9.81  #: gravity [m/s^2]
 #: Control period [s] and dynamic sub-steps per period.
@@ -41,6 +46,9 @@ VEHICLE_HEIGHT = 1.45
 #: wheel) and a 0.05 rad slip angle gives 0.93 of the peak braking force and 0.55 of the
 #: peak side force; the ellipse with 0.9 leaves 0.44, a little less (conservative).
 ABS_SHARE = 0.9
+#: ``math.hypot`` under the name :func:`integrate` uses (``_jit.py`` compiles that code
+#: with a bit-identical replacement).
+hypot = math.hypot
 
 
 @dataclass(frozen=True)
@@ -102,6 +110,147 @@ def bmw_320i() -> VehicleParams:
     )
 
 
+def integrate(
+    k: tuple[float, ...],
+    x: float,
+    y: float,
+    yaw: float,
+    vx: float,
+    vy: float,
+    r: float,
+    throttle: float,
+    brake: float,
+    delta: float,
+    mu: float,
+    lateral_accel: float,
+    dt: float,
+    substeps: int,
+) -> tuple[float, float, float, float, float, float]:
+    """``substeps`` explicit sub-steps of the single-track model (the equations of the
+    module docstring): the new ``(x, y, yaw, vx, vy, r)``.
+
+    ``k`` holds the vehicle's constants (``Vehicle._k``); commands are already clamped and
+    ``delta`` is the road-wheel angle [rad]. Plain floats and module-level math functions
+    only, so that numba can compile this very code (``_jit.py``): the floating-point
+    operations and their order are those of the equations either way.
+    """
+    (m, iz, lf, lr, wb, fzf, fzr, cf, cr, fdrive, power, fbrake, drag, roll) = k
+    h = dt / substeps
+    share_f = fzf / (fzf + fzr)
+    share_r = 1.0 - share_f
+    muf, mur = mu * fzf, mu * fzr
+    capf, capr = ABS_SHARE * muf, ABS_SHARE * mur
+    mug = mu * G
+    cos_d, sin_d, tan_d = cos(delta), sin(delta), tan(delta)
+    cos_bk = sin_bk = 0.0
+    if vx < V_KIN_HIGH + 1.0:  # the kinematic model may be needed this period
+        beta_k = atan(lr * tan_d / wb)
+        cos_bk, sin_bk = cos(beta_k), sin(beta_k)
+    drive = fdrive * throttle
+    fb = fbrake * brake
+    for _ in range(substeps):
+        v = hypot(vx, vy)
+        # longitudinal tyre forces: drive (rear), brake split by axle load, rolling
+        # resistance by axle load; each axle's net force within ABS_SHARE * mu * Fz
+        fd = drive
+        if v > 1.0 and fd * v > power * throttle:
+            fd = power * throttle / v
+        if v > 0.05:
+            fxf = -(fb + roll) * share_f
+            fxr = fd - (fb + roll) * share_r
+            resist = drag * v * v
+        else:
+            fxf = -fb * share_f
+            fxr = fd - fb * share_r
+            resist = 0.0
+        if fxf < -capf:
+            fxf = -capf
+        if fxr > capr:
+            fxr = capr
+        elif fxr < -capr:
+            fxr = -capr
+        if v >= V_KIN_HIGH:
+            w = 1.0
+        elif v <= V_KIN_LOW:
+            w = 0.0
+        else:
+            w = (v - V_KIN_LOW) / (V_KIN_HIGH - V_KIN_LOW)
+        if w > 0.0:
+            # dynamic single-track with saturating tyres
+            alpha_f = delta - atan2(vy + lf * r, vx)
+            alpha_r = -atan2(vy - lr * r, vx)
+            fyf_max = sqrt(muf * muf - fxf * fxf)
+            fyr_max = sqrt(mur * mur - fxr * fxr)
+            fyf = fyf_max * tanh(cf * alpha_f / fyf_max) if fyf_max > 0.0 else 0.0
+            fyr = fyr_max * tanh(cr * alpha_r / fyr_max) if fyr_max > 0.0 else 0.0
+            fyf_c = fxf * sin_d + fyf * cos_d
+            vx_n = vx + ((fxf * cos_d - fyf * sin_d + fxr - resist) / m + vy * r) * h
+            vy_n = vy + ((fyf_c + fyr) / m + lateral_accel - vx * r) * h
+            r_n = r + ((lf * fyf_c - lr * fyr) / iz) * h
+            if vx_n < 0.0:
+                vx_n = 0.0
+        if w < 1.0:
+            # kinematic single-track (speed along the body, no slip): the target
+            # velocity, reached only as far as the tyres' mu*g allows
+            v_kin = v + (fxf + fxr - resist) / m * h
+            if v_kin < 0.0:
+                v_kin = 0.0
+            r_k = v_kin * cos_bk * tan_d / wb
+            if v_kin * abs(r_k) > mug:  # steady turn: v^2 * curvature <= mu*g
+                r_k = mug / v_kin if r_k > 0.0 else -mug / v_kin
+            ax = (v_kin * cos_bk - vx) / h - vy * r  # tyre force / m needed [m/s^2]
+            ay = (v_kin * sin_bk - vy) / h + vx * r - lateral_accel
+            need = hypot(ax, ay)
+            if need > mug:
+                ax, ay = ax * mug / need, ay * mug / need
+            vx_k = vx + (ax + vy * r) * h
+            vy_k = vy + (ay + lateral_accel - vx * r) * h
+            if vx_k < 0.0:
+                vx_k = 0.0
+            if w > 0.0:
+                vx_n = w * vx_n + (1.0 - w) * vx_k
+                vy_n = w * vy_n + (1.0 - w) * vy_k
+                r_n = w * r_n + (1.0 - w) * r_k
+            else:
+                vx_n, vy_n, r_n = vx_k, vy_k, r_k
+        # position update with the mean velocity over the sub-step (semi-implicit)
+        yaw_n = yaw + 0.5 * (r + r_n) * h
+        mvx, mvy = 0.5 * (vx + vx_n), 0.5 * (vy + vy_n)
+        c, s = cos(yaw), sin(yaw)
+        x += (mvx * c - mvy * s) * h
+        y += (mvx * s + mvy * c) * h
+        yaw = yaw_n
+        vx, vy, r = vx_n, vy_n, r_n
+    return x, y, yaw, vx, vy, r
+
+
+_INTEGRATE: Any = None
+
+
+def _kernel() -> Any:
+    """:func:`integrate` compiled by numba when it is installed (``_jit.py``), else itself."""
+    global _INTEGRATE
+    if _INTEGRATE is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
+        example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
+        _INTEGRATE = compiled(integrate, *example) or integrate
+    return _INTEGRATE
+
+
+def _constants(k: tuple[float, ...], as_array: bool | None = None) -> Any:
+    """``Vehicle._k`` as the integrator takes it fastest: a float array for the compiled
+    one (numba checks one array's type faster than 14 floats'), else the tuple."""
+    if as_array is None:
+        as_array = _kernel() is not integrate
+    if not as_array:
+        return k
+    import numpy as np
+
+    return np.array(k, dtype=np.float64)
+
+
 _DEFAULT: VehicleParams | None = None
 
 
@@ -121,7 +270,7 @@ class Vehicle:
     vehicle never reverses (there is no reverse gear in :class:`~sitcov.av.Control`).
     """
 
-    __slots__ = ("p", "x", "y", "yaw", "vx", "vy", "r", "steer", "_k")
+    __slots__ = ("p", "x", "y", "yaw", "vx", "vy", "r", "steer", "_k", "_kc")
 
     def __init__(
         self, params: VehicleParams, x: float, y: float, yaw: float, speed: float = 0.0
@@ -150,6 +299,7 @@ class Vehicle:
             params.drag,
             params.roll * m * g,
         )
+        self._kc: Any = None  # _k as the integrator takes it (set at the first step)
 
     @property
     def speed(self) -> float:
@@ -173,113 +323,20 @@ class Vehicle:
             mu: tyre-road friction [-]. lateral_accel: external acceleration to the
                 vehicle's left [m/s^2] (crosswind).
         """
-        (m, iz, lf, lr, wb, fzf, fzr, cf, cr, fdrive, power, fbrake, drag, roll) = self._k
         throttle = 0.0 if throttle < 0.0 else (1.0 if throttle > 1.0 else throttle)
         vx, vy, r = self.vx, self.vy, self.r
         if throttle == 0.0 and vx == 0.0 and vy == 0.0 and r == 0.0:
             return  # standing still with no drive: nothing moves (wind cannot push a braked car)
-        # the hot path of every run: state in locals, math functions bound once (the
-        # floating-point operations and their order are those of the equations)
-        hypot, atan2, sqrt, tanh, cos, sin = (
-            math.hypot,
-            math.atan2,
-            math.sqrt,
-            math.tanh,
-            math.cos,
-            math.sin,
-        )
         brake = 0.0 if brake < 0.0 else (1.0 if brake > 1.0 else brake)
         steer = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
-        delta = steer * self.p.steer_max
-        self.steer = delta
-        h = dt / substeps
-        share_f = fzf / (fzf + fzr)
-        share_r = 1.0 - share_f
-        muf, mur = mu * fzf, mu * fzr
-        capf, capr = ABS_SHARE * muf, ABS_SHARE * mur
-        mug = mu * G
-        cos_d, sin_d, tan_d = cos(delta), sin(delta), math.tan(delta)
-        cos_bk = sin_bk = 0.0
-        if vx < V_KIN_HIGH + 1.0:  # the kinematic model may be needed this period
-            beta_k = math.atan(lr * tan_d / wb)
-            cos_bk, sin_bk = cos(beta_k), sin(beta_k)
-        x, y, yaw = self.x, self.y, self.yaw
-        drive = fdrive * throttle
-        fb = fbrake * brake
-        for _ in range(substeps):
-            v = hypot(vx, vy)
-            # longitudinal tyre forces: drive (rear), brake split by axle load, rolling
-            # resistance by axle load; each axle's net force within ABS_SHARE * mu * Fz
-            fd = drive
-            if v > 1.0 and fd * v > power * throttle:
-                fd = power * throttle / v
-            if v > 0.05:
-                fxf = -(fb + roll) * share_f
-                fxr = fd - (fb + roll) * share_r
-                resist = drag * v * v
-            else:
-                fxf = -fb * share_f
-                fxr = fd - fb * share_r
-                resist = 0.0
-            if fxf < -capf:
-                fxf = -capf
-            if fxr > capr:
-                fxr = capr
-            elif fxr < -capr:
-                fxr = -capr
-            if v >= V_KIN_HIGH:
-                w = 1.0
-            elif v <= V_KIN_LOW:
-                w = 0.0
-            else:
-                w = (v - V_KIN_LOW) / (V_KIN_HIGH - V_KIN_LOW)
-            if w > 0.0:
-                # dynamic single-track with saturating tyres
-                alpha_f = delta - atan2(vy + lf * r, vx)
-                alpha_r = -atan2(vy - lr * r, vx)
-                fyf_max = sqrt(muf * muf - fxf * fxf)
-                fyr_max = sqrt(mur * mur - fxr * fxr)
-                fyf = fyf_max * tanh(cf * alpha_f / fyf_max) if fyf_max > 0.0 else 0.0
-                fyr = fyr_max * tanh(cr * alpha_r / fyr_max) if fyr_max > 0.0 else 0.0
-                fyf_c = fxf * sin_d + fyf * cos_d
-                vx_n = vx + ((fxf * cos_d - fyf * sin_d + fxr - resist) / m + vy * r) * h
-                vy_n = vy + ((fyf_c + fyr) / m + lateral_accel - vx * r) * h
-                r_n = r + ((lf * fyf_c - lr * fyr) / iz) * h
-                if vx_n < 0.0:
-                    vx_n = 0.0
-            if w < 1.0:
-                # kinematic single-track (speed along the body, no slip): the target
-                # velocity, reached only as far as the tyres' mu*g allows
-                v_kin = v + (fxf + fxr - resist) / m * h
-                if v_kin < 0.0:
-                    v_kin = 0.0
-                r_k = v_kin * cos_bk * tan_d / wb
-                if v_kin * abs(r_k) > mug:  # steady turn: v^2 * curvature <= mu*g
-                    r_k = mug / v_kin if r_k > 0.0 else -mug / v_kin
-                ax = (v_kin * cos_bk - vx) / h - vy * r  # tyre force / m needed [m/s^2]
-                ay = (v_kin * sin_bk - vy) / h + vx * r - lateral_accel
-                need = hypot(ax, ay)
-                if need > mug:
-                    ax, ay = ax * mug / need, ay * mug / need
-                vx_k = vx + (ax + vy * r) * h
-                vy_k = vy + (ay + lateral_accel - vx * r) * h
-                if vx_k < 0.0:
-                    vx_k = 0.0
-                if w > 0.0:
-                    vx_n = w * vx_n + (1.0 - w) * vx_k
-                    vy_n = w * vy_n + (1.0 - w) * vy_k
-                    r_n = w * r_n + (1.0 - w) * r_k
-                else:
-                    vx_n, vy_n, r_n = vx_k, vy_k, r_k
-            # position update with the mean velocity over the sub-step (semi-implicit)
-            yaw_n = yaw + 0.5 * (r + r_n) * h
-            mvx, mvy = 0.5 * (vx + vx_n), 0.5 * (vy + vy_n)
-            c, s = cos(yaw), sin(yaw)
-            x += (mvx * c - mvy * s) * h
-            y += (mvx * s + mvy * c) * h
-            yaw = yaw_n
-            vx, vy, r = vx_n, vy_n, r_n
+        self.steer = delta = steer * self.p.steer_max
+        kc = self._kc
+        if kc is None:
+            kc = self._kc = _constants(self._k)
+        x, y, yaw, self.vx, self.vy, self.r = (_INTEGRATE or _kernel())(
+            kc, self.x, self.y, self.yaw, vx, vy, r, throttle, brake, delta, mu,
+            lateral_accel, dt, substeps,
+        )  # fmt: skip
+        if yaw > math.pi or yaw < -math.pi:
+            yaw = math.atan2(math.sin(yaw), math.cos(yaw))
         self.x, self.y, self.yaw = x, y, yaw
-        self.vx, self.vy, self.r = vx, vy, r
-        if self.yaw > math.pi or self.yaw < -math.pi:
-            self.yaw = math.atan2(math.sin(self.yaw), math.cos(self.yaw))

@@ -59,7 +59,7 @@ class EgoDriver:
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
         """(detections, image) captured at step ``k`` (a frame step)."""
         ego = world.ego.body
-        actors = tuple(a.view() for a in world.actors if a.active)
+        actors = tuple([a.view() for a in world.actors if a.active])
         pose = Pose(ego.x, ego.y, ego.yaw)
         if not self.camera_mode:
             return self.sensor.detect(pose, actors, self.cond, self.rng), None
@@ -85,10 +85,10 @@ class EgoDriver:
             if self.frames and self.frames[0][0] == k:
                 _, detections, image = self.frames.popleft()
         ego = world.ego.body
-        speed = world.ego_speed
-        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, speed, t), detections, image)
+        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, world.ego_speed, t), detections, image)
         ctrl = self.stack.step(obs)
-        if ctrl.info and ctrl.info.get("aeb"):
+        info = ctrl.info
+        if info and info.get("aeb"):
             if self.aeb_time is None:
                 self.aeb_time = t
             # camera mode: no more frames once the brake has latched (Control.info["aeb"]

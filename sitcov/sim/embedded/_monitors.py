@@ -223,8 +223,10 @@ class EgoRouteMonitor:
         ego = world.ego
         b, i, t = ego.body, ego.hint, world.t
         lat = -(b.x - self.xs[i]) * self.sin[i] + (b.y - self.ys[i]) * self.cos[i]
-        self.lane.update(t, b.x, b.y, b.yaw, i, lat)
-        self.road.update(t, b.x, b.y, b.yaw, i, lat)
+        if self.lane.time is None:  # each records only its first departure
+            self.lane.update(t, b.x, b.y, b.yaw, i, lat)
+        if self.road.time is None:
+            self.road.update(t, b.x, b.y, b.yaw, i, lat)
         lat = -lat if lat < 0.0 else lat
         if lat > self.max_lat:
             self.max_lat = lat
@@ -263,11 +265,12 @@ class PETMonitor:
                 ]
             self.zones.append([*zone, None, None, None, None])
         self.half_e = ego.half_l
+        self._pairs = list(zip(world.actors, self.zones, strict=True))
 
     def update(self, world: Any) -> None:
         """Entry and exit times of the ego and each active actor."""
         t, s_e, hl = world.t, world.ego.s, self.half_e
-        for a, z in zip(world.actors, self.zones, strict=True):
+        for a, z in self._pairs:
             if z[5] is None:
                 if z[4] is None and s_e + hl >= z[0]:
                     z[4] = t
@@ -382,30 +385,35 @@ class ActorCollisionMonitor:
     def __init__(self, world: Any) -> None:
         self.events: list[dict[str, Any]] = []
         self.seen: set[tuple[str, str]] = set()
+        actors = world.actors
+        # every pair once, in the order of the actors, with its squared reach
+        self.pairs = [
+            (a, b, (a.radius + b.radius) * (a.radius + b.radius))
+            for i, a in enumerate(actors)
+            for b in actors[i + 1 :]
+        ]
 
     def update(self, world: Any) -> None:
         """Bounding circles first, boxes when those touch."""
-        actors = [a for a in world.actors if a.active]
-        for i, a in enumerate(actors):
-            ba = a.body
-            for b in actors[i + 1 :]:
-                bb = b.body
-                reach = a.radius + b.radius
-                dx, dy = bb.x - ba.x, bb.y - ba.y
-                if dx * dx + dy * dy > reach * reach or (a.name, b.name) in self.seen:
-                    continue
-                if overlap(a.box(), b.box()):
-                    self.seen.add((a.name, b.name))
-                    (avx, avy), (bvx, bvy) = a.velocity(), b.velocity()
-                    self.events.append(
-                        {
-                            "actors": [a.name, b.name],
-                            "kinds": [a.kind, b.kind],
-                            "time": round(world.t, 10),
-                            "speed": math.hypot(bvx - avx, bvy - avy),
-                        }
-                    )
-                    a.crashed = b.crashed = True
+        for a, b, reach2 in self.pairs:
+            if not (a.active and b.active):
+                continue
+            ba, bb = a.body, b.body
+            dx, dy = bb.x - ba.x, bb.y - ba.y
+            if dx * dx + dy * dy > reach2 or (a.name, b.name) in self.seen:
+                continue
+            if overlap(a.box(), b.box()):
+                self.seen.add((a.name, b.name))
+                (avx, avy), (bvx, bvy) = a.velocity(), b.velocity()
+                self.events.append(
+                    {
+                        "actors": [a.name, b.name],
+                        "kinds": [a.kind, b.kind],
+                        "time": round(world.t, 10),
+                        "speed": math.hypot(bvx - avx, bvy - avy),
+                    }
+                )
+                a.crashed = b.crashed = True
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """``actor_collisions``: a list of {actors, kinds, time, speed} (extended scenes)."""
@@ -417,10 +425,11 @@ class LeaveMapRule:
 
     def __init__(self, world: Any) -> None:
         self.ends = [a.route.length - GOAL_TOLERANCE for a in world.actors]
+        self._pairs = list(zip(world.actors, self.ends, strict=True))
 
     def update(self, world: Any) -> None:
         """Deactivate actors at the end of their routes."""
-        for a, end in zip(world.actors, self.ends, strict=True):
+        for a, end in self._pairs:
             if a.active and a.s >= end:
                 a.active = False
 

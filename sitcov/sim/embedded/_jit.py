@@ -1,0 +1,135 @@
+"""Optional numba compilation of the hot loop's arithmetic, bit-identical to the Python code.
+
+When numba is installed (``pip install 'sitcov[fast]'``), :func:`compiled` turns a
+plain-float function of the hot loop (today the vehicle integrator,
+``_dynamics.integrate``) into machine code; without numba, or with the environment
+variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or an empty string), the Python
+function runs as it is. Either way a run gives the same bits:
+
+- numba compiles the very same code object, with the same operations in the same order
+  and no fast-math (LLVM then neither reorders nor fuses floating-point operations);
+- ``sin``, ``cos``, ``tan``, ``atan``, ``atan2``, ``tanh`` and ``sqrt`` call the same C
+  library functions CPython calls;
+- ``math.hypot`` is the exception: CPython (3.10+) computes a correctly rounded
+  ``sqrt(x*x + y*y)`` with its own algorithm, numba calls the C library's ``hypot``,
+  which is not always correctly rounded (about 2 in 1000 random pairs differ in the last
+  bit). :func:`hypot_cr` computes the correctly rounded value in double-double
+  arithmetic (the squares and their sum split exactly into a high and a low part, one
+  Newton correction of the square root), so it agrees with CPython's.
+
+Compiled code is cached on disk next to this module (numba's ``cache=True``), so a new
+process loads it instead of compiling it again (a few seconds; importing numba itself
+costs about a second of CPU per process).
+``tests/sim/test_sim_jit.py`` checks the compiled and the Python integrator against each
+other bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import types
+import warnings
+from collections.abc import Callable
+from typing import Any
+
+#: Veltkamp's splitting constant for doubles: 2**27 + 1.
+_SPLIT = 134217729.0
+#: Below this magnitude the squares would lose bits to underflow: scale up first.
+_TINY = 2.0**-900
+_UP = 2.0**600
+
+
+def enabled() -> bool:
+    """Whether numba is importable and not switched off by ``SITCOV_NO_JIT``."""
+    if os.environ.get("SITCOV_NO_JIT", "") not in ("", "0"):
+        return False
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _two_prod(a: float, b: float) -> tuple[float, float]:
+    """``a * b`` as ``(p, e)`` with ``p + e`` exact (Dekker's product, no fused ops)."""
+    p = a * b
+    t = _SPLIT * a
+    ah = t - (t - a)
+    al = a - ah
+    t = _SPLIT * b
+    bh = t - (t - b)
+    bl = b - bh
+    return p, ((ah * bh - p) + ah * bl + al * bh) + al * bl
+
+
+def _hypot_cr(x: float, y: float) -> float:
+    """Correctly rounded ``sqrt(x*x + y*y)`` (see the module docstring), for numba."""
+    x, y = abs(x), abs(y)
+    if x < y:
+        x, y = y, x
+    if y == 0.0 or x == math.inf:
+        return x
+    if x != x or y != y:
+        return math.nan
+    back = 1.0
+    if x < _TINY:  # scaled up exactly, down again at the end
+        x, y, back = x * _UP, y * _UP, _UP
+    scale = math.ldexp(1.0, -math.frexp(x)[1])  # x * scale in [0.5, 1): exact
+    xs, ys = x * scale, y * scale
+    ph, pl = _two_prod(xs, xs)
+    qh, ql = _two_prod(ys, ys)
+    sh = ph + qh
+    sl = (ph - sh) + qh + (pl + ql)  # ph >= qh: the sum's rounding error, exactly
+    h = math.sqrt(sh + sl)
+    th, tl = _two_prod(h, h)
+    h += (((sh - th) - tl) + sl) / (2.0 * h)
+    return h / scale / back
+
+
+_HYPOT: Any = None
+
+
+def hypot_cr() -> Callable[[float, float], float]:
+    """The compiled correctly rounded hypot (numba must be installed)."""
+    global _HYPOT
+    if _HYPOT is None:
+        import numba
+
+        two_prod = numba.njit(cache=True, inline="always")(_two_prod)
+        fn = types.FunctionType(
+            _hypot_cr.__code__, {**_hypot_cr.__globals__, "_two_prod": two_prod}, "_hypot_cr"
+        )
+        _HYPOT = numba.njit(cache=True)(fn)
+    return _HYPOT
+
+
+def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None:
+    """``fn`` compiled by numba (its ``hypot`` global bound to :func:`hypot_cr`), or None
+    when numba is not :func:`enabled`.
+
+    With ``example`` arguments the function is compiled (or loaded from the cache) right
+    away by calling it once; if numba fails there (e.g. a numba too old or too new for
+    the installed numpy), a warning says so and None is returned: the Python code runs.
+    """
+    if not enabled():
+        return None
+    try:
+        import numba
+
+        namespace = {**fn.__globals__, "hypot": hypot_cr()}
+        clone = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__)
+        clone.__qualname__ = fn.__qualname__
+        clone.__module__ = fn.__module__
+        fast = numba.njit(cache=True)(clone)
+        if example:
+            fast(*example)
+    except Exception as exc:  # noqa: BLE001 - any numba failure: run the Python code
+        warnings.warn(
+            f"numba could not compile {fn.__name__} ({type(exc).__name__}: {exc}); "
+            "running the Python code (same results, slower)",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return None
+    return fast

@@ -1,0 +1,132 @@
+"""The optional numba kernels (``_jit.py``) give exactly the Python code's bits."""
+
+from __future__ import annotations
+
+import math
+import random
+
+import pytest
+from needs import need_module
+
+from sitcov.sim.embedded import _dynamics
+from sitcov.sim.embedded._jit import _hypot_cr, compiled, enabled
+
+
+def _pairs(n: int, seed: int) -> list[tuple[float, float]]:
+    """Random pairs over many magnitudes, ratios near 1 and tiny partners included."""
+    rnd = random.Random(seed)
+    out = []
+    for _ in range(n):
+        a = rnd.uniform(-20.0, 20.0) * 10.0 ** rnd.randint(-4, 3)
+        mode = rnd.random()
+        if mode < 0.3:
+            b = a * rnd.uniform(-1.5, 1.5)
+        elif mode < 0.5:
+            b = rnd.uniform(-1e-3, 1e-3)
+        else:
+            b = rnd.uniform(-20.0, 20.0) * 10.0 ** rnd.randint(-4, 3)
+        out.append((a, b))
+    return out
+
+
+def test_correctly_rounded_hypot_agrees_with_cpython_bit_for_bit() -> None:
+    """CPython's math.hypot is correctly rounded; so is ``_hypot_cr`` (run here as plain
+    Python: the same operations numba compiles)."""
+    pairs = _pairs(20000, 0) + [
+        (0.0, 0.0),
+        (-0.0, 3.0),
+        (3.0, -4.0),
+        (1e-310, 1e-310),
+        (5e-324, 0.0),
+        (1e300, 1e300),
+        (math.inf, 1.0),
+        (1.0, -math.inf),
+    ]
+    bad = [(a, b) for a, b in pairs if _hypot_cr(a, b) != math.hypot(a, b)]
+    assert not bad, f"{len(bad)} pairs differ, e.g. {bad[0]}"
+    assert math.isnan(_hypot_cr(math.nan, 1.0))
+
+
+def _cases(n: int, seed: int) -> list[tuple[float, ...]]:
+    """(x, y, yaw, vx, vy, r, throttle, brake, delta, mu, lateral_accel): kinematic, blended
+    and dynamic speeds, drive, brake, steering, low grip and wind."""
+    rnd = random.Random(seed)
+    steer_max = _dynamics.default_params().steer_max
+    cases = []
+    for _ in range(n):
+        vx = rnd.choice([rnd.uniform(0.0, 12.0), rnd.uniform(0.0, 5.0), 0.0])
+        cases.append(
+            (
+                rnd.uniform(-60.0, 60.0),
+                rnd.uniform(-60.0, 60.0),
+                rnd.uniform(-math.pi, math.pi),
+                vx,
+                rnd.uniform(-1.0, 1.0) * rnd.choice([0.0, 0.01, 0.5]),
+                rnd.uniform(-1.0, 1.0) * rnd.choice([0.0, 0.1, 1.0]),
+                rnd.choice([0.0, rnd.random(), 1.0]),
+                rnd.choice([0.0, rnd.random(), 1.0]),
+                rnd.uniform(-1.0, 1.0) * steer_max,
+                rnd.choice([1.0, rnd.uniform(0.05, 1.2)]),
+                rnd.choice([0.0, rnd.uniform(-2.0, 2.0)]),
+            )
+        )
+    return cases
+
+
+def test_compiled_integrator_is_bit_identical_to_python() -> None:
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    fast = compiled(_dynamics.integrate)
+    k = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)._k
+    bad = [
+        c for c in _cases(5000, 1) if fast(k, *c, 0.05, 2) != _dynamics.integrate(k, *c, 0.05, 2)
+    ]
+    assert not bad, f"{len(bad)} of 5000 states differ, e.g. {bad[0]}"
+
+
+def test_no_jit_switch_runs_the_python_code(monkeypatch) -> None:
+    monkeypatch.setenv("SITCOV_NO_JIT", "1")
+    assert not enabled()
+    assert compiled(_dynamics.integrate) is None
+
+
+def _not_compilable(x: float) -> object:
+    return object()  # numba's nopython mode cannot build arbitrary objects
+
+
+def test_a_numba_failure_warns_and_falls_back_to_python() -> None:
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    with pytest.warns(RuntimeWarning, match="numba could not compile _not_compilable"):
+        assert compiled(_not_compilable, 1.0) is None
+
+
+def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
+    """A whole braking turn through ``Vehicle.step`` (whichever integrator this process
+    uses) equals the plain-Python integrator's, step by step."""
+    car = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.3, 8.0)
+    ref = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.3, 8.0)
+    for i in range(120):
+        brake = 1.0 if i > 60 else 0.0
+        car.step(0.3 * (i < 60), brake, 0.5, 0.6, 0.2)
+        state = (ref.x, ref.y, ref.yaw, ref.vx, ref.vy, ref.r)
+        if not (0.3 * (i < 60) == 0.0 and ref.vx == ref.vy == ref.r == 0.0):
+            delta = 0.5 * ref.p.steer_max
+            out = _dynamics.integrate(
+                ref._k, *state, 0.3 * (i < 60), brake, delta, 0.6, 0.2, 0.05, 2
+            )
+            x, y, yaw, ref.vx, ref.vy, ref.r = out
+            if yaw > math.pi or yaw < -math.pi:
+                yaw = math.atan2(math.sin(yaw), math.cos(yaw))
+            ref.x, ref.y, ref.yaw = x, y, yaw
+        assert (car.x, car.y, car.yaw, car.vx, car.vy, car.r) == (
+            ref.x,
+            ref.y,
+            ref.yaw,
+            ref.vx,
+            ref.vy,
+            ref.r,
+        ), f"step {i}"
+    assert car.speed == 0.0  # the run really braked to a stop
