@@ -142,13 +142,20 @@ def extract_from_tarball(tarball: Path, dest: Path) -> Path:
         )
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / MODEL_ENTRY
-    tmp = out.with_suffix(".part")
-    tmp.write_bytes(model)
-    tmp.replace(out)
+    _write_atomically(out, model)
     if LABELS_ENTRY in table:
         ls, le = table[LABELS_ENTRY]
-        (dest / LABELS_ENTRY).write_bytes(blob[ls:le])
+        _write_atomically(dest / LABELS_ENTRY, blob[ls:le])
     return out
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so that readers never see a partial file, even when two
+    processes (e.g. parallel test workers) fetch at once: each writes its own temporary file
+    and renames it into place."""
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.part")
+    tmp.write_bytes(data)
+    tmp.replace(path)
 
 
 def fetch_model(dest: str | os.PathLike[str] | None = None, *, npm: str = "npm") -> Path:

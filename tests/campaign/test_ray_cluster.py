@@ -29,7 +29,9 @@ from sitcov.campaign import open_store, run_campaign
 
 ray = need_module("ray", "ray")
 
-pytestmark = pytest.mark.slow
+#: Ray tests share one xdist worker (``--dist loadgroup``): a second local cluster
+#: started beside them could be joined by their ``ray.init``.
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]
 
 #: Runs of the test campaigns; each sleeps SLEEP s so the kill lands mid-campaign.
 RUNS, SLEEP, KILL_AT = 40, 0.25, 10

@@ -10,6 +10,9 @@ from needs import need_module
 from sitcov.campaign import open_store, run_campaign
 from sitcov.campaign._summary import summarize_store
 
+#: Ray tests share one xdist worker (``--dist loadgroup``), see test_ray_cluster.py.
+pytestmark = pytest.mark.xdist_group("ray")
+
 ray = need_module("ray", "ray")
 
 

@@ -84,7 +84,7 @@ def test_the_commands_succeed_on_the_pristine_copy(pristine, tmp_path, capsys):
     "command", [c if c != "report" else pytest.param(c, marks=pytest.mark.slow) for c in COMMANDS]
 )
 def test_damaged_pages_give_one_line_errors(pristine, tmp_path, capsys, command):
-    trials = 40 if command == "report" else 100  # report draws figures: slower
+    trials = 20 if command == "report" else 100  # report draws figures: slower
     rng = np.random.default_rng([2026, sorted(COMMANDS).index(command)])
     data = pristine.read_bytes()
     outcomes: dict[str, int] = {}
