@@ -1,12 +1,12 @@
 """Coverage and failure statistics of campaign runs (counts, coverage, uniformity, Wilson),
 and explanations of the failures (interaction tests, failure regions)."""
 
-from sitcov.analysis._breakdown import breakdowns
 from sitcov.analysis._explain import interaction_analysis
 from sitcov.analysis._regions import explain, explain_lines, failure_regions
 from sitcov.analysis._stats import Z95, uniformity, wilson_interval
 from sitcov.analysis._summary import (
     bin_stats,
+    breakdowns,
     coverage,
     coverage_growth,
     failures_by_kind,

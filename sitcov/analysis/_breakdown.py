@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.analysis._statuses import STATUSES
 from sitcov.hyperspace import Hyperspace
 
 #: Kinds in the order rows are shown (others after them, alphabetically).
@@ -172,18 +173,16 @@ def breakdown_rows(
     """Per column of ``mask`` (runs x names): ``row`` of its runs' status counts.
 
     Args:
-        codes: each run's status index into ``sitcov.analysis._summary._STATUSES``
+        codes: each run's status index into ``sitcov.analysis._statuses.STATUSES``
             (pass, fail, error, timeout; -1: not tallied).
         row: builds a row from ``{status: count}`` (``_summary._bin_row``).
     """
-    from sitcov.analysis._summary import _STATUSES
-
-    onehot = np.zeros((len(codes), len(_STATUSES)), dtype=np.int64)
+    onehot = np.zeros((len(codes), len(STATUSES)), dtype=np.int64)
     tallied = codes >= 0
     onehot[np.flatnonzero(tallied), codes[tallied]] = 1
     counts = mask.T.astype(np.int64) @ onehot
     return {
-        name: row(dict(zip(_STATUSES, map(int, counts[i]), strict=True)))
+        name: row(dict(zip(STATUSES, map(int, counts[i]), strict=True)))
         for i, name in enumerate(names)
     }
 
@@ -259,7 +258,7 @@ def hit_rows(
         ],
         dtype=np.int64,
     ).reshape(-1)
-    judged = (codes == 0) | (codes == 1)  # pass, fail (sitcov.analysis._summary._STATUSES)
+    judged = (codes == 0) | (codes == 1)  # pass, fail (sitcov.analysis._statuses.STATUSES)
     total = int((hit >= 0).sum())
     out = {}
     for k, name in enumerate(names):
@@ -276,24 +275,6 @@ def hit_rows(
             "share": int(mine.sum()) / total if total else None,
         }
     return out
-
-
-def breakdowns(
-    hs: Hyperspace, runs: Any, slot_types: SlotTypes | None = None
-) -> dict[str, dict[str, dict[str, Any]]]:
-    """Failure rates by actor kind and by conflict type over ``runs`` (see the module doc).
-
-    Each row has the per-bin keys of :func:`sitcov.analysis.bin_stats` (generated,
-    failures, passes, errors, timeouts, judged, failure_rate, ci95); a third key,
-    ``hit_kind``, has the rows of :func:`hit_rows` (which road user the ego hit). Runs that
-    do not fit the hyperspace, and pending runs, are left out.
-    """
-    from sitcov.analysis._summary import _Tally
-
-    tally = _Tally(hs)
-    for run in runs:
-        tally.add(run)
-    return tally.breakdowns(slot_types)
 
 
 def run_roles(

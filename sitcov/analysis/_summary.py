@@ -23,9 +23,9 @@ import numpy as np
 
 from sitcov.analysis._breakdown import Roles, SlotTypes, breakdowns_of, run_hit
 from sitcov.analysis._stats import uniformity, wilson_interval
+from sitcov.analysis._statuses import STATUSES
 from sitcov.hyperspace import Hyperspace
 
-_STATUSES = ("pass", "fail", "error", "timeout")
 #: Kinds a failed run can have (``sitcov.sim.FAILURE_KINDS``, repeated to keep analysis
 #: free of simulation imports).
 FAILURE_KINDS = ("collision", "road_departure", "lane_departure")
@@ -122,7 +122,7 @@ def bin_stats(hyperspace: Hyperspace, runs: Iterable[Any]) -> dict[str, dict[str
 
 
 def _bin_stats(hs: Hyperspace, indexed: list[tuple[list[int], str]]) -> dict[str, Any]:
-    tallies = [[dict.fromkeys(_STATUSES, 0) for _ in range(n)] for n in hs.sizes]
+    tallies = [[dict.fromkeys(STATUSES, 0) for _ in range(n)] for n in hs.sizes]
     for idx, status in indexed:
         for e, i in enumerate(idx):
             if status in tallies[e][i]:
@@ -218,8 +218,8 @@ def summarize(
     return {**tally.summary(), "breakdowns": tally.breakdowns(slot_types)}
 
 
-#: Status codes of the tallies (index into _STATUSES); other statuses are not tallied.
-_CODE = {s: i for i, s in enumerate(_STATUSES)}
+#: Status codes of the tallies (index into STATUSES); other statuses are not tallied.
+_CODE = {s: i for i, s in enumerate(STATUSES)}
 
 
 class _Tally:
@@ -229,8 +229,8 @@ class _Tally:
         self.hs = hs
         self.lookup = hs._label_index
         self.names = hs.element_names
-        self.statuses = dict.fromkeys(_STATUSES, 0)
-        self.other = 0  # finished runs with a status outside _STATUSES
+        self.statuses = dict.fromkeys(STATUSES, 0)
+        self.other = 0  # finished runs with a status outside STATUSES
         self.pending = 0
         self.unmatched = 0
         self.kinds = dict.fromkeys(FAILURE_KINDS, 0)  # every failed run, matched or not
@@ -274,13 +274,13 @@ class _Tally:
         out: dict[str, Any] = {}
         for e, element in enumerate(self.hs.elements):
             n = len(element.labels)
-            counts = np.zeros((n, len(_STATUSES)), dtype=np.int64)
+            counts = np.zeros((n, len(STATUSES)), dtype=np.int64)
             np.add.at(counts, (idx[tallied, e], codes[tallied]), 1)
             by_kind = np.zeros((n, len(FAILURE_KINDS)), dtype=np.int64)
             np.add.at(by_kind, (idx[failed, e], kinds[failed]), 1)
             out[element.name] = {
                 label: {
-                    **_bin_row(dict(zip(_STATUSES, map(int, counts[i]), strict=True))),
+                    **_bin_row(dict(zip(STATUSES, map(int, counts[i]), strict=True))),
                     "failures_by_kind": dict(zip(FAILURE_KINDS, map(int, by_kind[i]), strict=True)),
                 }
                 for i, label in enumerate(element.labels)
@@ -415,3 +415,19 @@ def worst_pairs(
             }
         )
     return _ranked(rows, min_judged, top)
+
+
+def breakdowns(
+    hs: Hyperspace, runs: Any, slot_types: SlotTypes | None = None
+) -> dict[str, dict[str, dict[str, Any]]]:
+    """Failure rates by actor kind and by conflict type over ``runs`` (see the module doc).
+
+    Each row has the per-bin keys of :func:`sitcov.analysis.bin_stats` (generated,
+    failures, passes, errors, timeouts, judged, failure_rate, ci95); a third key,
+    ``hit_kind``, has the rows of :func:`hit_rows` (which road user the ego hit). Runs that
+    do not fit the hyperspace, and pending runs, are left out.
+    """
+    tally = _Tally(hs)
+    for run in runs:
+        tally.add(run)
+    return tally.breakdowns(slot_types)
