@@ -16,9 +16,9 @@ import math
 
 import numpy as np
 
+from sitcov.calibration._calibrate import _ego_pose
+from sitcov.calibration._camera_runs import match
 from sitcov.perception import ActorView, CameraSpec, Pose, SSDDetector, project_box, render_frame
-from sitcov.perception._calibrate import _ego_pose
-from sitcov.perception._camera_runs import match
 from sitcov.perception._colors import PALETTE
 from sitcov.sim import conditions_from_values
 

@@ -837,7 +837,7 @@ def render_cmd(
     ),
 ) -> None:
     """Re-simulate a situation and write the ego's dash-cam frame at time T as PNG."""
-    from sitcov.perception._snapshot import parse_situation, render_situation
+    from sitcov.campaign._snapshot import parse_situation, render_situation
 
     text = situation.strip()
     run_seed = 0
@@ -895,7 +895,7 @@ def calibrate_cmd(
         _calibrate_classes_cmd(classes, out, frames, runs, seed, workers, model, samples_out)
         return
 
-    from sitcov.perception._calibrate import calibrate, pem_yaml
+    from sitcov.calibration._calibrate import calibrate, pem_yaml
 
     with Progress(console=err_console, transient=True) as bar:
         task = bar.add_task("calibrating", total=frames + runs)
@@ -942,7 +942,7 @@ def _calibrate_classes_cmd(
 
     from rich.progress import Progress
 
-    from sitcov.perception import _calibrate_classes as cc
+    from sitcov.calibration import _calibrate_classes as cc
 
     kinds = cc.parse_classes(classes)
     with Progress(console=err_console, transient=True) as bar:

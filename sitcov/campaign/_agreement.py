@@ -213,7 +213,7 @@ def check_seeds(
 class SideSettings:
     """What a side needs to run: the PEM file and the detector model (None = defaults);
     ``kind``: situations of the derived hyperspace with a pedestrian or a cyclist only
-    (:func:`sitcov.perception._class_runs.class_hyperspace`); ``pem_classes``: the
+    (:func:`sitcov.calibration._class_runs.class_hyperspace`); ``pem_classes``: the
     per-class PEM file (None = shipped)."""
 
     pem_file: str | None = None
@@ -283,7 +283,7 @@ def _hyperspace(kind: str | None) -> Any:
         from sitcov.hyperspace import load_hyperspace
 
         return load_hyperspace()
-    from sitcov.perception._class_runs import class_hyperspace
+    from sitcov.calibration._class_runs import class_hyperspace
 
     return class_hyperspace(kind)
 
@@ -557,7 +557,7 @@ def run_agreement(
     calibrated = calibration_seeds(pem_file)
     check_seeds(seeds, calibrated, allow=allow_calibration_seeds, pem_file=pem_name)
     if kind is not None:
-        from sitcov.perception._class_runs import check_class_seeds
+        from sitcov.calibration._class_runs import check_class_seeds
 
         check_class_seeds(seeds, kind, pem_classes, allow=allow_calibration_seeds)
     jobs = plan_jobs(seeds, situations, pairs)

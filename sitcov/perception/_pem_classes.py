@@ -10,7 +10,7 @@ pem_logit`) gets its own coefficients per kind, stored in ``data/pem_classes.yam
 
 Missing parameter names take the car PEM's values. The label is the class the detection
 carries. The file is the output of ``sitcov calibrate --classes pedestrian,cyclist``
-(:mod:`sitcov.perception._calibrate_classes`), which fits on the static frames of
+(:mod:`sitcov.calibration._calibrate_classes`), which fits on the static frames of
 :func:`class_sweep` and on frames along recorded camera-mode runs; its command heads the file.
 
 The sweep: random frames of one actor of the kind (distance log-uniform 4-40 m, bearing

@@ -242,7 +242,7 @@ def ssd_model() -> Path:
 def test_command_end_to_end_with_camera_mode(tmp_path: Path, ssd_model, capsys) -> None:
     """Every pair on 3 situations of seed 2, camera mode included, over 2 workers; the
     camera side at run seed A is the camera mode the calibration records."""
-    from sitcov.perception._camera_runs import camera_runs
+    from sitcov.calibration._camera_runs import camera_runs
 
     out = tmp_path / "rows.csv"
     main(["experiment", "agreement", "--seeds", "2", "--situations", "3", "--workers", "2",

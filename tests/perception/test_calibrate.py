@@ -9,8 +9,7 @@ import pytest
 import yaml
 from scipy.special import ndtr
 
-from sitcov.perception import PEMFeatures, PEMParams, load_pem_params, pem_logit
-from sitcov.perception._calibrate import (
+from sitcov.calibration._calibrate import (
     Sample,
     choose_tau,
     fit_pem,
@@ -19,6 +18,7 @@ from sitcov.perception._calibrate import (
     summarize_samples,
     sweep,
 )
+from sitcov.perception import PEMFeatures, PEMParams, load_pem_params, pem_logit
 
 TRUE = PEMParams(
     bias=-0.3, size_gain=1.2, size2_gain=-0.2, side_size_gain=0.3, size_max_px=150.0,
@@ -194,10 +194,10 @@ def test_sweep_with_the_real_detector(ssd_detector) -> None:
 def test_camera_runs_record_what_the_detector_saw(ssd_model) -> None:
     from sitcov._seeding import ask_rng, run_seed
     from sitcov.av import ReferenceStack
+    from sitcov.calibration._camera_runs import camera_runs
     from sitcov.generation import make_generator
     from sitcov.hyperspace import load_hyperspace
     from sitcov.perception import SSDDetector
-    from sitcov.perception._camera_runs import camera_runs
     from sitcov.sim.embedded import EmbeddedBackend
 
     (run,) = camera_runs(1, seed=3, model=ssd_model)
@@ -217,10 +217,10 @@ def test_camera_runs_record_what_the_detector_saw(ssd_model) -> None:
 def _pem_runs(params: PEMParams, n: int) -> list:
     """Camera-run records whose verdicts come from a PEM (a stand-in camera with known noise)."""
     from sitcov.av import ReferenceStack
+    from sitcov.calibration._camera_runs import CameraRun
     from sitcov.generation import make_generator
     from sitcov.hyperspace import load_hyperspace
     from sitcov.perception import PEMSensor
-    from sitcov.perception._camera_runs import CameraRun
     from sitcov.sim.embedded import EmbeddedBackend
 
     backend = EmbeddedBackend(perception="pem", sensor=PEMSensor(params))
@@ -269,7 +269,7 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
 
 
 def test_with_camera_runs_the_sweep_only_fills_in_narrower_boxes() -> None:
-    from sitcov.perception._camera_runs import CameraRun, RunFrame
+    from sitcov.calibration._camera_runs import CameraRun, RunFrame
 
     samples = _synthetic(3000, np.random.default_rng(11))
     wide = [s for s in samples if s.width_px >= 60.0]
@@ -293,7 +293,7 @@ def test_choose_noise_finds_the_intercept_that_made_the_verdicts() -> None:
     candidate with that shift agrees best, under run seeds of its own (cross_seed)."""
     from dataclasses import replace
 
-    from sitcov.perception._calibrate import choose_noise, cross_seed
+    from sitcov.calibration._calibrate import choose_noise, cross_seed
 
     params = replace(load_pem_params(), noise_tau=0.0)
     runs = _pem_runs(replace(params, bias=params.bias + 1.5), 40)

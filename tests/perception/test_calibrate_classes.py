@@ -8,10 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from sitcov.errors import ConfigError
-from sitcov.generation import make_generator
-from sitcov.perception import PEMFeatures
-from sitcov.perception._calibrate_classes import (
+from sitcov.calibration._calibrate_classes import (
     ClassCalibration,
     choose_shift,
     class_agreement,
@@ -19,8 +16,11 @@ from sitcov.perception._calibrate_classes import (
     fit_frames,
     parse_classes,
 )
-from sitcov.perception._camera_runs import CameraRun, RunFrame
-from sitcov.perception._class_runs import check_class_seeds, class_hyperspace
+from sitcov.calibration._camera_runs import CameraRun, RunFrame
+from sitcov.calibration._class_runs import check_class_seeds, class_hyperspace
+from sitcov.errors import ConfigError
+from sitcov.generation import make_generator
+from sitcov.perception import PEMFeatures
 from sitcov.perception._pem_classes import load_class_params
 
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from sitcov.calibration._calibrate import PALETTE
 from sitcov.perception import ActorView, CameraSpec, Pose, project_box, render_frame
-from sitcov.perception._calibrate import PALETTE
 from sitcov.perception._nms import iou
 from sitcov.sim import conditions_from_values
 

@@ -392,7 +392,7 @@ N_SYNTHETIC = 12_000
 
 def synthetic_samples(params: PEMParams, rng: np.random.Generator, n: int) -> list:
     """Frames of a detector that behaves exactly like ``params`` (score and box errors)."""
-    from sitcov.perception._calibrate import Sample
+    from sitcov.calibration._calibrate import Sample
 
     out = []
     for f in random_features(rng, n):
@@ -426,7 +426,7 @@ def test_calibrate_fit_recovers_known_parameters_from_synthetic_frames():
     features. Measured over 10 seeds: mean |error| 0.005-0.010 and 95th percentile
     0.020-0.047, so the tolerances 0.02 and 0.08 leave >= 5 standard deviations.
     """
-    from sitcov.perception._calibrate import fit_pem
+    from sitcov.calibration._calibrate import fit_pem
 
     fit = fit_pem(synthetic_samples(TRUE, np.random.default_rng(2026), N_SYNTHETIC))
     for name in IDENTIFIED:
@@ -447,7 +447,7 @@ def test_calibrate_fit_recovers_known_parameters_from_synthetic_frames():
 
 def test_calibrate_fit_finds_no_effect_where_the_detector_has_none():
     """A detector blind to fog, darkness and rain gives gains near 0 (not the defaults)."""
-    from sitcov.perception._calibrate import fit_pem
+    from sitcov.calibration._calibrate import fit_pem
 
     blind = replace(TRUE, fog_gain=0.0, illum_gain=0.0, rain_gain=0.0)
     fit = fit_pem(synthetic_samples(blind, np.random.default_rng(7), 4000))

@@ -5,7 +5,7 @@ For each kind (pedestrian, cyclist), as ``sitcov calibrate`` does for cars:
 1. :func:`sitcov.perception._pem_classes.class_sweep`: static frames of one actor of the
    kind at random distance, bearing, heading, appearance and weather, rendered and run
    through the SSD (every size and weather value);
-2. :func:`sitcov.perception._class_runs.class_camera_runs`: camera-mode runs of the
+2. :func:`sitcov.calibration._class_runs.class_camera_runs`: camera-mode runs of the
    reference stack through random situations of the kind (the derived t-junction
    hyperspace restricted to it), recorded frame by frame: the geometries and weather
    combinations campaigns meet, in the frames the AEB decides on, and each run's verdict;
@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.calibration._camera_runs import CameraRun
 from sitcov.errors import ConfigError
-from sitcov.perception._camera_runs import CameraRun
 from sitcov.perception._pem import PEMFeatures, PEMParams
 
 #: Intercept shifts [logit] tried by :func:`choose_shift`.
@@ -67,8 +67,8 @@ def class_agreement(
     """(agreement with the runs' camera verdicts, PEM failure rate) of PEM-mode runs of the
     same situations, each under a run seed of its own (:func:`_calibrate.cross_seed`)."""
     from sitcov.av import ReferenceStack
+    from sitcov.calibration._calibrate import cross_seed
     from sitcov.hyperspace import Situation
-    from sitcov.perception._calibrate import cross_seed
     from sitcov.perception._pem import PEMSensor
     from sitcov.sim.embedded import EmbeddedBackend
 
@@ -123,8 +123,8 @@ def calibrate_kind(
     progress: Callable[[str, int], None] | None = None,
 ) -> ClassCalibration:
     """Sweep, record the runs and fit one kind (module doc)."""
+    from sitcov.calibration._class_runs import class_camera_runs
     from sitcov.perception._base import CameraSpec
-    from sitcov.perception._class_runs import class_camera_runs
     from sitcov.perception._pem import load_pem_params
     from sitcov.perception._pem_classes import class_sweep, fit_class, summary
     from sitcov.perception._renderer import KIND_CLASS
@@ -160,7 +160,7 @@ def _runs_summary(runs: Sequence[CameraRun], shift: float, table: dict[str, Any]
 
 def parse_classes(text: str) -> list[str]:
     """``--classes``: comma-separated kinds, each pedestrian or cyclist."""
-    from sitcov.perception._class_runs import CLASS_KINDS
+    from sitcov.calibration._class_runs import CLASS_KINDS
 
     kinds = [k.strip() for k in text.split(",") if k.strip()]
     if not kinds or any(k not in CLASS_KINDS for k in kinds) or len(set(kinds)) != len(kinds):

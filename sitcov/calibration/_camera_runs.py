@@ -7,7 +7,7 @@ of the OV, the score of the detection matching it and that detection's box error
 per run, the verdict. Run ``i`` of seed ``s`` is situation ``ask_rng(s, i)`` of the
 random generator simulated with seed ``run_seed(s, i)``: the convention of
 ``sitcov run --generator random --seed s``, so a PEM can be run on exactly the same
-situations and seeds and its verdicts compared (:func:`sitcov.perception._calibrate.choose_tau`).
+situations and seeds and its verdicts compared (:func:`sitcov.calibration._calibrate.choose_tau`).
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ Two kinds of frames go through the renderer and the detector:
 - ``sweep``: static scenes with the OV at random distance (4-80 m), bearing and heading,
   under clear weather or one weather element at a time. They cover every size and
   weather value, and give the detection-rate checks.
-- :func:`sitcov.perception._camera_runs.camera_runs`: camera-mode runs of the reference
+- :func:`sitcov.calibration._camera_runs.camera_runs`: camera-mode runs of the reference
   stack through random situations, recorded frame by frame. They hold the geometries and
   weather combinations campaigns meet, in the frames where the AEB decides, and each
   run's verdict.
@@ -32,9 +32,9 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.calibration._camera_runs import CameraRun, camera_runs, match
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 from sitcov.perception._camera import project_box
-from sitcov.perception._camera_runs import CameraRun, camera_runs, match
 from sitcov.perception._colors import PALETTE as COLOR_PALETTE
 from sitcov.perception._pem import PEMFeatures, PEMParams, PEMSensor
 from sitcov.perception._renderer import render_frame
@@ -487,7 +487,7 @@ def calibrate(
     """Sweep, record camera runs and fit the PEM; returns (params, summary, samples).
 
     ``frames`` static scenes (:func:`sweep`) and ``runs`` recorded camera-mode runs of
-    seed ``seed`` (:func:`sitcov.perception._camera_runs.camera_runs`, over ``workers``
+    seed ``seed`` (:func:`sitcov.calibration._camera_runs.camera_runs`, over ``workers``
     processes) fit the score model (:func:`fit_pem`); the runs' verdicts choose the
     noise's correlation time and the intercept's shift (:func:`choose_noise`).
     ``progress`` receives the number of steps done out of ``frames + runs``.

@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.calibration._camera_runs import CameraRun, RunFrame, _Recorder, match
 from sitcov.errors import ConfigError
 from sitcov.perception._camera import project_box
-from sitcov.perception._camera_runs import CameraRun, RunFrame, _Recorder, match
 
 #: The kinds a class hyperspace can be restricted to.
 CLASS_KINDS = ("pedestrian", "cyclist")
