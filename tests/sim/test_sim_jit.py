@@ -73,10 +73,9 @@ def _cases(n: int, seed: int) -> list[tuple[float, ...]]:
     return cases
 
 
-def test_compiled_integrator_is_bit_identical_to_python() -> None:
+def test_compiled_integrator_is_bit_identical_to_python(monkeypatch) -> None:
     need_module("numba", "fast")
-    if not enabled():
-        pytest.skip("SITCOV_NO_JIT is set")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # this test is about the compiled path
     fast = compiled(_dynamics.integrate)
     k = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)._k
     bad = [
@@ -95,10 +94,9 @@ def _not_compilable(x: float) -> object:
     return object()  # numba's nopython mode cannot build arbitrary objects
 
 
-def test_a_numba_failure_warns_and_falls_back_to_python() -> None:
+def test_a_numba_failure_warns_and_falls_back_to_python(monkeypatch) -> None:
     need_module("numba", "fast")
-    if not enabled():
-        pytest.skip("SITCOV_NO_JIT is set")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)
     with pytest.warns(RuntimeWarning, match="numba could not compile _not_compilable"):
         assert compiled(_not_compilable, 1.0) is None
 
