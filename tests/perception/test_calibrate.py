@@ -16,6 +16,7 @@ from sitcov.perception._calibrate import (
     fit_pem,
     noise_key,
     pem_agreement,
+    pick_noise,
     pem_yaml,
     summarize_samples,
     sweep,
@@ -263,9 +264,8 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
     runs = data["meta"]["camera_runs"]
     assert runs["runs"] >= 100 and runs["frames"] >= 20 * runs["runs"]
     table = runs["pem_agreement_by_noise"]
-    best = max(row["agreement"] for row in table.values())
     chosen = noise_key(params.noise_tau, runs["noise_scale"], runs["bias_shift"])
-    assert table[chosen]["agreement"] == best
+    assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
     assert params.noise_sigma == round(runs["noise_sigma_fitted"] * runs["noise_scale"], 4)
     assert params.noise_run_share == 0.0
 
@@ -325,3 +325,15 @@ def test_choose_noise_finds_the_noise_scale_that_made_the_verdicts() -> None:
     }
     full, scaled = table["tau=0 scale=1 shift=0"], table["tau=0 scale=0.05 shift=0"]
     assert scaled["agreement"] >= full["agreement"] + 0.05
+
+
+def test_pick_noise_takes_the_closest_failure_rate_within_one_standard_error() -> None:
+    table = {
+        "a": {"agreement": 0.883, "failure_rate": 0.32},
+        "b": {"agreement": 0.877, "failure_rate": 0.42},
+        "c": {"agreement": 0.86, "failure_rate": 0.417},
+    }
+    # one standard error at 0.883 over 300 runs is 0.0186: c (0.023 below) is out
+    assert pick_noise(table, 0.417, 300) == "b"
+    # with 30 000 runs the band is 0.0019 wide: only the best is in it
+    assert pick_noise(table, 0.417, 30000) == "a"
