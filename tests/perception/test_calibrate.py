@@ -16,8 +16,8 @@ from sitcov.perception._calibrate import (
     fit_pem,
     noise_key,
     pem_agreement,
-    pick_noise,
     pem_yaml,
+    pick_noise,
     summarize_samples,
     sweep,
 )
