@@ -315,7 +315,8 @@ def test_choose_noise_finds_the_noise_scale_that_made_the_verdicts() -> None:
 
     from sitcov.perception._calibrate import choose_noise
 
-    params = replace(load_pem_params(), noise_tau=0.0)
+    # the frame-level spread of the detector's scores (the fit's, before any scaling)
+    params = replace(load_pem_params(), noise_tau=0.0, noise_sigma=0.26)
     runs = _pem_runs(replace(params, noise_sigma=round(params.noise_sigma * 0.05, 4)), 60)
     chosen, table = choose_noise(params, runs, taus=(0.0,), scales=(1.0, 0.05), shifts=(0.0,))
     assert chosen.noise_sigma == round(params.noise_sigma * 0.05, 4)
