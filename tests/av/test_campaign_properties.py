@@ -9,9 +9,9 @@ Every claim is a statistical test with both error rates bounded:
 - it PASSES with probability < 1e-3 when the claim is false (the decision rule is an exact
   binomial test at ALPHA = 1e-3, computed below with scipy);
 - it FAILS with probability < 1e-3 when the claim holds with the effect measured on the
-  shipped PEM (the one recalibrated with ``--runs 300``; N = 400-600 situations of seed 7,
-  not the test's seed, 23 Nov 2026), the run counts being chosen for that (power computed
-  with scipy's binomial distribution, in comments).
+  shipped PEM (the one recalibrated in session 5 with the noise scale 0.25; N = 400-600
+  situations of seed 7, not the test's seed, 23 Nov 2026), the run counts being chosen for
+  that (power computed with scipy's binomial distribution, in comments).
 
 "Probability" is over the campaign seed: the situations of one seed are independent draws
 of the ``random`` generator, and a fault or fog run is paired with the no-fault / clear run
@@ -83,11 +83,11 @@ def test_fault_free_rate_is_moderate_and_every_fault_raises_it(runs):
     """Claims: the no-fault failure rate is in [0.05, 0.60]; f1, f2 and f3 each raise it.
 
     Band: with N = 300 the count must lie in [29, 153]; a rate <= 0.05 or >= 0.60 passes
-    with probability < 1e-3 (rate_band). Measured rate 0.3625 (N = 400, seed 7): it fails
-    with probability 7e-8.
+    with probability < 1e-3 (rate_band). Measured rate 0.370 (N = 400, seed 7): it fails
+    with probability 3e-7.
     Faults (sign test, false pass < 1e-3): measured on 400 situations of seed 7, discordant
-    pairs b/c = 112/2 (f1), 60/2 (f2), 57/2 (f3); with N = 300 the test fails with
-    probability 2e-18, 2e-6 and 6e-6.
+    pairs b/c = 156/0 (f1), 54/0 (f2), 36/0 (f3); with N = 300 the test fails with
+    probability < 1e-18, 4e-10 and 3e-5.
     """
     situations, seeds, backend = runs
     situations, seeds = situations[:N], seeds[:N]
@@ -106,9 +106,9 @@ def test_dense_fog_fails_more_often_than_clear_air(runs):
     failure rate over clear air (fog_density 0), situation by situation.
 
     Sign test at ALPHA: false pass < 1e-3. Measured on 600 situations of seed 7: discordant
-    pairs b/c = 71/20 (15.2 % of the pairs discordant; the PEM before the last
-    recalibration gave 80/8); with N_FOG = 800 the test then fails with probability 5.0e-4
-    (8.2e-3 with 600, 9.1e-2 with the former 400). (Fog that starts 60-100 m away barely
+    pairs b/c = 60/3 (10.5 % of the pairs discordant; the two PEMs before gave 71/20 and
+    80/8); with 400 situations the test then fails with probability 1e-4, with N_FOG = 800
+    less. (Fog that starts 60-100 m away barely
     matters where the AEB decides: with fog_distance left as drawn the discordant pairs
     were only 23/6, with the previous PEM.)
     """

@@ -13,8 +13,10 @@ from sitcov.calibration._calibrate import (
     Sample,
     choose_tau,
     fit_pem,
+    noise_key,
     pem_agreement,
     pem_yaml,
+    pick_noise,
     summarize_samples,
     sweep,
 )
@@ -262,9 +264,9 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
     runs = data["meta"]["camera_runs"]
     assert runs["runs"] >= 100 and runs["frames"] >= 20 * runs["runs"]
     table = runs["pem_agreement_by_noise"]
-    best = max(row["agreement"] for row in table.values())
-    chosen = f"tau={params.noise_tau:g} shift={runs['bias_shift']:g}"
-    assert table[chosen]["agreement"] == best
+    chosen = noise_key(params.noise_tau, runs["noise_scale"], runs["bias_shift"])
+    assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
+    assert params.noise_sigma == round(runs["noise_sigma_fitted"] * runs["noise_scale"], 4)
     assert params.noise_run_share == 0.0
 
 
@@ -298,9 +300,41 @@ def test_choose_noise_finds_the_intercept_that_made_the_verdicts() -> None:
     params = replace(load_pem_params(), noise_tau=0.0)
     runs = _pem_runs(replace(params, bias=params.bias + 1.5), 40)
     assert all(cross_seed(r) != r.seed for r in runs)
-    chosen, table = choose_noise(params, runs, taus=(0.0,), shifts=(0.0, 1.5))
+    chosen, table = choose_noise(params, runs, taus=(0.0,), scales=(1.0,), shifts=(0.0, 1.5))
     assert chosen.bias == round(params.bias + 1.5, 4) and chosen.noise_tau == 0.0
-    low, high = table["tau=0 shift=0"], table["tau=0 shift=1.5"]
+    low, high = table["tau=0 scale=1 shift=0"], table["tau=0 scale=1 shift=1.5"]
     assert high["agreement"] > low["agreement"]
     camera_rate = sum(r.failed for r in runs) / len(runs)
     assert abs(high["failure_rate"] - camera_rate) < abs(low["failure_rate"] - camera_rate)
+
+
+def test_choose_noise_finds_the_noise_scale_that_made_the_verdicts() -> None:
+    """Verdicts of a nearly noise-free PEM (its noise scaled by 0.05): the candidate with
+    that scale agrees better than the full noise, which flips verdicts run to run."""
+    from dataclasses import replace
+
+    from sitcov.perception._calibrate import choose_noise
+
+    # the frame-level spread of the detector's scores (the fit's, before any scaling)
+    params = replace(load_pem_params(), noise_tau=0.0, noise_sigma=0.26)
+    runs = _pem_runs(replace(params, noise_sigma=round(params.noise_sigma * 0.05, 4)), 60)
+    chosen, table = choose_noise(params, runs, taus=(0.0,), scales=(1.0, 0.05), shifts=(0.0,))
+    assert chosen.noise_sigma == round(params.noise_sigma * 0.05, 4)
+    assert chosen.bias == params.bias and set(table) == {
+        noise_key(0.0, 1.0, 0.0),
+        noise_key(0.0, 0.05, 0.0),
+    }
+    full, scaled = table["tau=0 scale=1 shift=0"], table["tau=0 scale=0.05 shift=0"]
+    assert scaled["agreement"] >= full["agreement"] + 0.05
+
+
+def test_pick_noise_takes_the_closest_failure_rate_within_one_standard_error() -> None:
+    table = {
+        "a": {"agreement": 0.883, "failure_rate": 0.32},
+        "b": {"agreement": 0.877, "failure_rate": 0.42},
+        "c": {"agreement": 0.86, "failure_rate": 0.417},
+    }
+    # one standard error at 0.883 over 300 runs is 0.0186: c (0.023 below) is out
+    assert pick_noise(table, 0.417, 300) == "b"
+    # with 30 000 runs the band is 0.0019 wide: only the best is in it
+    assert pick_noise(table, 0.417, 30000) == "a"
