@@ -313,7 +313,7 @@ def test_choose_noise_finds_the_noise_scale_that_made_the_verdicts() -> None:
     that scale agrees better than the full noise, which flips verdicts run to run."""
     from dataclasses import replace
 
-    from sitcov.perception._calibrate import choose_noise
+    from sitcov.calibration._calibrate import choose_noise
 
     # the frame-level spread of the detector's scores (the fit's, before any scaling)
     params = replace(load_pem_params(), noise_tau=0.0, noise_sigma=0.26)
