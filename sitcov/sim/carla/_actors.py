@@ -38,8 +38,18 @@ from sitcov.sim.carla._mapfile import CarlaMap
 from sitcov.sim.carla._metrics import MetricTracker, VehicleState
 from sitcov.sim.carla._state import vehicle_state
 from sitcov.sim.embedded._actors import Actor
-from sitcov.sim.embedded._map import load_map
-from sitcov.sim.embedded._scene import ScenePlan, build_actors, parse_scene
+from sitcov.sim.embedded._bodies import body_spec
+from sitcov.sim.embedded._controllers import CROSSING_BEHAVIOURS
+from sitcov.sim.embedded._map import JunctionMap, find_conflict, load_map
+from sitcov.sim.embedded._path import Path
+from sitcov.sim.embedded._scene import (
+    ActorPlan,
+    ScenePlan,
+    _controller,
+    _kerb,
+    build_actors,
+    parse_scene,
+)
 from sitcov.sim.embedded._world import World
 
 #: Spawn height [m] above the map's ground (walkers are placed by their centre).
@@ -50,6 +60,8 @@ END_MARGIN = 1.0
 DERIVED_CONFLICT = re.compile(r"k\d+")
 #: Number of wheels a cyclist's blueprint must have.
 BICYCLE_WHEELS = 2
+#: Behaviours whose controllers time the actor on the ego's arc length to the conflict.
+EGO_TIMED = frozenset({"timed", *CROSSING_BEHAVIOURS})
 
 
 @dataclass(frozen=True)
@@ -168,8 +180,18 @@ class ScenePlanned:
         return self.plan.actors[0].kind == "car"
 
 
-def plan_scene(spec: CarlaMap, values: Mapping[str, Any], seed: int) -> ScenePlanned | None:
+def plan_scene(
+    spec: CarlaMap,
+    values: Mapping[str, Any],
+    seed: int,
+    ego_route: list[tuple[float, float]] | None = None,
+) -> ScenePlanned | None:
     """The actors a situation adds to the paper's two cars; None for the paper's scene.
+
+    Args:
+        ego_route: the lane route the CARLA ego drives (CARLA frame), if known: every twin's
+            conflict and controller are then taken against it (:func:`follow_carla_route`);
+            without it they are the embedded ego path's (enough for routes and spawns).
 
     Raises:
         ConfigError: bad ``intsit``/``actorN`` values, a route the embedded map lacks, or
@@ -180,8 +202,45 @@ def plan_scene(spec: CarlaMap, values: Mapping[str, Any], seed: int) -> ScenePla
         return None
     jmap = load_map(spec.embedded_map)
     ego, actors = build_actors(jmap, plan, values, seed, AdversaryParams())
-    twins = actors[1:] if plan.actors[0].kind == "car" else actors
-    return ScenePlanned(plan, ego, twins, Frame.of(spec))
+    frame = Frame.of(spec)
+    pairs = list(zip(plan.actors, actors, strict=True))
+    if plan.actors[0].kind == "car":
+        pairs = pairs[1:]  # the paper's OV driver drives a car OV on CARLA's lanes
+    if ego_route is not None:
+        path = Path.from_points([frame.to_map(x, -y, 0.0)[:2] for x, y in ego_route])
+        follow_carla_route(jmap, plan.ego, ego, path, pairs)
+    return ScenePlanned(plan, ego, [actor for _, actor in pairs], frame)
+
+
+def follow_carla_route(
+    jmap: JunctionMap,
+    ego_move: str,
+    ego: Actor,
+    path: Path,
+    pairs: list[tuple[ActorPlan, Actor]],
+) -> None:
+    """Put the embedded ego on ``path`` (the CARLA ego's lane route, embedded map frame) and
+    re-derive the conflict and controller of each actor that times itself on the ego's
+    progress (``timed``, the pedestrian crossing behaviours) against it. Scripted traffic
+    keeps the embedded scene's conflict: its stop point is a place on its own route.
+
+    Why: the controllers time their arrival with the ego's arc length on its route
+    (``world.ego.s``) against the conflict's ``s_ego``. CARLA's lane planner gives a route
+    of its own through the junction, so the embedded ego path is the wrong ruler for the
+    CARLA ego: measured on it, a timed pedestrian aimed at a crossing point about a metre
+    beside the lane the ego really drove and crossed behind it (issue 12's blind-ego
+    check). Measuring both the ego's progress and the conflict on the route the ego
+    drives makes the timing law hold as in the embedded world.
+    """
+    ego.route, ego.s, ego.hint = path, 0.0, 0
+    car = body_spec("car")
+    for plan, actor in pairs:
+        if plan.behaviour not in EGO_TIMED:
+            continue
+        gap = 0.5 * (car.width + actor.spec.width)
+        actor.conflict = find_conflict(path, actor.route, gap)
+        kerb = _kerb(jmap, actor.route) if actor.kind == "pedestrian" else 0.0
+        actor.controller = _controller(jmap, plan, actor, ego_move, path, AdversaryParams(), kerb)
 
 
 def conflict_point(spec: CarlaMap, values: Mapping[str, Any], label: str) -> tuple[float, float]:
@@ -310,9 +369,12 @@ class Scene:
         """Read every twin back from CARLA; move the embedded ego; update the metrics."""
         view = self.view
         view.t, view.ego_speed = t, ego.speed
-        body = view.ego.body
+        me = view.ego
+        body = me.body
         body.x, body.y, body.yaw = self.scene.frame.to_map(ego.x, ego.y, ego.yaw)
-        view.ego.track()
+        # the closest route point near the last one: a lane route may turn at a sharp
+        # corner the ego cuts, where Path.track would stay on the segment before it
+        me.s, me.hint = me.route.project(body.x, body.y, me.hint)
         for tw in self.twins:
             state = self.states[tw.name] = tw.state()
             tw.sync(state)

@@ -441,9 +441,11 @@ class CarlaBackend(Backend):
         conflict point (raises ConfigError on bad values before anything is spawned)."""
         spec = self.map
         ego_mv, ov_mv, label = self._intsit(situation)
-        scene = plan_scene(spec, situation.values, seed)  # None: the paper's two cars
-        car_ov = scene is None or scene.car_ov
         ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
+        ego_route = self._route(cmap, ego_sp, ego_goal)
+        # None: the paper's two cars; the twins time their arrival on the ego's lane route
+        scene = plan_scene(spec, situation.values, seed, ego_route)
+        car_ov = scene is None or scene.car_ov
         ov_sp = spec.ov_spawn(ov_mv) if car_ov else None
         return _RunPlan(
             ego_move=ego_mv,
@@ -451,7 +453,7 @@ class CarlaBackend(Backend):
             scene=scene,
             ego_spawn=ego_sp,
             ego_goal=ego_goal,
-            ego_route=self._route(cmap, ego_sp, ego_goal),
+            ego_route=ego_route,
             ov_spawn=ov_sp,
             ov_route=self._route(cmap, ov_sp, spec.goal(ov_mv)) if ov_sp is not None else [],
             conflict=conflict_point(spec, situation.values, label) if car_ov else None,

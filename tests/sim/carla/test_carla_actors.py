@@ -53,6 +53,60 @@ def test_a_blind_ego_hits_the_timed_pedestrian(tmp_path: Path) -> None:
     assert server.actors == {}  # everything destroyed
 
 
+#: A lane route like the fake server's for the ego's L-B (CARLA frame): east to the
+#: junction centre, a sharp corner, then on to leg B's goal, beside the embedded ego path.
+CORNER_ROUTE = [(float(x), -1.75 + 1.75 * (x + 40.0) / 40.0) for x in range(-40, 1)] + [
+    (-1.75 * y / 30.0, float(y)) for y in range(1, 31)
+]
+
+
+def test_timed_twins_meet_the_ego_on_its_carla_route(tmp_path: Path) -> None:
+    """The timing law measures the ego on the route it drives in CARLA, not on the embedded
+    ego path: the twin's conflict is the one with that route, and the ego's arc length
+    follows it through a corner the ego cuts (the blind-ego collisions depend on both)."""
+    from sitcov.sim.carla._actors import Scene, plan_scene
+    from sitcov.sim.carla._metrics import VehicleState
+    from sitcov.sim.embedded._map import find_conflict
+
+    spec = load_carla_map(small_map(tmp_path))
+    sit = scene(PEDESTRIAN_OV)
+    planned = plan_scene(spec, sit.values, 1, CORNER_ROUTE)
+    frame = Frame.of(spec)
+    ego_path = planned.ego.route
+    expected = [frame.to_map(x, -y, 0.0)[:2] for x, y in CORNER_ROUTE]
+    assert ego_path.points == pytest.approx(expected)
+    (ped,) = planned.actors
+    gap = 0.5 * (body_spec("car").width + body_spec("pedestrian").width)
+    conflict = find_conflict(ego_path, ped.route, gap)
+    assert ped.controller.s_ego == pytest.approx(conflict.s_ego)
+    assert ped.controller.s_self == pytest.approx(conflict.s_ov)
+    # without the route: the embedded ego path, a different ruler (about 24 m longer here)
+    embedded = plan_scene(spec, sit.values, 1).actors[0].controller.s_ego
+    assert abs(embedded - conflict.s_ego) > 5.0
+    # an ego cutting the corner inside (as the fake server's ego drove it): its arc length
+    # keeps growing past the corner
+    view = Scene(planned, [], [(x, -y) for x, y in CORNER_ROUTE], DT, 1.0)
+    ego_xy = [(float(x), -1.75 * x / 40.0) for x in range(-40, -4)]
+    ego_xy += [(-3.44, -0.58), (-2.21, -1.79), (-1.38, -3.31), (-0.88, -4.97), (-0.62, -6.69)]
+    ego_xy += [(-0.52 - 0.04 * j, -8.42 - j) for j in range(20)]
+    arc = []
+    for k, (sx, sy) in enumerate(ego_xy):
+        view.observe(k * 0.2, VehicleState(sx, sy, 0.0, 5.0, 0.0, 2.4, 0.9), record=False)
+        arc.append(planned.ego.s)
+    assert np.all(np.diff(arc) > 0.0)
+    assert arc[-1] == pytest.approx(ego_path.length - 2.6, abs=0.5)  # y = -27.4: 2.6 m to go
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("intsit", [PEDESTRIAN_OV, CYCLIST_OV], ids=["pedestrian", "cyclist"])
+def test_a_blind_ego_hits_timed_road_users_on_every_seed(tmp_path: Path, intsit: dict) -> None:
+    backend, _ = fake_backend(small_map(tmp_path))
+    for seed in range(4):
+        out = backend.run(scene(intsit), DrivingStack(), seed=seed)
+        assert (out.status, out.end_reason) == ("fail", "collision"), seed
+        assert out.metrics["collision_kind"] == intsit["kind"]
+
+
 def test_walker_control_is_unit_direction_and_body_limited_speed(tmp_path: Path) -> None:
     backend, server = fake_backend(small_map(tmp_path))
     backend.run(scene(PEDESTRIAN_OV), DrivingStack(), seed=1)
