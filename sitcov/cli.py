@@ -883,6 +883,12 @@ def calibrate_cmd(
     classes: Optional[str] = typer.Option(  # noqa: UP045
         None, "--classes", help="pedestrian,cyclist: fit the per-class PEM (pem_classes.yaml)."
     ),
+    from_samples: Optional[Path] = typer.Option(  # noqa: UP045
+        None,
+        "--from-samples",
+        help="With --classes: refit from a --samples file (.jsonl or .jsonl.gz) instead of "
+        "rendering and running (--frames/--runs ignored).",
+    ),
 ) -> None:
     """Sweep distance, bearing, view and weather through renderer + detector; fit the PEM."""
     import json
@@ -892,8 +898,14 @@ def calibrate_cmd(
     from rich.progress import Progress
 
     if classes is not None:
-        _calibrate_classes_cmd(classes, out, frames, runs, seed, workers, model, samples_out)
+        _calibrate_classes_cmd(
+            classes, out, frames, runs, seed, workers, model, samples_out, from_samples
+        )
         return
+    if from_samples is not None:
+        from sitcov.errors import ConfigError
+
+        raise ConfigError(field="--from-samples", expected="--classes with it")
 
     from sitcov.calibration._calibrate import calibrate, pem_yaml
 
@@ -935,7 +947,7 @@ def calibrate_cmd(
 
 def _calibrate_classes_cmd(
     classes: str, out: Path | None, frames: int, runs: int, seed: int, workers: int,
-    model: Path | None, samples_out: Path | None,
+    model: Path | None, samples_out: Path | None, from_samples: Path | None = None,
 ) -> None:  # fmt: skip
     """``sitcov calibrate --classes``: the per-class PEM file (owner: classes)."""
     import shlex
@@ -945,14 +957,19 @@ def _calibrate_classes_cmd(
     from sitcov.calibration import _calibrate_classes as cc
 
     kinds = cc.parse_classes(classes)
-    with Progress(console=err_console, transient=True) as bar:
-        tasks = {k: bar.add_task(f"calibrating {k}", total=frames + runs) for k in kinds}
-        results = cc.calibrate_classes(
-            kinds, frames, runs, seed=seed, model=None if model is None else str(model),
-            workers=workers, progress=lambda k, i: bar.update(tasks[k], completed=i),
-        )  # fmt: skip
-    command = f"sitcov calibrate --classes {','.join(kinds)} --frames {frames} --runs {runs}"
-    command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
+    if from_samples is not None:
+        results = cc.refit_from_samples(kinds, from_samples)
+        command = f"sitcov calibrate --classes {','.join(kinds)} --from-samples "
+        command += f"{shlex.quote(str(from_samples))} --seed {seed}"
+    else:
+        with Progress(console=err_console, transient=True) as bar:
+            tasks = {k: bar.add_task(f"calibrating {k}", total=frames + runs) for k in kinds}
+            results = cc.calibrate_classes(
+                kinds, frames, runs, seed=seed, model=None if model is None else str(model),
+                workers=workers, progress=lambda k, i: bar.update(tasks[k], completed=i),
+            )  # fmt: skip
+        command = f"sitcov calibrate --classes {','.join(kinds)} --frames {frames} --runs {runs}"
+        command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     text = cc.classes_yaml(results, command, seed)
@@ -968,7 +985,7 @@ def _calibrate_classes_cmd(
         err_console.print(
             f"{r.kind}: clear, box >= 10% height: detected {r.summary['clear_box_ge_10pct_rate']}"
             f"; {cam.get('runs', 0)} camera runs fail {cam.get('failure_rate_camera')}, "
-            f"bias shift {cam.get('bias_shift')}",
+            f"bias shift {cam.get('bias_shift_sigmas')} noise_sigma",
             highlight=False,
         )
 

@@ -9,12 +9,18 @@ For each kind (pedestrian, cyclist), as ``sitcov calibrate`` does for cars:
    reference stack through random situations of the kind (the derived t-junction
    hyperspace restricted to it), recorded frame by frame: the geometries and weather
    combinations campaigns meet, in the frames the AEB decides on, and each run's verdict;
-3. :func:`sitcov.perception._pem_classes.fit_class` on the runs' frames plus the sweep's
-   frames with boxes lower than any the runs rendered (below the frame gate);
-4. :func:`choose_shift`: the intercept shift whose PEM-mode verdicts (under run seeds of
-   their own) agree most with the runs' camera verdicts. A run's verdict hangs on the
-   first frame that passes the AEB's test, and the frames a camera run records are those
-   before its AEB fired, so the frame-level fit alone is biased towards the hard frames.
+3. :func:`sitcov.perception._pem_classes.fit_class` on the sweep's frames and the runs'
+   frames together;
+4. :func:`choose_shift`: the intercept shift, in units of the fitted ``noise_sigma``,
+   whose PEM-mode verdicts (under run seeds of their own) agree with the runs' camera
+   verdicts. A run's verdict hangs on the first frame that passes the AEB's test, and the
+   frames a camera run records are those before its AEB fired, so the frame-level fit
+   alone may be biased towards the hard frames. The shift is in ``noise_sigma`` units
+   because a frame's P(score >= 0.5) is ``Phi(z / noise_sigma)``: a fixed shift in logit
+   units moves classes with a small noise_sigma by many standard deviations. Shifts whose
+   agreement is within :data:`AGREEMENT_TOLERANCE` of the best go to the smallest
+   ``|shift|``: verdict agreement is flat near its best (the AEB acts on one frame), and
+   a larger shift buys a run or two of agreement with a frame-level over-report.
 
 Everything goes into one file (``data/pem_classes.yaml``), headed by the command.
 """
@@ -31,8 +37,11 @@ from sitcov.calibration._camera_runs import CameraRun
 from sitcov.errors import ConfigError
 from sitcov.perception._pem import PEMFeatures, PEMParams
 
-#: Intercept shifts [logit] tried by :func:`choose_shift`.
-BIAS_SHIFTS = (-0.6, -0.4, -0.2, 0.0, 0.2, 0.4, 0.6, 0.8, 1.0)
+#: Intercept shifts [in units of the fitted noise_sigma] tried by :func:`choose_shift`.
+BIAS_SHIFTS = (-2.0, -1.5, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5, 2.0)
+#: Agreement within this of the best counts as a tie, which goes to the smallest |shift|
+#: (3 runs in 150: about half the Wilson half-width of a 97 % agreement on 150 runs).
+AGREEMENT_TOLERANCE = 0.02
 #: Camera-mode runs per kind by default.
 DEFAULT_RUNS = 150
 
@@ -52,13 +61,15 @@ class ClassCalibration:
 def fit_frames(
     sweep: Sequence[tuple[PEMFeatures, float]], runs: Sequence[CameraRun]
 ) -> list[tuple[PEMFeatures, float]]:
-    """The frames the fit uses: every run frame, and sweep frames lower than the lowest
-    box the runs rendered (where the runs say nothing)."""
+    """The frames the fit uses: every sweep frame and every run frame (a box of >= 1 px).
+
+    The sweep covers every size and weather value evenly; the runs add the geometries the
+    AEB decides on. Fitting on the runs alone (with only the sweep's frames below them)
+    left the PEM 19 points under the SSD at >= 0.5 on static cyclist boxes >= 70 px."""
     run_frames = [
         (f.features, f.score) for r in runs for f in r.frames if f.features.height_px >= 1
     ]
-    lowest = min((f.height_px for f, _ in run_frames), default=float("inf"))
-    return [s for s in sweep if s[0].height_px < lowest] + run_frames
+    return list(sweep) + run_frames
 
 
 def class_agreement(
@@ -90,25 +101,30 @@ def choose_shift(
     runs: Sequence[CameraRun],
     shifts: Sequence[float] = BIAS_SHIFTS,
 ) -> tuple[PEMParams, dict[str, Any]]:
-    """The intercept shift whose verdicts agree most with the camera's (module doc).
+    """The intercept shift (``shift * noise_sigma``) chosen from the verdicts (module doc).
 
-    Ties go to the smaller failure-rate gap, then to the smaller shift. Returns the shifted
-    parameters and every candidate's agreement and failure rate.
+    Returns the shifted parameters and every candidate's agreement and failure rate.
     """
     from dataclasses import replace
 
-    camera_rate = sum(r.failed for r in runs) / max(1, len(runs))
     table: dict[str, Any] = {}
-    best: tuple[tuple[float, float, float], PEMParams] | None = None
+    cands: list[tuple[float, float, PEMParams]] = []
     for shift in shifts:
-        cand = replace(params, bias=round(params.bias + shift, 4))
+        cand = replace(params, bias=round(params.bias + shift * params.noise_sigma, 4))
         agree, rate = class_agreement(kind, label, cand, runs)
         table[f"shift={shift:g}"] = {"agreement": round(agree, 3), "failure_rate": round(rate, 3)}
-        key = (round(agree, 9), -round(abs(rate - camera_rate), 9), -abs(shift))
-        if best is None or key > best[0]:
-            best = (key, cand)
-    assert best is not None
-    return best[1], table
+        cands.append((agree, shift, cand))
+    return pick_shift(cands), table
+
+
+def pick_shift(cands: Sequence[tuple[float, float, PEMParams]]) -> PEMParams:
+    """Of (agreement, shift, params) candidates, the smallest ``|shift|`` whose agreement is
+    within :data:`AGREEMENT_TOLERANCE` of the best (ties: the negative shift)."""
+    if not cands:
+        raise ValueError("pick_shift needs at least one candidate")
+    best = max(a for a, _, _ in cands)
+    near = [c for c in cands if c[0] >= best - AGREEMENT_TOLERANCE - 1e-12]
+    return min(near, key=lambda c: (abs(c[1]), c[1]))[2]
 
 
 def calibrate_kind(
@@ -124,12 +140,8 @@ def calibrate_kind(
 ) -> ClassCalibration:
     """Sweep, record the runs and fit one kind (module doc)."""
     from sitcov.calibration._class_runs import class_camera_runs
-    from sitcov.perception._base import CameraSpec
-    from sitcov.perception._pem import load_pem_params
-    from sitcov.perception._pem_classes import class_sweep, fit_class, summary
-    from sitcov.perception._renderer import KIND_CLASS
+    from sitcov.perception._pem_classes import class_sweep
 
-    label = KIND_CLASS[kind]
     sweep = class_sweep(kind, frames, detector, seed=seed)
     if progress is not None:
         progress(kind, frames)
@@ -137,12 +149,37 @@ def calibrate_kind(
         kind, runs, seed=seed, model=model, workers=workers,
         progress=None if progress is None else (lambda r: progress(kind, frames + r)),
     )  # fmt: skip
+    return fit_kind(kind, sweep, recorded)
+
+
+def fit_kind(
+    kind: str,
+    sweep: Sequence[tuple[PEMFeatures, float]],
+    recorded: Sequence[CameraRun],
+    *,
+    shift: bool = True,
+) -> ClassCalibration:
+    """Fit one kind on its sweep and recorded runs (step 3) and choose the shift (step 4).
+
+    Without ``shift`` the frame fit is kept and the agreement by shift is only recorded:
+    a refit from stored runs re-simulates their situations under today's simulator, whose
+    verdicts may no longer be comparable with the stored camera verdicts.
+    """
+    from sitcov.perception._base import CameraSpec
+    from sitcov.perception._pem import load_pem_params
+    from sitcov.perception._pem_classes import fit_class, summary
+    from sitcov.perception._renderer import KIND_CLASS
+
+    label = KIND_CLASS[kind]
     fitted = fit_class(fit_frames(sweep, recorded), load_pem_params())
     params, table = (fitted, {}) if not recorded else choose_shift(kind, label, fitted, recorded)
+    params = params if shift else fitted
     info = summary(sweep, CameraSpec())
     if recorded:
-        info["camera_runs"] = _runs_summary(recorded, params.bias - fitted.bias, table)
-    return ClassCalibration(kind, label, params, sweep, recorded, info)
+        chosen = (params.bias - fitted.bias) / fitted.noise_sigma
+        info["camera_runs"] = _runs_summary(recorded, chosen, table)
+        info["camera_runs"]["shift_applied"] = shift
+    return ClassCalibration(kind, label, params, list(sweep), list(recorded), info)
 
 
 def _runs_summary(runs: Sequence[CameraRun], shift: float, table: dict[str, Any]) -> dict:
@@ -153,7 +190,7 @@ def _runs_summary(runs: Sequence[CameraRun], shift: float, table: dict[str, Any]
         "events_score_ge_0.5": sum(f.score >= 0.5 for f in frames),
         "failure_rate_camera": round(sum(r.failed for r in runs) / len(runs), 3),
         "cpu_s_per_run": round(sum(r.cpu_s for r in runs) / len(runs), 3),
-        "bias_shift": round(shift, 4),
+        "bias_shift_sigmas": round(shift, 4),
         "pem_agreement_by_shift": table,
     }
 
@@ -218,3 +255,54 @@ def write_samples(path: Any, results: Sequence[ClassCalibration]) -> None:
                 fh.write(json.dumps(row) + "\n")
             for run in r.runs:
                 fh.write(json.dumps({"kind": r.kind, "run": asdict(run)}) + "\n")
+
+
+def read_samples(
+    path: Any,
+) -> dict[str, tuple[list[tuple[PEMFeatures, float]], list[CameraRun]]]:
+    """What :func:`write_samples` wrote: per kind, the sweep frames and the recorded runs."""
+    import json
+
+    from sitcov.calibration._camera_runs import RunFrame
+
+    out: dict[str, tuple[list[tuple[PEMFeatures, float]], list[CameraRun]]] = {}
+    import gzip
+
+    opener = gzip.open if str(path).endswith(".gz") else open
+    try:
+        fh = opener(path, "rt")
+    except OSError as exc:
+        raise ConfigError(file=str(path), expected="a readable --samples file") from exc
+    with fh:
+        for n, line in enumerate(fh, 1):
+            try:
+                row = json.loads(line)
+                sweep, runs = out.setdefault(row["kind"], ([], []))
+                if "sweep" in row:
+                    sweep.append((PEMFeatures(*row["sweep"]), float(row["score"])))
+                    continue
+                run = dict(row["run"])
+                run["frames"] = tuple(
+                    RunFrame(**{**f, "features": PEMFeatures(*f["features"]),
+                                "box_error": None if f["box_error"] is None
+                                else tuple(f["box_error"])})
+                    for f in run["frames"]
+                )  # fmt: skip
+                runs.append(CameraRun(**run))
+            except (ValueError, KeyError, TypeError) as exc:
+                raise ConfigError(
+                    file=str(path), field=f"line {n}", value=line[:60],
+                    expected="a sweep or run row written by --samples",
+                ) from exc  # fmt: skip
+    return out
+
+
+def refit_from_samples(kinds: Sequence[str], path: Any) -> list[ClassCalibration]:
+    """:func:`fit_kind` for every kind on a :func:`write_samples` file (no rendering), the
+    frame fit without the verdict-chosen shift (see :func:`fit_kind`)."""
+    data = read_samples(path)
+    missing = [k for k in kinds if k not in data or not data[k][0]]
+    if missing:
+        raise ConfigError(file=str(path), field="kind", value=",".join(missing),
+                          expected="sweep frames of every kind asked for")  # fmt: skip
+    return [fit_kind(kind, *data[kind], shift=False) for kind in kinds]

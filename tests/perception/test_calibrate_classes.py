@@ -15,6 +15,9 @@ from sitcov.calibration._calibrate_classes import (
     classes_yaml,
     fit_frames,
     parse_classes,
+    pick_shift,
+    read_samples,
+    write_samples,
 )
 from sitcov.calibration._camera_runs import CameraRun, RunFrame
 from sitcov.calibration._class_runs import check_class_seeds, class_hyperspace
@@ -52,11 +55,12 @@ def _run(index: int, heights: list[float], failed: bool, situation: dict | None 
     return CameraRun(index, 1000 + index, situation or {}, failed, None, frames)
 
 
-def test_fit_uses_every_run_frame_and_sweep_frames_below_the_runs() -> None:
+def test_fit_uses_every_sweep_frame_and_every_run_frame() -> None:
     sweep = [(_feats(h), 0.4) for h in (10.0, 30.0, 44.0, 50.0, 120.0)]
-    runs = [_run(0, [45.0, 80.0], False), _run(1, [60.0], True)]
+    runs = [_run(0, [45.0, 80.0, 0.5], False), _run(1, [60.0], True)]
     used = fit_frames(sweep, runs)
-    assert sorted(f.height_px for f, _ in used) == [10.0, 30.0, 44.0, 45.0, 60.0, 80.0]
+    assert sorted(f.height_px for f, _ in used) == [10.0, 30.0, 44.0, 45.0, 50.0, 60.0, 80.0,
+                                                    120.0]  # fmt: skip
     assert len(fit_frames(sweep, [])) == len(sweep)
 
 
@@ -82,12 +86,37 @@ def test_choose_shift_follows_the_camera_verdicts() -> None:
     for failed, sign in ((True, -1), (False, 1)):
         runs = [_run(i, [], failed, s) for i, s in enumerate(sits)]
         chosen, table = choose_shift("pedestrian", label, params, runs, shifts)
-        shift = chosen.bias - params.bias
+        shift = round((chosen.bias - params.bias) / params.noise_sigma, 3)
         assert table[f"shift={shift:g}"]["agreement"] >= table["shift=0"]["agreement"]
         assert shift * sign >= 0, (failed, table)
     agree, rate = class_agreement("pedestrian", label, replace(params, bias=-9.0), runs)
     assert rate >= table["shift=0"]["failure_rate"]  # a PEM that never sees fails more
     assert agree == pytest.approx(1.0 - rate)  # every camera run passed
+
+
+def test_pick_shift_sends_near_ties_to_the_smallest_shift() -> None:
+    """Within AGREEMENT_TOLERANCE (0.02) of the best agreement the smallest |shift| wins;
+    a clearly better shift still wins; equal |shift| goes to the negative one."""
+    p = {s: s for s in (-1.0, 0.0, 0.5, 1.0, 2.0)}
+    assert pick_shift([(0.96, 0.0, p[0.0]), (0.98, 1.0, p[1.0]), (0.97, 0.5, p[0.5])]) == 0.0
+    assert pick_shift([(0.90, 0.0, p[0.0]), (0.98, 2.0, p[2.0]), (0.965, 0.5, p[0.5])]) == 0.5
+    assert pick_shift([(0.90, 0.0, p[0.0]), (0.98, 2.0, p[2.0]), (0.955, 0.5, p[0.5])]) == 2.0
+    assert pick_shift([(0.95, 1.0, p[1.0]), (0.95, -1.0, p[-1.0])]) == -1.0
+    with pytest.raises(ValueError):
+        pick_shift([])
+
+
+def test_samples_round_trip_and_bad_rows_are_one_error(tmp_path) -> None:
+    label, params = load_class_params()["pedestrian"]
+    sweep = [(_feats(h), 0.1 * i) for i, h in enumerate((12.0, 40.0, 90.0))]
+    runs = [_run(0, [45.0, 80.0], False, {"a": 1}), _run(1, [], True)]
+    cal = ClassCalibration("pedestrian", label, params, sweep, runs, {})
+    path = tmp_path / "samples.jsonl"
+    write_samples(path, [cal])
+    assert read_samples(path) == {"pedestrian": (sweep, runs)}
+    path.write_text('{"kind": "pedestrian", "run": {"index": 1}}\n')
+    with pytest.raises(ConfigError, match="line 1"):
+        read_samples(path)
 
 
 def test_stored_file_round_trips(tmp_path) -> None:

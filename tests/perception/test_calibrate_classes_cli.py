@@ -44,3 +44,21 @@ def test_small_fit_writes_a_loadable_file(tmp_path: Path, ssd_model: Path) -> No
     assert meta["pedestrian"]["camera_runs"]["runs"] == 3
     label, params = load_class_params(out)["pedestrian"]
     assert label == "person" and params.noise_sigma > 0
+
+
+def test_bad_from_samples_is_one_message(tmp_path: Path) -> None:
+    """Without --classes, a missing file, a bad row: each one line naming what is wrong."""
+    good = tmp_path / "s.jsonl"
+    good.write_text('{"kind": "pedestrian", "sweep": [30.0, 0.0, 0.0], "score": 0.4}\n')
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("not json\n")
+    cases = (
+        (("--from-samples", str(good)), "--from-samples"),
+        (("--classes", "pedestrian", "--from-samples", str(tmp_path / "none.jsonl")), "none"),
+        (("--classes", "pedestrian", "--from-samples", str(bad)), "line 1"),
+        (("--classes", "cyclist", "--from-samples", str(good)), "kind"),
+    )
+    for args, needle in cases:
+        result = sitcov("calibrate", *args)
+        assert result.returncode == 2, (args, result.stderr)
+        assert needle in result.stderr and "Traceback" not in result.stderr + result.stdout
