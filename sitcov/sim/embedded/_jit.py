@@ -104,10 +104,14 @@ def hypot_cr() -> Callable[[float, float], float]:
     return _HYPOT
 
 
-def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None:
+def compiled(
+    fn: Callable[..., Any], *example: Any, helpers: tuple[Callable[..., Any], ...] = ()
+) -> Callable[..., Any] | None:
     """``fn`` compiled by numba (its ``hypot`` global bound to :func:`hypot_cr`), or None
     when numba is not :func:`enabled`.
 
+    ``helpers`` are the plain-float functions ``fn`` calls by their global names; they are
+    compiled the same way and bound under those names (in ``fn`` and in each other).
     With ``example`` arguments the function is compiled (or loaded from the cache) right
     away by calling it once; if numba fails there (e.g. a numba too old or too new for
     the installed numpy), a warning says so and None is returned: the Python code runs.
@@ -117,11 +121,10 @@ def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None
     try:
         import numba
 
-        namespace = {**fn.__globals__, "hypot": hypot_cr()}
-        clone = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__)
-        clone.__qualname__ = fn.__qualname__
-        clone.__module__ = fn.__module__
-        fast = numba.njit(cache=True)(clone)
+        bound: dict[str, Any] = {"hypot": hypot_cr()}
+        for helper in helpers:  # in call order: a helper may call the ones before it
+            bound[helper.__name__] = numba.njit(cache=True)(_clone(helper, bound))
+        fast = numba.njit(cache=True)(_clone(fn, bound))
         if example:
             fast(*example)
     except Exception as exc:  # noqa: BLE001 - any numba failure: run the Python code
@@ -133,3 +136,13 @@ def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None
         )
         return None
     return fast
+
+
+def _clone(fn: Callable[..., Any], bound: dict[str, Any]) -> Callable[..., Any]:
+    """A copy of ``fn`` whose globals named in ``bound`` are replaced (numba compiles it)."""
+    clone = types.FunctionType(
+        fn.__code__, {**fn.__globals__, **bound}, fn.__name__, fn.__defaults__
+    )
+    clone.__qualname__ = fn.__qualname__
+    clone.__module__ = fn.__module__
+    return clone
