@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import random
 
@@ -9,7 +10,7 @@ import pytest
 from needs import need_module
 
 from sitcov.perception import _camera
-from sitcov.sim.embedded import _collision, _dynamics
+from sitcov.sim.embedded import _collision, _dynamics, _path
 from sitcov.sim.embedded._jit import _hypot_cr, compiled, enabled
 
 
@@ -195,3 +196,29 @@ def test_compiled_projection_is_bit_identical_to_python() -> None:
         clipped += not want[0]
         assert repr(fast(*args)) == repr(want), args  # repr: -0.0 and 0.0 differ too
     assert 1000 < clipped < 19000  # both branches ran
+
+
+def test_compiled_route_tracking_is_bit_identical_to_python() -> None:
+    """``Path.tracker()`` (compiled) against ``Path.track`` along a curved route driven
+    forward with noise, from stale and out-of-range hints too."""
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
+    ys = tuple(0.8 * k - 0.004 * k * k for k in range(150))
+    path = _path.Path(xs, ys)
+    track = path.tracker()
+    assert isinstance(track, functools.partial) and track.func is _path._track_kernel()
+    assert track.func is not _path._track  # numba compiled it
+    rnd = random.Random(4)
+    hint = 0
+    for k in range(3000):
+        s = 0.04 * k + rnd.uniform(-0.5, 0.5)
+        x, y, _ = path.point_at(s)
+        x, y = x + rnd.uniform(-2.0, 2.0), y + rnd.uniform(-2.0, 2.0)
+        start = rnd.choice([hint, hint + 3, -1, 500])
+        want = path.track(x, y, start)
+        got = track(x, y, start)
+        assert repr(got) == repr(want), (x, y, start)
+        hint = want[1]
+    assert hint > 100  # the walk reached the far end of the route

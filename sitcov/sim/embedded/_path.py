@@ -5,8 +5,11 @@ from __future__ import annotations
 import bisect
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
 
 
 def wrap_angle(angle: float) -> float:
@@ -120,25 +123,19 @@ class Path:
 
         The cheap per-step version of :meth:`project` for a vehicle that moves less than a
         segment per call: walks from segment ``i`` while the projection falls off its end.
-        Returns (s [m], segment index).
+        Returns (s [m], segment index). :meth:`tracker` gives the same, faster.
         """
-        xs, ys, ss = self.xs, self.ys, self.ss
-        last = len(xs) - 2
-        i = 0 if i < 0 else (last if i > last else i)
-        step = 0  # direction of the walk; never reverses, so corners cannot make it loop
-        while True:
-            x0, y0 = xs[i], ys[i]
-            dx, dy = xs[i + 1] - x0, ys[i + 1] - y0
-            seg2 = dx * dx + dy * dy
-            f = ((x - x0) * dx + (y - y0) * dy) / seg2 if seg2 > 0 else 0.0
-            if f > 1.0 and i < last and step >= 0:
-                i, step = i + 1, 1
-            elif f < 0.0 and i > 0 and step <= 0:
-                i, step = i - 1, -1
-            else:
-                break
-        f = 0.0 if f < 0.0 else (1.0 if f > 1.0 else f)
-        return ss[i] + f * (ss[i + 1] - ss[i]), i
+        return _track(self.xs, self.ys, self.ss, x, y, i)
+
+    def tracker(self) -> Callable[[float, float, int], tuple[float, int]]:
+        """:meth:`track` as the world calls it every step: compiled by numba when it is
+        installed (``_jit.py``; the same bits), with this path's points bound (a new one
+        per call, so nothing compiled is kept on the path, which stays picklable)."""
+        fast = _track_kernel()
+        if fast is _track:
+            return functools.partial(_track, self.xs, self.ys, self.ss)
+        arrays = (np.array(v, dtype=np.float64) for v in (self.xs, self.ys, self.ss))
+        return functools.partial(fast, *arrays)
 
     def lateral_offset(self, x: float, y: float, hint: int = -1) -> float:
         """Signed distance of (x, y) from the path [m], positive to the left."""
@@ -164,3 +161,39 @@ class Path:
         """Points every ``step`` metres (including both ends)."""
         n = max(1, math.ceil(self.length / step))
         return [self.point_at(self.length * k / n)[:2] for k in range(n + 1)]
+
+
+def _track(
+    xs: Sequence[float], ys: Sequence[float], ss: Sequence[float], x: float, y: float, i: int
+) -> tuple[float, int]:
+    """:meth:`Path.track` on the path's coordinates (plain floats, so numba compiles it)."""
+    last = len(xs) - 2
+    i = 0 if i < 0 else (last if i > last else i)
+    step = 0  # direction of the walk; never reverses, so corners cannot make it loop
+    while True:
+        x0, y0 = xs[i], ys[i]
+        dx, dy = xs[i + 1] - x0, ys[i + 1] - y0
+        seg2 = dx * dx + dy * dy
+        f = ((x - x0) * dx + (y - y0) * dy) / seg2 if seg2 > 0 else 0.0
+        if f > 1.0 and i < last and step >= 0:
+            i, step = i + 1, 1
+        elif f < 0.0 and i > 0 and step <= 0:
+            i, step = i - 1, -1
+        else:
+            break
+    f = 0.0 if f < 0.0 else (1.0 if f > 1.0 else f)
+    return ss[i] + f * (ss[i + 1] - ss[i]), i
+
+
+_TRACK: Any = None
+
+
+def _track_kernel() -> Any:
+    """:func:`_track` compiled by numba when it is installed, else itself (loaded once)."""
+    global _TRACK
+    if _TRACK is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        pts = np.array([0.0, 1.0, 2.0])
+        _TRACK = compiled(_track, pts, pts, pts, 0.5, 0.1, 0) or _track
+    return _TRACK
