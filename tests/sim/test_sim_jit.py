@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 import random
 
+import numpy as np
 import pytest
 from needs import need_module
 
 from sitcov.perception import _camera
-from sitcov.sim.embedded import _collision, _dynamics, _path
+from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
 from sitcov.sim.embedded._jit import _hypot_cr, compiled, enabled
 
 
@@ -222,3 +224,25 @@ def test_compiled_route_tracking_is_bit_identical_to_python() -> None:
         assert repr(got) == repr(want), (x, y, start)
         hint = want[1]
     assert hint > 100  # the walk reached the far end of the route
+
+
+def test_compiled_car_steering_is_bit_identical_to_python() -> None:
+    """The scripted and timed cars' pure pursuit of their route (compiled) against the
+    Python code, the route's ends and its interior, any heading; the compiled binary
+    search finds bisect's index."""
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    fast = _controllers._car_kernel()
+    assert fast is not _controllers._car_steer  # numba compiled it
+    xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
+    ys = tuple(0.8 * k - 0.004 * k * k for k in range(150))
+    path = _path.Path(xs, ys)
+    pts = (path.xs, path.ys, path.hs, path.ss)
+    arr = np.array(pts)
+    rnd = random.Random(5)
+    for _ in range(20000):
+        s = rnd.choice([rnd.uniform(-5.0, path.length + 5.0), rnd.choice(path.ss)])
+        args = (s, rnd.uniform(-30, 30), rnd.uniform(-10, 120), rnd.uniform(-4, 4), 1.4, 2.7, 0.6)
+        assert repr(fast(arr, *args)) == repr(_controllers._car_steer(pts, *args)), args
+        assert _path._bisect_right(path.ss, s) == bisect.bisect_right(path.ss, s)

@@ -1,15 +1,18 @@
 """Optional numba compilation of the hot loop's arithmetic, bit-identical to the Python code.
 
 When numba is installed (``pip install 'sitcov[fast]'``), :func:`compiled` turns a
-plain-float function of the hot loop (today the vehicle integrator,
-``_dynamics.integrate``) into machine code; without numba, or with the environment
-variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or an empty string), the Python
-function runs as it is. Either way a run gives the same bits:
+plain-float function of the hot loop into machine code (the vehicle integrator
+``_dynamics.integrate``, the camera projection ``perception._camera._project``, the box
+distance ``_collision.box_distance``, the route tracking ``_path._track``); without
+numba, or with the environment variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or
+an empty string), the Python function runs as it is. Either way a run gives the same bits:
 
 - numba compiles the very same code object, with the same operations in the same order
   and no fast-math (LLVM then neither reorders nor fuses floating-point operations);
 - ``sin``, ``cos``, ``tan``, ``atan``, ``atan2``, ``tanh`` and ``sqrt`` call the same C
   library functions CPython calls;
+- the projection's ``math.remainder`` (which numba lacks) stays in Python, outside the
+  compiled part;
 - ``math.hypot`` is the exception: CPython (3.10+) computes a correctly rounded
   ``sqrt(x*x + y*y)`` with its own algorithm, numba calls the C library's ``hypot``,
   which is not always correctly rounded (about 2 in 1000 random pairs differ in the last
@@ -20,8 +23,8 @@ function runs as it is. Either way a run gives the same bits:
 Compiled code is cached on disk next to this module (numba's ``cache=True``), so a new
 process loads it instead of compiling it again (a few seconds; importing numba itself
 costs about a second of CPU per process).
-``tests/sim/test_sim_jit.py`` checks the compiled and the Python integrator against each
-other bit for bit.
+``tests/sim/test_sim_jit.py`` checks each compiled kernel against its Python code bit
+for bit.
 """
 
 from __future__ import annotations
@@ -105,13 +108,17 @@ def hypot_cr() -> Callable[[float, float], float]:
 
 
 def compiled(
-    fn: Callable[..., Any], *example: Any, helpers: tuple[Callable[..., Any], ...] = ()
+    fn: Callable[..., Any],
+    *example: Any,
+    helpers: tuple[Callable[..., Any] | tuple[str, Callable[..., Any]], ...] = (),
 ) -> Callable[..., Any] | None:
     """``fn`` compiled by numba (its ``hypot`` global bound to :func:`hypot_cr`), or None
     when numba is not :func:`enabled`.
 
     ``helpers`` are the plain-float functions ``fn`` calls by their global names; they are
-    compiled the same way and bound under those names (in ``fn`` and in each other).
+    compiled the same way and bound under those names (in ``fn`` and in each other); a
+    ``(name, function)`` pair binds ``function`` under another name (e.g. a compilable
+    stand-in for a C builtin that gives the same result).
     With ``example`` arguments the function is compiled (or loaded from the cache) right
     away by calling it once; if numba fails there (e.g. a numba too old or too new for
     the installed numpy), a warning says so and None is returned: the Python code runs.
@@ -123,7 +130,8 @@ def compiled(
 
         bound: dict[str, Any] = {"hypot": hypot_cr()}
         for helper in helpers:  # in call order: a helper may call the ones before it
-            bound[helper.__name__] = numba.njit(cache=True)(_clone(helper, bound))
+            name, func = helper if isinstance(helper, tuple) else (helper.__name__, helper)
+            bound[name] = numba.njit(cache=True)(_clone(func, bound))
         fast = numba.njit(cache=True)(_clone(fn, bound))
         if example:
             fast(*example)
