@@ -246,3 +246,30 @@ def test_compiled_car_steering_is_bit_identical_to_python() -> None:
         args = (s, rnd.uniform(-30, 30), rnd.uniform(-10, 120), rnd.uniform(-4, 4), 1.4, 2.7, 0.6)
         assert repr(fast(arr, *args)) == repr(_controllers._car_steer(pts, *args)), args
         assert _path._bisect_right(path.ss, s) == bisect.bisect_right(path.ss, s)
+
+
+def _helper_a(x: float) -> float:
+    return x * 2.0
+
+
+def _helper_b(x: float) -> float:
+    return x * 3.0
+
+
+def _calls_helper(x: float) -> float:
+    return _helper_a(x) + 1.0
+
+
+def test_the_disk_cache_name_changes_with_any_helper() -> None:
+    """numba's cache checks only the kernel's own file: a helper changed elsewhere must
+    give a new cached name (the code digest), so stale machine code is never loaded."""
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    one = compiled(_calls_helper, 1.0, helpers=(_helper_a,))
+    again = compiled(_calls_helper, 1.0, helpers=(_helper_a,))
+    other = compiled(_calls_helper, 1.0, helpers=(("_helper_a", _helper_b),))
+    assert one(1.0) == 3.0 and other(1.0) == 4.0  # the helper bound under its name ran
+    assert one.py_func.__qualname__ == again.py_func.__qualname__
+    assert one.py_func.__qualname__ != other.py_func.__qualname__
+    assert one.py_func.__qualname__.startswith("_calls_helper_")

@@ -29,6 +29,7 @@ for bit.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import types
@@ -129,10 +130,18 @@ def compiled(
         import numba
 
         bound: dict[str, Any] = {"hypot": hypot_cr()}
+        codes = [_hypot_cr.__code__, _two_prod.__code__, fn.__code__]
         for helper in helpers:  # in call order: a helper may call the ones before it
             name, func = helper if isinstance(helper, tuple) else (helper.__name__, helper)
             bound[name] = numba.njit(cache=True)(_clone(func, bound))
-        fast = numba.njit(cache=True)(_clone(fn, bound))
+            codes.append(func.__code__)
+        main = _clone(fn, bound)
+        # numba's disk cache checks only the source file of ``fn``; a helper from another
+        # file compiled into it would go stale unseen. The code's digest in the cached
+        # name makes any change to ``fn`` or a helper compile afresh.
+        digest = hashlib.sha1("".join(map(_code_text, codes)).encode()).hexdigest()
+        main.__qualname__ += "_" + digest[:12]
+        fast = numba.njit(cache=True)(main)
         if example:
             fast(*example)
     except Exception as exc:  # noqa: BLE001 - any numba failure: run the Python code
@@ -144,6 +153,13 @@ def compiled(
         )
         return None
     return fast
+
+
+def _code_text(code: types.CodeType) -> str:
+    """A text that changes whenever the code's operations, names or constants do (and is
+    the same in every process, unlike ``marshal``'s reference flags or ``repr`` of code)."""
+    consts = [_code_text(c) if isinstance(c, types.CodeType) else repr(c) for c in code.co_consts]
+    return repr((code.co_code, code.co_names, code.co_varnames, consts))
 
 
 def _clone(fn: Callable[..., Any], bound: dict[str, Any]) -> Callable[..., Any]:
