@@ -15,11 +15,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from math import atan2, cos, sin
+from typing import Any
 
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 
 #: Near clipping plane [m]: points closer to the camera plane are cut away.
 NEAR = 0.1
+
+#: ``math.hypot`` under the name :func:`_project` uses (``_jit.py`` binds the name to its
+#: correctly rounded version when it compiles that code: the same bits).
+hypot = math.hypot
 
 
 @dataclass(frozen=True)
@@ -89,16 +95,55 @@ def project_box(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> Project
 
 
 def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple | None:
-    """:func:`project_box` as a plain tuple in :class:`Projection`'s field order (faster)."""
-    c, s = math.cos(ego_pose.yaw), math.sin(ego_pose.yaw)
-    cam_x = ego_pose.x + camera.mount_x * c
-    cam_y = ego_pose.y + camera.mount_x * s
+    """:func:`project_box` as a plain tuple in :class:`Projection`'s field order (faster).
+
+    The arithmetic is :func:`_project` (compiled by numba when it is installed, the same
+    bits, see ``sitcov/sim/embedded/_jit.py``); the view angle needs ``math.remainder``,
+    which numba lacks, so it is folded here.
+    """
     ap = actor.pose
-    ac, as_ = math.cos(ap.yaw), math.sin(ap.yaw)
+    ok, bx0, by0, bx1, by1, u0, v0, u1, v1, trunc, dist, bearing, los, visible, facing = (
+        _PROJECT or _kernel()
+    )(
+        ego_pose.x, ego_pose.y, ego_pose.yaw, ap.x, ap.y, ap.yaw, actor.length, actor.width,
+        actor.height, camera.mount_x, camera.mount_z, camera.focal_px, float(camera.width),
+        float(camera.height),
+    )  # fmt: skip
+    if not ok:
+        return None
+    view = abs(math.remainder(ap.yaw - los, math.tau))
+    if view > 0.5 * math.pi:
+        view = math.pi - view
+    return ((bx0, by0, bx1, by1), (u0, v0, u1, v1), trunc, dist, bearing, view, visible, facing)
+
+
+def _project(
+    ex: float,
+    ey: float,
+    eyaw: float,
+    ax: float,
+    ay: float,
+    ayaw: float,
+    length: float,
+    width: float,
+    height: float,
+    mount_x: float,
+    mount_z: float,
+    f: float,
+    w: float,
+    h: float,
+) -> tuple:
+    """The projection's arithmetic on plain floats: (ok, clipped box, raw box, truncation,
+    distance, bearing, line-of-sight angle, visible, facing); ok is False (and the rest
+    zeros) when the whole box lies behind the near plane."""
+    c, s = cos(eyaw), sin(eyaw)
+    cam_x = ex + mount_x * c
+    cam_y = ey + mount_x * s
+    ac, as_ = cos(ayaw), sin(ayaw)
     # Actor centre and half-axes in camera coordinates: depth along the heading, "right".
-    dx, dy = ap.x - cam_x, ap.y - cam_y
+    dx, dy = ax - cam_x, ay - cam_y
     d_c, r_c = dx * c + dy * s, dx * s - dy * c
-    hl, hw = 0.5 * actor.length, 0.5 * actor.width
+    hl, hw = 0.5 * length, 0.5 * width
     d_l, r_l = hl * (ac * c + as_ * s), hl * (ac * s - as_ * c)  # +length/2 along the actor
     d_w, r_w = hw * (ac * s - as_ * c), -hw * (ac * c + as_ * s)  # +width/2 (its left)
     pts = [
@@ -109,18 +154,16 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     ]
     if abs(d_l) + abs(d_w) > d_c - NEAR:  # some corner is in front of the near plane
         pts = _clip_near(pts)
-        if not pts:
-            return None
-    f = camera.focal_px
-    w, h = float(camera.width), float(camera.height)
+        if len(pts) == 0:
+            return (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False, 0.0)
     cx, cy = 0.5 * w, 0.5 * h
-    u0 = u1 = None
-    d_min, d_max = math.inf, 0.0
-    for depth, right in pts:
+    depth, right = pts[0]
+    u0 = u1 = cx + f * right / depth
+    d_min = d_max = depth  # d_max starts at 0 and depth >= NEAR > 0: the same maximum
+    for k in range(1, len(pts)):
+        depth, right = pts[k]
         u = cx + f * right / depth
-        if u0 is None:
-            u0 = u1 = u
-        elif u < u0:
+        if u < u0:
             u0 = u
         elif u > u1:
             u1 = u
@@ -128,9 +171,9 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
             d_min = depth
         if depth > d_max:
             d_max = depth
-    top = actor.height - camera.mount_z  # roof above the camera [m]
+    top = height - mount_z  # roof above the camera [m]
     v0 = cy - f * top / (d_min if top > 0.0 else d_max)
-    v1 = cy + f * camera.mount_z / (d_min if camera.mount_z > 0.0 else d_max)
+    v1 = cy + f * mount_z / (d_min if mount_z > 0.0 else d_max)
     # Clamping each coordinate keeps the order, so an off-image box collapses to an edge
     # (min(max(u, 0), w) written out: no builtin calls in this per-frame path).
     bx0 = 0.0 if u0 < 0.0 else (w if u0 > w else u0)
@@ -140,18 +183,35 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     visible = bx1 > bx0 and by1 > by0
     raw_area = (u1 - u0) * (v1 - v0)
     truncation = 1.0 - (bx1 - bx0) * (by1 - by0) / raw_area if raw_area > 0.0 else 1.0
-    los = math.atan2(dy, dx)
-    facing = math.cos(ap.yaw - los)
-    view = abs(math.remainder(ap.yaw - los, math.tau))
-    if view > 0.5 * math.pi:
-        view = math.pi - view
+    los = atan2(dy, dx)
     return (
-        (bx0, by0, bx1, by1),
-        (u0, v0, u1, v1),
+        True,
+        bx0,
+        by0,
+        bx1,
+        by1,
+        u0,
+        v0,
+        u1,
+        v1,
         (1.0 if truncation >= 1.0 else truncation) if truncation > 0.0 else 0.0,
-        math.hypot(dx, dy),
-        math.atan2(-r_c, d_c),
-        view,
+        hypot(dx, dy),
+        atan2(-r_c, d_c),
+        los,
         visible,
-        facing,
+        cos(ayaw - los),
     )
+
+
+_PROJECT: Any = None
+
+
+def _kernel() -> Any:
+    """:func:`_project` compiled by numba when it is installed, else itself (loaded once)."""
+    global _PROJECT
+    if _PROJECT is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        example = (0.0, 0.0, 0.0, 10.0, 1.0, 0.3, 4.6, 1.8, 1.5, 1.5, 1.3, 800.0, 640.0, 480.0)
+        _PROJECT = compiled(_project, *example, helpers=(_clip_near,)) or _project
+    return _PROJECT

@@ -28,6 +28,10 @@ import statistics
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+#: ``math.hypot`` under the name :func:`pure_pursuit` uses (numba compiles that code with
+#: the name bound to a correctly rounded version, ``sim/embedded/_jit.py``: the same bits).
+hypot = math.hypot
+
 
 @dataclass(frozen=True)
 class AdversaryParams:
@@ -115,7 +119,7 @@ def pure_pursuit(
     """Road-wheel angle [rad] that steers a rear-axle point at (x, y) onto the target point."""
     dx, dy = target_x - x, target_y - y
     alpha = math.atan2(dy, dx) - yaw
-    dist = math.hypot(dx, dy)
+    dist = hypot(dx, dy)
     if dist < 1e-6:
         return 0.0
     return math.atan2(2.0 * wheelbase * math.sin(alpha), dist)

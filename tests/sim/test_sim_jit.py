@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import bisect
+import functools
 import math
 import random
 
+import numpy as np
 import pytest
 from needs import need_module
 
-from sitcov.sim.embedded import _dynamics
+from sitcov.perception import _camera
+from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
 from sitcov.sim.embedded._jit import _hypot_cr, compiled, enabled
 
 
@@ -128,3 +132,142 @@ def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
             ref.r,
         ), f"step {i}"
     assert car.speed == 0.0  # the run really braked to a stop
+
+
+def _boxes(n: int, seed: int) -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
+    """Box pairs (x, y, yaw, half length, half width): apart, touching and overlapping."""
+    rnd = random.Random(seed)
+
+    def box(spread: float) -> tuple[float, ...]:
+        return (
+            rnd.uniform(-spread, spread),
+            rnd.uniform(-spread, spread),
+            rnd.uniform(-4.0, 4.0),
+            rnd.uniform(0.2, 3.0),
+            rnd.uniform(0.2, 1.2),
+        )
+
+    return [(box(s), box(s)) for s in (rnd.choice([2.0, 6.0, 30.0]) for _ in range(n))]
+
+
+def test_compiled_box_distance_is_bit_identical_to_python() -> None:
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    fast = _collision.box_distance_fn()
+    assert fast is not _collision.box_distance  # numba compiled it
+    pairs = _boxes(20000, 2)
+    dists = [_collision.box_distance(a, b) for a, b in pairs]
+    assert 0.0 in dists and max(dists) > 10.0  # overlapping and distant pairs both tested
+    bad = [(a, b) for (a, b), d in zip(pairs, dists, strict=True) if repr(fast(a, b)) != repr(d)]
+    assert not bad, f"{len(bad)} of 20000 pairs differ, e.g. {bad[0]}"
+
+
+def test_compiled_projection_is_bit_identical_to_python() -> None:
+    """The camera projection's kernel (near-plane clipping included) with and without
+    numba: every output field, for boxes in front, beside and behind the camera."""
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    fast = _camera._kernel()
+    assert fast is not _camera._project  # numba compiled it
+    rnd = random.Random(3)
+    clipped = 0
+    for _ in range(20000):
+        ex, ey, eyaw = rnd.uniform(-50.0, 50.0), rnd.uniform(-50.0, 50.0), rnd.uniform(-4, 4)
+        spread = rnd.choice([1.0, 5.0, 40.0])
+        args = (
+            ex,
+            ey,
+            eyaw,
+            ex + rnd.uniform(-spread, spread),
+            ey + rnd.uniform(-spread, spread),
+            rnd.uniform(-4.0, 4.0),
+            rnd.uniform(0.3, 6.0),
+            rnd.uniform(0.3, 2.5),
+            rnd.uniform(0.5, 3.5),
+            rnd.choice([0.0, 2.5]),
+            rnd.choice([0.0, 1.0, 1.6]),
+            rnd.uniform(200.0, 900.0),
+            800.0,
+            450.0,
+        )
+        want = _camera._project(*args)
+        clipped += not want[0]
+        assert repr(fast(*args)) == repr(want), args  # repr: -0.0 and 0.0 differ too
+    assert 1000 < clipped < 19000  # both branches ran
+
+
+def test_compiled_route_tracking_is_bit_identical_to_python() -> None:
+    """``Path.tracker()`` (compiled) against ``Path.track`` along a curved route driven
+    forward with noise, from stale and out-of-range hints too."""
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
+    ys = tuple(0.8 * k - 0.004 * k * k for k in range(150))
+    path = _path.Path(xs, ys)
+    track = path.tracker()
+    assert isinstance(track, functools.partial) and track.func is _path._track_kernel()
+    assert track.func is not _path._track  # numba compiled it
+    rnd = random.Random(4)
+    hint = 0
+    for k in range(3000):
+        s = 0.04 * k + rnd.uniform(-0.5, 0.5)
+        x, y, _ = path.point_at(s)
+        x, y = x + rnd.uniform(-2.0, 2.0), y + rnd.uniform(-2.0, 2.0)
+        start = rnd.choice([hint, hint + 3, -1, 500])
+        want = path.track(x, y, start)
+        got = track(x, y, start)
+        assert repr(got) == repr(want), (x, y, start)
+        hint = want[1]
+    assert hint > 100  # the walk reached the far end of the route
+
+
+def test_compiled_car_steering_is_bit_identical_to_python() -> None:
+    """The scripted and timed cars' pure pursuit of their route (compiled) against the
+    Python code, the route's ends and its interior, any heading; the compiled binary
+    search finds bisect's index."""
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    fast = _controllers._car_kernel()
+    assert fast is not _controllers._car_steer  # numba compiled it
+    xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
+    ys = tuple(0.8 * k - 0.004 * k * k for k in range(150))
+    path = _path.Path(xs, ys)
+    pts = (path.xs, path.ys, path.hs, path.ss)
+    arr = np.array(pts)
+    rnd = random.Random(5)
+    for _ in range(20000):
+        s = rnd.choice([rnd.uniform(-5.0, path.length + 5.0), rnd.choice(path.ss)])
+        args = (s, rnd.uniform(-30, 30), rnd.uniform(-10, 120), rnd.uniform(-4, 4), 1.4, 2.7, 0.6)
+        assert repr(fast(arr, *args)) == repr(_controllers._car_steer(pts, *args)), args
+        assert _path._bisect_right(path.ss, s) == bisect.bisect_right(path.ss, s)
+
+
+def _helper_a(x: float) -> float:
+    return x * 2.0
+
+
+def _helper_b(x: float) -> float:
+    return x * 3.0
+
+
+def _calls_helper(x: float) -> float:
+    return _helper_a(x) + 1.0
+
+
+def test_the_disk_cache_name_changes_with_any_helper() -> None:
+    """numba's cache checks only the kernel's own file: a helper changed elsewhere must
+    give a new cached name (the code digest), so stale machine code is never loaded."""
+    need_module("numba", "fast")
+    if not enabled():
+        pytest.skip("SITCOV_NO_JIT is set")
+    one = compiled(_calls_helper, 1.0, helpers=(_helper_a,))
+    again = compiled(_calls_helper, 1.0, helpers=(_helper_a,))
+    other = compiled(_calls_helper, 1.0, helpers=(("_helper_a", _helper_b),))
+    assert one(1.0) == 3.0 and other(1.0) == 4.0  # the helper bound under its name ran
+    assert one.py_func.__qualname__ == again.py_func.__qualname__
+    assert one.py_func.__qualname__ != other.py_func.__qualname__
+    assert one.py_func.__qualname__.startswith("_calls_helper_")

@@ -57,6 +57,7 @@ class Actor:
         "disc",
         "s",
         "hint",
+        "tracker",
         "active",
         "crashed",
         "rows",
@@ -87,6 +88,7 @@ class Actor:
         self.disc = disc_radius(spec.length, spec.width)  # footprint disc (TTC) [m]
         self.s = 0.0
         self.hint = 0
+        self.tracker = route.tracker()  # route.track, compiled when numba is there
         self.active = True
         self.crashed = False
         self.rows: list[Row] = []
@@ -122,7 +124,7 @@ class Actor:
     def track(self) -> None:
         """Update ``s`` and ``hint`` from the body's position."""
         b = self.body
-        self.s, self.hint = self.route.track(b.x, b.y, self.hint)
+        self.s, self.hint = self.tracker(b.x, b.y, self.hint)
 
     def record(self, t: float) -> None:
         """Append a trace row (t, x, y, yaw, speed)."""

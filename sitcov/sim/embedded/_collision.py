@@ -13,6 +13,10 @@ from sitcov.sim._metrics import time_to_collision  # noqa: F401  (shared definit
 
 Box = tuple[float, float, float, float, float]
 
+#: ``math.hypot`` under the name :func:`box_distance` uses (``_jit.py`` compiles that code
+#: with the name bound to its correctly rounded version: the same bits).
+hypot = math.hypot
+
 
 def corners(box: Box) -> list[tuple[float, float]]:
     """The four corners [m], counter-clockwise starting at the front right."""
@@ -72,7 +76,6 @@ def _corners_to_box(
     ax, ay = c * hl, s * hl
     vx, vy = -s * hw, c * hw
     bx, by, _, bhl, bhw = box
-    hypot = math.hypot
     best = math.inf
     for px, py in (
         (x + ax - vx, y + ay - vy),
@@ -99,13 +102,29 @@ def box_distance(a: Box, b: Box) -> float:
     ca, sa = math.cos(a[2]), math.sin(a[2])
     cb, sb = math.cos(b[2]), math.sin(b[2])
     dx, dy = b[0] - a[0], b[1] - a[1]
-    ra = math.hypot(a[3], a[4])
-    rb = math.hypot(b[3], b[4])
+    ra = hypot(a[3], a[4])
+    rb = hypot(b[3], b[4])
     if dx * dx + dy * dy <= (ra + rb) * (ra + rb) and _axes_overlap(a, b, ca, sa, cb, sb):
         return 0.0  # they overlap (as :func:`overlap` decides)
     d_a = _corners_to_box(a[0], a[1], ca, sa, a[3], a[4], b, cb, sb)
     d_b = _corners_to_box(b[0], b[1], cb, sb, b[3], b[4], a, ca, sa)
     return d_b if d_b < d_a else d_a
+
+
+_BOX_DISTANCE: Any = None
+
+
+def box_distance_fn() -> Any:
+    """:func:`box_distance` compiled by numba when it is installed (``_jit.py``; the same
+    bits), else itself. Loaded once per process, on first use."""
+    global _BOX_DISTANCE
+    if _BOX_DISTANCE is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        a, b = (0.0, 0.0, 0.3, 2.3, 0.9), (4.0, 1.0, 1.2, 2.3, 0.9)
+        fast = compiled(box_distance, a, b, helpers=(_axes_overlap, _corners_to_box))
+        _BOX_DISTANCE = fast or box_distance
+    return _BOX_DISTANCE
 
 
 def corridor_gap(path: Any, s_from: float, box: Box) -> float:

@@ -24,9 +24,13 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
+from math import cos, sin
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit
+from sitcov.sim.embedded._path import _bisect_right, _point_at
 
 if TYPE_CHECKING:
     from sitcov.sim.embedded._actors import Actor
@@ -57,12 +61,14 @@ def lateral_controller(actor: Actor, dt: float = 0.05) -> Callable[[float], floa
     cos, sin = math.cos, math.sin
     if actor.kind == "car":
         lr, wb, steer_max = body.p.lr, body.p.wheelbase, body.p.steer_max
+        route = actor.route
+        pts: Any = (route.xs, route.ys, route.hs, route.ss)
+        kernel = _car_kernel()
+        if kernel is not _car_steer:  # compiled: the points as one array (one type check)
+            pts = np.array(pts, dtype=np.float64)
 
         def car(lookahead: float) -> float:
-            tx, ty, _ = point_at(actor.s + lookahead)
-            yaw = body.yaw
-            c, s = cos(yaw), sin(yaw)
-            return pure_pursuit(body.x - lr * c, body.y - lr * s, yaw, tx, ty, wb) / steer_max
+            return kernel(pts, actor.s + lookahead, body.x, body.y, body.yaw, lr, wb, steer_max)
 
         return car
     spec = body.spec
@@ -86,6 +92,34 @@ def lateral_controller(actor: Actor, dt: float = 0.05) -> Callable[[float], floa
         return max(-1.0, min(1.0, err / turn))
 
     return walker
+
+
+def _car_steer(
+    pts: Any, s: float, x: float, y: float, yaw: float, lr: float, wb: float, steer_max: float
+) -> float:
+    """A car's steer command in [-1, 1]: pure pursuit from its rear axle (``lr`` behind
+    the centre (x, y)) of the route point at arc length ``s``, over ``steer_max``.
+    ``pts``: the route's (xs, ys, hs, ss)."""
+    tx, ty, _ = _point_at(pts[0], pts[1], pts[2], pts[3], s)
+    c, sn = cos(yaw), sin(yaw)
+    return pure_pursuit(x - lr * c, y - lr * sn, yaw, tx, ty, wb) / steer_max
+
+
+_CAR: Any = None
+
+
+def _car_kernel() -> Any:
+    """:func:`_car_steer` compiled by numba when it is installed (``_jit.py``; the same
+    bits), else itself. Loaded once per process."""
+    global _CAR
+    if _CAR is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
+        example = (pts, 1.5, 0.0, 0.1, 0.2, 1.4, 2.7, 0.6)
+        helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit)
+        _CAR = compiled(_car_steer, *example, helpers=helpers) or _car_steer
+    return _CAR
 
 
 def _speed_command(actor: Actor, target: float, dt: float) -> tuple[float, float]:

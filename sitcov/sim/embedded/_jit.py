@@ -1,15 +1,18 @@
 """Optional numba compilation of the hot loop's arithmetic, bit-identical to the Python code.
 
 When numba is installed (``pip install 'sitcov[fast]'``), :func:`compiled` turns a
-plain-float function of the hot loop (today the vehicle integrator,
-``_dynamics.integrate``) into machine code; without numba, or with the environment
-variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or an empty string), the Python
-function runs as it is. Either way a run gives the same bits:
+plain-float function of the hot loop into machine code (the vehicle integrator
+``_dynamics.integrate``, the camera projection ``perception._camera._project``, the box
+distance ``_collision.box_distance``, the route tracking ``_path._track``); without
+numba, or with the environment variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or
+an empty string), the Python function runs as it is. Either way a run gives the same bits:
 
 - numba compiles the very same code object, with the same operations in the same order
   and no fast-math (LLVM then neither reorders nor fuses floating-point operations);
 - ``sin``, ``cos``, ``tan``, ``atan``, ``atan2``, ``tanh`` and ``sqrt`` call the same C
   library functions CPython calls;
+- the projection's ``math.remainder`` (which numba lacks) stays in Python, outside the
+  compiled part;
 - ``math.hypot`` is the exception: CPython (3.10+) computes a correctly rounded
   ``sqrt(x*x + y*y)`` with its own algorithm, numba calls the C library's ``hypot``,
   which is not always correctly rounded (about 2 in 1000 random pairs differ in the last
@@ -20,12 +23,13 @@ function runs as it is. Either way a run gives the same bits:
 Compiled code is cached on disk next to this module (numba's ``cache=True``), so a new
 process loads it instead of compiling it again (a few seconds; importing numba itself
 costs about a second of CPU per process).
-``tests/sim/test_sim_jit.py`` checks the compiled and the Python integrator against each
-other bit for bit.
+``tests/sim/test_sim_jit.py`` checks each compiled kernel against its Python code bit
+for bit.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import types
@@ -104,10 +108,18 @@ def hypot_cr() -> Callable[[float, float], float]:
     return _HYPOT
 
 
-def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None:
+def compiled(
+    fn: Callable[..., Any],
+    *example: Any,
+    helpers: tuple[Callable[..., Any] | tuple[str, Callable[..., Any]], ...] = (),
+) -> Callable[..., Any] | None:
     """``fn`` compiled by numba (its ``hypot`` global bound to :func:`hypot_cr`), or None
     when numba is not :func:`enabled`.
 
+    ``helpers`` are the plain-float functions ``fn`` calls by their global names; they are
+    compiled the same way and bound under those names (in ``fn`` and in each other); a
+    ``(name, function)`` pair binds ``function`` under another name (e.g. a compilable
+    stand-in for a C builtin that gives the same result).
     With ``example`` arguments the function is compiled (or loaded from the cache) right
     away by calling it once; if numba fails there (e.g. a numba too old or too new for
     the installed numpy), a warning says so and None is returned: the Python code runs.
@@ -117,11 +129,19 @@ def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None
     try:
         import numba
 
-        namespace = {**fn.__globals__, "hypot": hypot_cr()}
-        clone = types.FunctionType(fn.__code__, namespace, fn.__name__, fn.__defaults__)
-        clone.__qualname__ = fn.__qualname__
-        clone.__module__ = fn.__module__
-        fast = numba.njit(cache=True)(clone)
+        bound: dict[str, Any] = {"hypot": hypot_cr()}
+        codes = [_hypot_cr.__code__, _two_prod.__code__, fn.__code__]
+        for helper in helpers:  # in call order: a helper may call the ones before it
+            name, func = helper if isinstance(helper, tuple) else (helper.__name__, helper)
+            bound[name] = numba.njit(cache=True)(_clone(func, bound))
+            codes.append(func.__code__)
+        main = _clone(fn, bound)
+        # numba's disk cache checks only the source file of ``fn``; a helper from another
+        # file compiled into it would go stale unseen. The code's digest in the cached
+        # name makes any change to ``fn`` or a helper compile afresh.
+        digest = hashlib.sha1("".join(map(_code_text, codes)).encode()).hexdigest()
+        main.__qualname__ += "_" + digest[:12]
+        fast = numba.njit(cache=True)(main)
         if example:
             fast(*example)
     except Exception as exc:  # noqa: BLE001 - any numba failure: run the Python code
@@ -133,3 +153,20 @@ def compiled(fn: Callable[..., Any], *example: Any) -> Callable[..., Any] | None
         )
         return None
     return fast
+
+
+def _code_text(code: types.CodeType) -> str:
+    """A text that changes whenever the code's operations, names or constants do (and is
+    the same in every process, unlike ``marshal``'s reference flags or ``repr`` of code)."""
+    consts = [_code_text(c) if isinstance(c, types.CodeType) else repr(c) for c in code.co_consts]
+    return repr((code.co_code, code.co_names, code.co_varnames, consts))
+
+
+def _clone(fn: Callable[..., Any], bound: dict[str, Any]) -> Callable[..., Any]:
+    """A copy of ``fn`` whose globals named in ``bound`` are replaced (numba compiles it)."""
+    clone = types.FunctionType(
+        fn.__code__, {**fn.__globals__, **bound}, fn.__name__, fn.__defaults__
+    )
+    clone.__qualname__ = fn.__qualname__
+    clone.__module__ = fn.__module__
+    return clone

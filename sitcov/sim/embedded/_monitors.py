@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from sitcov.sim._metrics import PET_ZONE, post_encroachment_time, time_to_collision
-from sitcov.sim.embedded._collision import box_distance, corridor_gap, overlap
+from sitcov.sim.embedded._collision import box_distance_fn, corridor_gap, overlap
 from sitcov.sim.embedded._dynamics import G
 
 #: How far the ego's box may reach beyond its lane's edge before it counts as a lane
@@ -300,12 +300,13 @@ class DistanceMonitor:
 
     def __init__(self, world: Any) -> None:
         self.best = [math.inf] * len(world.actors)
+        self._distance = box_distance_fn()  # compiled when numba is there (same bits)
 
     def update(self, world: Any) -> None:
         """Box distance to each active actor when it may be a new minimum."""
         ego = world.ego
         far_step = world.k & 3 == 0
-        best = self.best
+        best, box_distance = self.best, self._distance
         for i, a in enumerate(world.actors):
             gap = a.gap  # inf while inactive
             if gap - (ego.radius + a.radius) < best[i] and (gap < FAR or far_step):

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
-import bisect
 import functools
 import math
-from collections.abc import Sequence
+from bisect import bisect_right
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
 
 
 def wrap_angle(angle: float) -> float:
@@ -75,17 +78,7 @@ class Path:
 
     def point_at(self, s: float) -> tuple[float, float, float]:
         """(x, y, heading) at arc length ``s`` (clamped to the path; linear between points)."""
-        ss = self.ss
-        if s <= 0.0:
-            return self.xs[0], self.ys[0], self.hs[0]
-        if s >= ss[-1]:
-            return self.xs[-1], self.ys[-1], self.hs[-2]
-        i = bisect.bisect_right(ss, s) - 1
-        seg = ss[i + 1] - ss[i]
-        f = (s - ss[i]) / seg if seg > 0 else 0.0
-        x = self.xs[i] + f * (self.xs[i + 1] - self.xs[i])
-        y = self.ys[i] + f * (self.ys[i + 1] - self.ys[i])
-        return x, y, self.hs[i]
+        return _point_at(self.xs, self.ys, self.hs, self.ss, s)
 
     def project(
         self, x: float, y: float, hint: int = 0, back: int = 2, ahead: int = 4
@@ -120,25 +113,19 @@ class Path:
 
         The cheap per-step version of :meth:`project` for a vehicle that moves less than a
         segment per call: walks from segment ``i`` while the projection falls off its end.
-        Returns (s [m], segment index).
+        Returns (s [m], segment index). :meth:`tracker` gives the same, faster.
         """
-        xs, ys, ss = self.xs, self.ys, self.ss
-        last = len(xs) - 2
-        i = 0 if i < 0 else (last if i > last else i)
-        step = 0  # direction of the walk; never reverses, so corners cannot make it loop
-        while True:
-            x0, y0 = xs[i], ys[i]
-            dx, dy = xs[i + 1] - x0, ys[i + 1] - y0
-            seg2 = dx * dx + dy * dy
-            f = ((x - x0) * dx + (y - y0) * dy) / seg2 if seg2 > 0 else 0.0
-            if f > 1.0 and i < last and step >= 0:
-                i, step = i + 1, 1
-            elif f < 0.0 and i > 0 and step <= 0:
-                i, step = i - 1, -1
-            else:
-                break
-        f = 0.0 if f < 0.0 else (1.0 if f > 1.0 else f)
-        return ss[i] + f * (ss[i + 1] - ss[i]), i
+        return _track((self.xs, self.ys, self.ss), x, y, i)
+
+    def tracker(self) -> Callable[[float, float, int], tuple[float, int]]:
+        """:meth:`track` as the world calls it every step: compiled by numba when it is
+        installed (``_jit.py``; the same bits), with this path's points bound (a new one
+        per call, so nothing compiled is kept on the path, which stays picklable)."""
+        fast = _track_kernel()
+        pts: Any = (self.xs, self.ys, self.ss)
+        if fast is not _track:  # compiled: the points as one array (one type check)
+            pts = np.array(pts, dtype=np.float64)
+        return functools.partial(fast, pts)
 
     def lateral_offset(self, x: float, y: float, hint: int = -1) -> float:
         """Signed distance of (x, y) from the path [m], positive to the left."""
@@ -164,3 +151,67 @@ class Path:
         """Points every ``step`` metres (including both ends)."""
         n = max(1, math.ceil(self.length / step))
         return [self.point_at(self.length * k / n)[:2] for k in range(n + 1)]
+
+
+def _track(pts: Any, x: float, y: float, i: int) -> tuple[float, int]:
+    """:meth:`Path.track` on the path's (xs, ys, ss) (plain floats, so numba compiles it)."""
+    xs, ys, ss = pts[0], pts[1], pts[2]
+    last = len(xs) - 2
+    i = 0 if i < 0 else (last if i > last else i)
+    step = 0  # direction of the walk; never reverses, so corners cannot make it loop
+    while True:
+        x0, y0 = xs[i], ys[i]
+        dx, dy = xs[i + 1] - x0, ys[i + 1] - y0
+        seg2 = dx * dx + dy * dy
+        f = ((x - x0) * dx + (y - y0) * dy) / seg2 if seg2 > 0 else 0.0
+        if f > 1.0 and i < last and step >= 0:
+            i, step = i + 1, 1
+        elif f < 0.0 and i > 0 and step <= 0:
+            i, step = i - 1, -1
+        else:
+            break
+    f = 0.0 if f < 0.0 else (1.0 if f > 1.0 else f)
+    return ss[i] + f * (ss[i + 1] - ss[i]), i
+
+
+_TRACK: Any = None
+
+
+def _track_kernel() -> Any:
+    """:func:`_track` compiled by numba when it is installed, else itself (loaded once)."""
+    global _TRACK
+    if _TRACK is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
+        _TRACK = compiled(_track, pts, 0.5, 0.1, 0) or _track
+    return _TRACK
+
+
+def _point_at(
+    xs: Sequence[float], ys: Sequence[float], hs: Sequence[float], ss: Sequence[float], s: float
+) -> tuple[float, float, float]:
+    """:meth:`Path.point_at` on the path's coordinates (plain floats, so numba compiles it)."""
+    if s <= 0.0:
+        return xs[0], ys[0], hs[0]
+    if s >= ss[-1]:
+        return xs[-1], ys[-1], hs[-2]
+    i = bisect_right(ss, s) - 1
+    seg = ss[i + 1] - ss[i]
+    f = (s - ss[i]) / seg if seg > 0 else 0.0
+    x = xs[i] + f * (xs[i + 1] - xs[i])
+    y = ys[i] + f * (ys[i + 1] - ys[i])
+    return x, y, hs[i]
+
+
+def _bisect_right(a: Sequence[float], x: float) -> int:
+    """``bisect.bisect_right`` (the same search, so the same index) for numba, which
+    cannot call the C builtin."""
+    lo, hi = 0, len(a)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if x < a[mid]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return lo

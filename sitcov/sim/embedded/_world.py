@@ -117,13 +117,13 @@ class World:
         self.k += 1
         self.t = self.k * dt
         ex, ey = eb.x, eb.y
-        ego.s, ego.hint = ego.route.track(ex, ey, ego.hint)
+        ego.s, ego.hint = ego.tracker(ex, ey, ego.hint)
         hypot = math.hypot
         for a in self.actors:
             a.prev_gap = a.gap
             if a.active:
                 b = a.body
-                a.s, a.hint = a.route.track(b.x, b.y, a.hint)
+                a.s, a.hint = a.tracker(b.x, b.y, a.hint)
                 a.dx, a.dy = dx, dy = b.x - ex, b.y - ey
                 a.gap = hypot(dx, dy)
             else:
