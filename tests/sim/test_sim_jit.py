@@ -150,10 +150,9 @@ def _boxes(n: int, seed: int) -> list[tuple[tuple[float, ...], tuple[float, ...]
     return [(box(s), box(s)) for s in (rnd.choice([2.0, 6.0, 30.0]) for _ in range(n))]
 
 
-def test_compiled_box_distance_is_bit_identical_to_python() -> None:
+def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
     need_module("numba", "fast")
-    if not enabled():
-        pytest.skip("SITCOV_NO_JIT is set")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
     fast = _collision.box_distance_fn()
     assert fast is not _collision.box_distance  # numba compiled it
     pairs = _boxes(20000, 2)
@@ -163,12 +162,11 @@ def test_compiled_box_distance_is_bit_identical_to_python() -> None:
     assert not bad, f"{len(bad)} of 20000 pairs differ, e.g. {bad[0]}"
 
 
-def test_compiled_projection_is_bit_identical_to_python() -> None:
+def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
     """The camera projection's kernel (near-plane clipping included) with and without
     numba: every output field, for boxes in front, beside and behind the camera."""
     need_module("numba", "fast")
-    if not enabled():
-        pytest.skip("SITCOV_NO_JIT is set")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
     fast = _camera._kernel()
     assert fast is not _camera._project  # numba compiled it
     rnd = random.Random(3)
@@ -198,12 +196,11 @@ def test_compiled_projection_is_bit_identical_to_python() -> None:
     assert 1000 < clipped < 19000  # both branches ran
 
 
-def test_compiled_route_tracking_is_bit_identical_to_python() -> None:
+def test_compiled_route_tracking_is_bit_identical_to_python(monkeypatch) -> None:
     """``Path.tracker()`` (compiled) against ``Path.track`` along a curved route driven
     forward with noise, from stale and out-of-range hints too."""
     need_module("numba", "fast")
-    if not enabled():
-        pytest.skip("SITCOV_NO_JIT is set")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
     xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
     ys = tuple(0.8 * k - 0.004 * k * k for k in range(150))
     path = _path.Path(xs, ys)
@@ -224,13 +221,12 @@ def test_compiled_route_tracking_is_bit_identical_to_python() -> None:
     assert hint > 100  # the walk reached the far end of the route
 
 
-def test_compiled_car_steering_is_bit_identical_to_python() -> None:
+def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
     """The scripted and timed cars' pure pursuit of their route (compiled) against the
     Python code, the route's ends and its interior, any heading; the compiled binary
     search finds bisect's index."""
     need_module("numba", "fast")
-    if not enabled():
-        pytest.skip("SITCOV_NO_JIT is set")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
     fast = _controllers._car_kernel()
     assert fast is not _controllers._car_steer  # numba compiled it
     xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
@@ -258,12 +254,11 @@ def _calls_helper(x: float) -> float:
     return _helper_a(x) + 1.0
 
 
-def test_the_disk_cache_name_changes_with_any_helper() -> None:
+def test_the_disk_cache_name_changes_with_any_helper(monkeypatch) -> None:
     """numba's cache checks only the kernel's own file: a helper changed elsewhere must
     give a new cached name (the code digest), so stale machine code is never loaded."""
     need_module("numba", "fast")
-    if not enabled():
-        pytest.skip("SITCOV_NO_JIT is set")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
     one = compiled(_calls_helper, 1.0, helpers=(_helper_a,))
     again = compiled(_calls_helper, 1.0, helpers=(_helper_a,))
     other = compiled(_calls_helper, 1.0, helpers=(("_helper_a", _helper_b),))
