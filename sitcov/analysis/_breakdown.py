@@ -38,7 +38,8 @@ from sitcov.hyperspace import Hyperspace
 
 #: Kinds in the order rows are shown (others after them, alphabetically).
 KIND_ORDER = ("car", "truck", "cyclist", "pedestrian")
-#: Conflict types in the order rows are shown (``sitcov.sim.embedded._conflicts``).
+#: Conflict types in the order rows are shown: ``sitcov.sim.embedded._conflicts.CONFLICT_TYPES``,
+#: repeated to keep analysis free of simulator imports (a test keeps the two equal).
 TYPE_ORDER = (
     "crossing",
     "merging",

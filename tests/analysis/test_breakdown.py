@@ -176,3 +176,12 @@ def test_the_paper_hyperspace_hits_its_car_in_every_collision():
     car = summary["breakdowns"]["hit_kind"]["car"]
     assert car["collisions"] == summary["failures"] and car["share"] == 1.0
     assert car["collision_rate"] == summary["failure_rate"]
+
+
+def test_row_order_lists_every_conflict_type_the_simulator_can_return() -> None:
+    """analysis repeats the simulator's conflict types (it must not import the simulator);
+    the copy may not drift from the source."""
+    from sitcov.analysis._breakdown import TYPE_ORDER
+    from sitcov.sim.embedded._conflicts import CONFLICT_TYPES
+
+    assert TYPE_ORDER == CONFLICT_TYPES
