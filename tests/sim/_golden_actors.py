@@ -8,7 +8,9 @@ hyperspaces (``sitcov/hyperspace/data/derived/<map>.yaml``: the ``intsit`` actor
 both physics profiles x three stacks: the reference stack, the pedestrian-ignoring fault
 (``f4``) and the blind ego. Per map and per intsit kind (car, cyclist, pedestrian where the
 map has it) the draws are chosen to have no extra actor, an ``actor2``, and an ``actor3``;
-every other one is set to clear weather, so that the stacks' braking matters.
+every other one is set to clear weather, so that the stacks' braking matters. The
+situations with two extra actors come again with a behaviour per slot (scripted cruise /
+stop / stop-go, pedestrian cross / kerb / hesitate), so every controller runs.
 
 PEM mode with both PEMs pinned to copies in ``data/``: the car PEM
 (``golden_world_pem.yaml``, shared with the two-car golden) and the per-class PEM
@@ -105,9 +107,38 @@ def map_situations(map_name: str) -> list[dict[str, Any]]:
     return out
 
 
+def with_behaviours(items: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Copies of the situations with two extra actors, each slot given a scripted or
+    pedestrian behaviour in turn (cruise, stop, stop-go; cross, kerb, hesitate), so that
+    every controller of the scene runs in the golden file (derived slots leave it unset:
+    the timing law)."""
+    from sitcov.sim.embedded._scene import BEHAVIOURS
+
+    names = {
+        kind: [b for b, kinds in BEHAVIOURS.items() if kind in kinds and b != "timed"]
+        for kind in ("car", "cyclist", "pedestrian")
+    }
+    out: list[dict[str, Any]] = []
+    turn = dict.fromkeys(names, 0)  # per kind: every behaviour of a kind in turn
+    for item in items:
+        if item["values"].get("actor3", "none") == "none":
+            continue
+        values, bins = dict(item["values"]), dict(item["bins"])
+        for slot in ("actor2", "actor3"):
+            kind = values[slot]["kind"]
+            behaviour = names[kind][turn[kind] % len(names[kind])]
+            turn[kind] += 1
+            values[slot] = {**values[slot], "behaviour": behaviour}
+            bins[slot] = f"{bins[slot]}/{behaviour}"
+        out.append({"map": item["map"], "bins": bins, "values": values})
+    return out
+
+
 def situations() -> list[dict[str, Any]]:
-    """The golden situations of every map in :data:`MAPS`, with their map."""
-    return [item for m in MAPS for item in map_situations(m)]
+    """The golden situations of every map in :data:`MAPS`, with their map; then the ones
+    with two extra actors again, with behaviours (appended: earlier keys keep their index)."""
+    drawn = [item for m in MAPS for item in map_situations(m)]
+    return drawn + with_behaviours(drawn)
 
 
 def cases(stored: list[dict[str, Any]]):

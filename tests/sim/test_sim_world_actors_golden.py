@@ -1,9 +1,10 @@
 """Golden equality for scenes with several road users on every shipped map.
 
-``data/golden_world_actors.json`` holds ``Outcome.to_dict()`` of 396 runs (33 situations
+``data/golden_world_actors.json`` holds ``Outcome.to_dict()`` of 528 runs (33 situations
 drawn from the shipped derived hyperspaces, with pedestrians, cyclists and ``actor2`` /
-``actor3`` slots, on t-junction, crossroads, roundabout and merge x two seeds x both
-physics profiles x the reference stack, F4 and the blind ego; see ``_golden_actors.py``).
+``actor3`` slots, on t-junction, crossroads, roundabout and merge, plus the 11 with two
+extra actors again with scripted and pedestrian behaviours, x two seeds x both physics
+profiles x the reference stack, F4 and the blind ego; see ``_golden_actors.py``).
 Floats are compared for exact equality: optimising the hot loop must keep every
 floating-point operation of these scenes, with and without numba (``SITCOV_NO_JIT=1``).
 """
@@ -16,6 +17,8 @@ import json
 import pytest
 import yaml
 from _golden_actors import GOLDEN, MAPS, PEM_CLASSES, run_all
+
+from sitcov.sim.embedded._scene import BEHAVIOURS
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +59,13 @@ def test_golden_file_covers_every_map_kind_and_extra_slot(golden) -> None:
         if s["values"].get(slot, "none") != "none"
     }
     assert slot_kinds == {"car", "cyclist", "pedestrian"}
+    behaviours = {
+        s["values"][slot].get("behaviour", "timed")
+        for s in golden["situations"]
+        for slot in ("actor2", "actor3")
+        if s["values"].get(slot, "none") != "none"
+    }
+    assert behaviours == set(BEHAVIOURS), "every controller of a slot runs in the golden file"
 
 
 def test_golden_f4_differs_from_the_reference_stack_and_the_blind_ego_is_always_hit(
