@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 from needs import need_module
 
+from sitcov.av import _reference
+from sitcov.av._pid import window_pid
 from sitcov.perception import _camera
 from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
 from sitcov.sim.embedded._jit import _hypot_cr, compiled, enabled
@@ -240,6 +242,32 @@ def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
         args = (s, rnd.uniform(-30, 30), rnd.uniform(-10, 120), rnd.uniform(-4, 4), 1.4, 2.7, 0.6)
         assert repr(fast(arr, *args)) == repr(_controllers._car_steer(pts, *args)), args
         assert _path._bisect_right(path.ss, s) == bisect.bisect_right(path.ss, s)
+
+
+def test_compiled_route_step_is_bit_identical_to_python(monkeypatch) -> None:
+    """The reference stack's route following (compiled, array state) against the Python
+    code (list state): a noisy drive to the end of a curved route, throttle and brake,
+    before and after the PID windows fill; outputs and the whole state, step by step."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    fast = compiled(_reference._route_step, helpers=(window_pid,))
+    assert fast is not None
+    route = [(20.0 * math.sin(0.02 * k), 0.8 * k - 0.004 * k * k) for k in range(60)]
+    points = (tuple(x for x, _ in route), tuple(y for _, y in route))
+    gains = (3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 4.0, 0.75, 0.3, 0.8, 0.1)
+    state = [0, 0.0, 0.0, 0, 0, 0.0, 0.0, 0.0, 0.0] + [0.0] * 8
+    arrays = (np.array(points), np.array(state, dtype=np.float64), np.array(gains))
+    rnd = random.Random(6)
+    braked = 0
+    for k in range(500):
+        x, y = route[min(k // 7, 59)]
+        args = (x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), rnd.uniform(-3.2, 3.2))
+        args += (rnd.choice([0.0, rnd.uniform(0.0, 12.0)]),)
+        want = _reference._route_step(points, state, gains, *args)
+        assert repr(fast(*arrays, *args)) == repr(want), (k, args)
+        assert arrays[1].tolist() == [float(v) for v in state]
+        braked += want[1] > 0.0
+    assert state[1] == 1.0 and 10 < braked < 500  # braked on the way; route consumed
 
 
 def _helper_a(x: float) -> float:
