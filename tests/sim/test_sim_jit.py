@@ -136,6 +136,50 @@ def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
     assert car.speed == 0.0  # the run really braked to a stop
 
 
+def test_compiled_integrate_tracked_is_bit_identical_to_python(monkeypatch) -> None:
+    """The car's fused step (integrator, heading wrap, route tracking; compiled) against
+    the Python code, over the integrator's cases placed along a curved route."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    helpers = (_dynamics.integrate, ("track", _path._track))
+    fast = compiled(_dynamics.integrate_tracked, helpers=helpers)
+    assert fast is not None
+    k = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)._k
+    path = _path.Path(tuple(20.0 * math.sin(0.02 * i) for i in range(150)), tuple(range(150)))
+    pts = (path.xs, path.ys, path.ss)
+    arr = np.array(pts)
+    rnd = random.Random(7)
+    wrapped = 0
+    for case in _cases(3000, 8):
+        x, y, _ = path.point_at(rnd.uniform(0.0, path.length))
+        case = (x + case[0] % 3.0, y + case[1] % 3.0, rnd.uniform(-3.3, 3.3), *case[3:])
+        hint = rnd.randrange(-1, 160)
+        want = _dynamics.integrate_tracked(k, *case, 0.05, 2, pts, hint)
+        assert repr(fast(np.array(k), *case, 0.05, 2, arr, hint)) == repr(want), case
+        wrapped += abs(case[2]) > math.pi
+    assert wrapped > 50  # headings past pi were wrapped
+
+
+def test_vehicle_step_on_a_route_equals_step_then_track() -> None:
+    """``Vehicle.step`` with a route (one call, whichever path this process uses) gives
+    the state of ``step`` and the arc length of ``Path.track`` afterwards, bit for bit,
+    standing still included."""
+    path = _path.Path(tuple(0.5 * i for i in range(200)), tuple(0.01 * i * i for i in range(200)))
+    points = path.tracker().args[0]
+    car = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+    ref = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+    hint = want_hint = 0
+    for i in range(300):
+        thr, brake = (0.6, 0.0) if i < 150 else (0.0, 1.0)
+        s, hint = car.step(thr, brake, 0.3 * math.sin(0.05 * i), 0.8, 0.1, 0.05, 2, points, hint)
+        ref.step(thr, brake, 0.3 * math.sin(0.05 * i), 0.8, 0.1, 0.05, 2)
+        want_s, want_hint = path.track(ref.x, ref.y, want_hint)
+        assert repr((car.x, car.y, car.yaw, car.vx, car.vy, car.r, s, hint)) == repr(
+            (ref.x, ref.y, ref.yaw, ref.vx, ref.vy, ref.r, want_s, want_hint)
+        ), f"step {i}"
+    assert car.speed == 0.0 and hint > 10  # drove along and braked to a stop
+
+
 def _boxes(n: int, seed: int) -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
     """Box pairs (x, y, yaw, half length, half width): apart, touching and overlapping."""
     rnd = random.Random(seed)
@@ -155,6 +199,7 @@ def _boxes(n: int, seed: int) -> list[tuple[tuple[float, ...], tuple[float, ...]
 def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_collision, "_BOX_DISTANCE", None)  # load it now, compiled
     fast = _collision.box_distance_fn()
     assert fast is not _collision.box_distance  # numba compiled it
     pairs = _boxes(20000, 2)
@@ -169,6 +214,7 @@ def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
     numba: every output field, for boxes in front, beside and behind the camera."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_camera, "_PROJECT", None)  # load it now, compiled
     fast = _camera._kernel()
     assert fast is not _camera._project  # numba compiled it
     rnd = random.Random(3)
@@ -203,6 +249,7 @@ def test_compiled_route_tracking_is_bit_identical_to_python(monkeypatch) -> None
     forward with noise, from stale and out-of-range hints too."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_path, "_TRACK", None)  # load it now, compiled
     xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
     ys = tuple(0.8 * k - 0.004 * k * k for k in range(150))
     path = _path.Path(xs, ys)
@@ -229,6 +276,7 @@ def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
     search finds bisect's index."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_controllers, "_CAR", None)  # load it now, compiled
     fast = _controllers._car_kernel()
     assert fast is not _controllers._car_steer  # numba compiled it
     xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
