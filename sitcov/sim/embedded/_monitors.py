@@ -221,12 +221,15 @@ class EgoRouteMonitor:
     def update(self, world: Any) -> None:
         """Offset of the ego at its tracked segment; feed both departure monitors."""
         ego = world.ego
-        b, i, t = ego.body, ego.hint, world.t
+        b, i = ego.body, ego.hint
         lat = -(b.x - self.xs[i]) * self.sin[i] + (b.y - self.ys[i]) * self.cos[i]
-        if self.lane.time is None:  # each records only its first departure
-            self.lane.update(t, b.x, b.y, b.yaw, i, lat)
-        if self.road.time is None:
-            self.road.update(t, b.x, b.y, b.yaw, i, lat)
+        lane, road = self.lane, self.road
+        # each records only its first departure; the lane monitor is called only when
+        # its limit is exceeded (its own test, written out: this runs every step)
+        if lane.time is None and (lat > lane.limit or -lat > lane.limit):
+            lane.update(world.t, b.x, b.y, b.yaw, i, lat)
+        if road.time is None:
+            road.update(world.t, b.x, b.y, b.yaw, i, lat)
         lat = -lat if lat < 0.0 else lat
         if lat > self.max_lat:
             self.max_lat = lat
