@@ -199,13 +199,13 @@ def _boxes(n: int, seed: int) -> list[tuple[tuple[float, ...], tuple[float, ...]
 def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
-    monkeypatch.setattr(_collision, "_BOX_DISTANCE", None)  # load it now, compiled
-    fast = _collision.box_distance_fn()
-    assert fast is not _collision.box_distance  # numba compiled it
+    monkeypatch.setattr(_collision, "_FLAT", None)  # load it now, compiled
+    fast = _collision.box_distance_flat_fn()
+    assert fast is not _collision.box_distance_flat  # numba compiled it
     pairs = _boxes(20000, 2)
     dists = [_collision.box_distance(a, b) for a, b in pairs]
     assert 0.0 in dists and max(dists) > 10.0  # overlapping and distant pairs both tested
-    bad = [(a, b) for (a, b), d in zip(pairs, dists, strict=True) if repr(fast(a, b)) != repr(d)]
+    bad = [(a, b) for (a, b), d in zip(pairs, dists, strict=True) if repr(fast(*a, *b)) != repr(d)]
     assert not bad, f"{len(bad)} of 20000 pairs differ, e.g. {bad[0]}"
 
 

@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from sitcov.sim._metrics import PET_ZONE, post_encroachment_time, time_to_collision
-from sitcov.sim.embedded._collision import box_distance_fn, corridor_gap, overlap
+from sitcov.sim.embedded._collision import box_distance_flat_fn, corridor_gap, overlap
 from sitcov.sim.embedded._dynamics import G
 
 #: How far the ego's box may reach beyond its lane's edge before it counts as a lane
@@ -303,7 +303,7 @@ class DistanceMonitor:
 
     def __init__(self, world: Any) -> None:
         self.best = [math.inf] * len(world.actors)
-        self._distance = box_distance_fn()  # compiled when numba is there (same bits)
+        self._distance = box_distance_flat_fn()  # compiled when numba is there (same bits)
 
     def update(self, world: Any) -> None:
         """Box distance to each active actor when it may be a new minimum."""
@@ -313,7 +313,10 @@ class DistanceMonitor:
         for i, a in enumerate(world.actors):
             gap = a.gap  # inf while inactive
             if gap - (ego.radius + a.radius) < best[i] and (gap < FAR or far_step):
-                d = box_distance(ego.box(), a.box())
+                e, b = ego.body, a.body
+                d = box_distance(
+                    e.x, e.y, e.yaw, ego.half_l, ego.half_w, b.x, b.y, b.yaw, a.half_l, a.half_w
+                )
                 if d < best[i]:
                     best[i] = d
 
