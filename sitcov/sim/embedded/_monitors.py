@@ -35,6 +35,7 @@ simulated facts are the same whatever counts as a failure.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -203,6 +204,13 @@ class RoadDepartureMonitor:
 # --- world monitors -------------------------------------------------------------------------
 
 
+@functools.lru_cache(maxsize=256)
+def _heading_trig(route: Any) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """sin and cos of each heading of ``route``: once per route, not per run (a map's
+    routes are cached, so runs share them)."""
+    return tuple(math.sin(h) for h in route.hs), tuple(math.cos(h) for h in route.hs)
+
+
 class EgoRouteMonitor:
     """The ego's lateral offset from its route: lane and road departure, largest offset.
 
@@ -213,8 +221,7 @@ class EgoRouteMonitor:
 
     def __init__(self, route: Any, lane: LaneDepartureMonitor, road: RoadDepartureMonitor):
         self.xs, self.ys = route.xs, route.ys
-        self.sin = [math.sin(h) for h in route.hs]
-        self.cos = [math.cos(h) for h in route.hs]
+        self.sin, self.cos = _heading_trig(route)
         self.lane, self.road = lane, road
         self.max_lat = 0.0
 
