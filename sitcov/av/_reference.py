@@ -251,7 +251,7 @@ def _route_step(
     error to the target (:func:`sitcov.av._pid.window_pid`, the classes' arithmetic);
     the steer changes by at most ``max_steer_change`` per step, capped at ``max_steer``.
     ``points``: the route's (xs, ys); ``st``: the state (layout above, updated in place);
-    ``p``: the gains in ``ReferenceStack._reset_state``'s order. Plain floats and
+    ``p``: the gains in ``ReferenceStack._start``'s order. Plain floats and
     indexing, so numba compiles this very code (``sim/embedded/_jit.py``).
     """
     xs, ys = points[0], points[1]
