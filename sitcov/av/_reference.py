@@ -144,14 +144,12 @@ class ReferenceStack(AVStack):
         )
         self._route: tuple[tuple[float, float], ...] = ()
         self._dt = 0.05
-        self._points: Any = None
-        self._gains: Any = None
         self._reset_state()
 
     def _reset_state(self) -> None:
         self._steer = 0.0
         self._fired_at: float | None = None
-        self._state: Any = None  # the route step's state, made at the first step
+        self._state: Any = None  # the route step's array, made at the first step
 
     def reset(self, info: RunInfo) -> None:
         """Start a run: take the route, camera and control period; clear the AEB latch."""
@@ -161,21 +159,17 @@ class ReferenceStack(AVStack):
         self._reset_state()
 
     def _start(self) -> None:
-        """The route step's arguments for this run (:func:`_route_step`): points, a fresh
-        state and the gains, as the step takes them fastest (:func:`_as_kernel_args`)."""
-        p, window = self.params, int(self.params["pid_window"])
+        """The route step's array for this run (:func:`route_state`): gains, a fresh state
+        and the route's points."""
+        p = self.params
         gains = (
             *(p[k] for k in ("lookahead_base", "lookahead_gain", "target_speed_kmh")),
             *(p[k] for k in ("lon_kp", "lon_kd", "lon_ki", "lat_kp", "lat_kd", "lat_ki")),
             self._dt,
-            window,
+            p["pid_window"],
             *(p[k] for k in ("max_throttle", "max_brake", "max_steer", "max_steer_change")),
         )
-        points = (tuple(float(x) for x, _ in self._route), tuple(float(y) for _, y in self._route))
-        state = [0, 0.0, 0.0, 0, 0, 0.0, 0.0, 0.0, 0.0] + [0.0] * (2 * window)
-        self._points, self._state, self._gains = _as_kernel_args(
-            points, state, tuple(map(float, gains))
-        )
+        self._state = route_state(gains, self._route)
 
     @property
     def aeb_fired(self) -> bool:
@@ -221,7 +215,7 @@ class ReferenceStack(AVStack):
         if self._state is None:
             self._start()
         thr, brk, steer, self._steer = (_STEP or _step_kernel())(
-            self._points, self._state, self._gains, ego.x, ego.y, ego.yaw, ego.speed
+            self._state, ego.x, ego.y, ego.yaw, ego.speed
         )
         return Control(thr, brk, steer)
 
@@ -233,15 +227,28 @@ class ReferenceStack(AVStack):
         return {"name": self.name, "fault": self.fault, "aeb": self.aeb, "params": params}
 
 
-#: Layout of the route step's state (``ReferenceStack._state``): waypoint index, route
-#: consumed, last steer, window length and ring head (shared by both PIDs: they push
-#: together), then each PID's running sum and last error, then the two error windows.
-_IDX, _DONE, _STEER, _COUNT, _HEAD, _LON, _LAT, _RINGS = 0, 1, 2, 3, 4, 5, 7, 9
+#: Layout of the route step's one array (:func:`route_state`; one array because each array
+#: argument costs a compiled call about 0.3 us of checks): the 15 gains (indices 0-14, in
+#: ``ReferenceStack._start``'s order), then the state: waypoint index, route consumed,
+#: last steer, window length and ring head (shared by both PIDs: they push together),
+#: each PID's running sum and last error, the number of route points; then the two error
+#: windows (``pid_window`` each) and the route's xs and ys.
+_IDX, _DONE, _STEER, _COUNT, _HEAD, _LON, _LAT, _N, _RINGS = 15, 16, 17, 18, 19, 20, 22, 24, 25
 
 
-def _route_step(
-    points: Any, st: Any, p: Any, x: float, y: float, yaw: float, speed: float
-) -> tuple[float, float, float, float]:
+def route_state(gains: Sequence[float], route: Sequence[tuple[float, float]]) -> Any:
+    """The array :func:`_route_step` takes (layout above) with a fresh state: a float
+    array for the compiled step, else a list (the step updates it in place)."""
+    window = int(gains[10])
+    state = [0, 0.0, 0.0, 0, 0, 0.0, 0.0, 0.0, 0.0, len(route)] + [0.0] * (2 * window)
+    values = [*map(float, gains), *state, *(float(x) for x, _ in route)]
+    values += [float(y) for _, y in route]
+    if (_STEP or _step_kernel()) is _route_step:
+        return values
+    return np.array(values, dtype=np.float64)
+
+
+def _route_step(st: Any, x: float, y: float, yaw: float, speed: float) -> tuple[float, ...]:
     """One route-following step (as CARLA's local planner and PID controllers do it):
     ``(throttle, brake, steer, steer kept for the AEB)``.
 
@@ -250,27 +257,26 @@ def _route_step(
     Else a longitudinal PID on the speed error [km/h] and a lateral PID on the heading
     error to the target (:func:`sitcov.av._pid.window_pid`, the classes' arithmetic);
     the steer changes by at most ``max_steer_change`` per step, capped at ``max_steer``.
-    ``points``: the route's (xs, ys); ``st``: the state (layout above, updated in place);
-    ``p``: the gains in ``ReferenceStack._start``'s order. Plain floats and
-    indexing, so numba compiles this very code (``sim/embedded/_jit.py``).
+    ``st``: gains, state and route (layout above; the state is updated in place). Plain
+    floats and indexing, so numba compiles this very code (``sim/embedded/_jit.py``).
     """
-    xs, ys = points[0], points[1]
-    last = len(xs) - 1
-    reach = p[0] + p[1] * speed
+    window, n = int(st[10]), int(st[_N])
+    xs, ys, last = _RINGS + 2 * window, _RINGS + 2 * window + n, n - 1
+    reach = st[0] + st[1] * speed
     idx = int(st[_IDX])
     while idx < last:
-        if hypot(xs[idx] - x, ys[idx] - y) >= reach:
+        if hypot(st[xs + idx] - x, st[ys + idx] - y) >= reach:
             break
         idx += 1
     st[_IDX] = idx
-    tx, ty = xs[idx], ys[idx]
+    tx, ty = st[xs + idx], st[ys + idx]
     if idx == last and (st[_DONE] != 0.0 or hypot(tx - x, ty - y) < _ARRIVED):
         st[_DONE] = 1.0  # route consumed: stop, as CARLA's planner does with an empty queue
         return 0.0, 1.0, 0.0, st[_STEER]
-    window, head = int(p[10]), int(st[_HEAD])
+    head = int(st[_HEAD])
     full = int(st[_COUNT]) == window
-    n = window if full else int(st[_COUNT]) + 1
-    u = window_pid(st, _LON, _RINGS, p[2] - speed * 3.6, p, 3, full, head, n)
+    count = window if full else int(st[_COUNT]) + 1
+    u = window_pid(st, _LON, _RINGS, st[2] - speed * 3.6, st, 3, full, head, count)
     accel = 1.0 if u > 1.0 else (-1.0 if u < -1.0 else u)
     wx, wy = tx - x, ty - y  # heading error to the target
     if wx == 0.0 and wy == 0.0:
@@ -278,11 +284,11 @@ def _route_step(
     else:
         hx, hy = cos(yaw), sin(yaw)
         error = atan2(hx * wy - hy * wx, hx * wx + hy * wy)
-    u = window_pid(st, _LAT, _RINGS + window, error, p, 6, full, head, n)
+    u = window_pid(st, _LAT, _RINGS + window, error, st, 6, full, head, count)
     steer = 1.0 if u > 1.0 else (-1.0 if u < -1.0 else u)
-    st[_COUNT] = n
+    st[_COUNT] = count
     st[_HEAD] = head + 1 if head + 1 < window else 0
-    prev, change, cap = st[_STEER], p[14], p[13]
+    prev, change, cap = st[_STEER], st[14], st[13]
     if steer > prev + change:  # CARLA's steering regulation
         steer = prev + change
     elif steer < prev - change:
@@ -290,8 +296,8 @@ def _route_step(
     steer = cap if steer > cap else (-cap if steer < -cap else steer)
     st[_STEER] = steer
     if accel >= 0.0:
-        return (p[11] if p[11] < accel else accel), 0.0, steer, steer
-    return 0.0, (p[12] if p[12] < -accel else -accel), steer, steer
+        return (st[11] if st[11] < accel else accel), 0.0, steer, steer
+    return 0.0, (st[12] if st[12] < -accel else -accel), steer, steer
 
 
 _STEP: Any = None
@@ -304,22 +310,14 @@ def _step_kernel() -> Any:
     if _STEP is None:
         from sitcov.sim.embedded._jit import compiled
 
-        points = np.array([[0.0, 5.0, 10.0], [0.0, 0.0, 1.0]])
-        gains = np.array([3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 2.0])
-        gains = np.concatenate([gains, [0.75, 0.3, 0.8, 0.1]])
-        state = np.zeros(13)
-        example = (points, state, gains, 0.0, 0.5, 0.1, 3.0)
-        _STEP = compiled(_route_step, *example, helpers=(window_pid,)) or _route_step
+        gains = [3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 2.0, 0.75, 0.3, 0.8, 0.1]
+        state = [0.0] * 10 + [0.0] * 4
+        state[_N - 15] = 3.0
+        route = [0.0, 5.0, 10.0, 0.0, 0.0, 1.0]
+        example = np.array(gains + state + route, dtype=np.float64)
+        _STEP = compiled(_route_step, example, 0.0, 0.5, 0.1, 3.0, helpers=(window_pid,))
+        _STEP = _STEP or _route_step
     return _STEP
-
-
-def _as_kernel_args(*values: Any) -> tuple[Any, ...]:
-    """``values`` as the route step takes them fastest: float arrays for the compiled one
-    (numba checks an array's type at once), else as they are (the state a list, which the
-    step updates in place)."""
-    if (_STEP or _step_kernel()) is _route_step:
-        return values
-    return tuple(np.array(v, dtype=np.float64) for v in values)
 
 
 class NoPerceptionStack(ReferenceStack):

@@ -293,29 +293,29 @@ def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
 
 
 def test_compiled_route_step_is_bit_identical_to_python(monkeypatch) -> None:
-    """The reference stack's route following (compiled, array state) against the Python
-    code (list state): a noisy drive to the end of a curved route, throttle and brake,
-    before and after the PID windows fill; outputs and the whole state, step by step."""
+    """The reference stack's route following (compiled, float array) against the Python
+    code (list): a noisy drive to the end of a curved route, throttle and brake, before
+    and after the PID windows fill; outputs and the whole array, step by step."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
     fast = compiled(_reference._route_step, helpers=(window_pid,))
     assert fast is not None
     route = [(20.0 * math.sin(0.02 * k), 0.8 * k - 0.004 * k * k) for k in range(60)]
-    points = (tuple(x for x, _ in route), tuple(y for _, y in route))
     gains = (3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 4.0, 0.75, 0.3, 0.8, 0.1)
-    state = [0, 0.0, 0.0, 0, 0, 0.0, 0.0, 0.0, 0.0] + [0.0] * 8
-    arrays = (np.array(points), np.array(state, dtype=np.float64), np.array(gains))
+    monkeypatch.setattr(_reference, "_STEP", _reference._route_step)  # route_state: a list
+    state = _reference.route_state(gains, route)
+    array = np.array(state, dtype=np.float64)
     rnd = random.Random(6)
     braked = 0
     for k in range(500):
         x, y = route[min(k // 7, 59)]
         args = (x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), rnd.uniform(-3.2, 3.2))
         args += (rnd.choice([0.0, rnd.uniform(0.0, 12.0)]),)
-        want = _reference._route_step(points, state, gains, *args)
-        assert repr(fast(*arrays, *args)) == repr(want), (k, args)
-        assert arrays[1].tolist() == [float(v) for v in state]
+        want = _reference._route_step(state, *args)
+        assert repr(fast(array, *args)) == repr(want), (k, args)
+        assert array.tolist() == [float(v) for v in state]
         braked += want[1] > 0.0
-    assert state[1] == 1.0 and 10 < braked < 500  # braked on the way; route consumed
+    assert state[_reference._DONE] == 1.0 and 10 < braked < 500  # braked; route consumed
 
 
 def _helper_a(x: float) -> float:
