@@ -13,6 +13,7 @@ measuring the heading error counter-clockwise gives the same behaviour with the 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 
 class _WindowPID:
@@ -91,3 +92,30 @@ def heading_error(x: float, y: float, yaw: float, tx: float, ty: float) -> float
         return 0.0
     hx, hy = math.cos(yaw), math.sin(yaw)
     return math.atan2(hx * wy - hy * wx, hx * wx + hy * wy)
+
+
+def window_pid(
+    st: Any, at: int, ring: int, error: float, gains: Any, g: int, full: bool, head: int, n: int
+) -> float:
+    """:meth:`_WindowPID.update` on a flat state, for the compiled route step
+    (``_reference._route_step``): the same operations in the same order, so the same bits.
+
+    ``st[at]`` is the running sum, ``st[at + 1]`` the last error and ``st[ring:ring + w]``
+    the window as a ring buffer whose oldest entry sits at ``head`` once ``full``; ``n`` is
+    the window's length after this push. ``gains[g:g + 3]`` are kp, kd, ki; ``gains[9]``
+    is dt. Plain floats and indexing only, so numba compiles it (``_jit.py``).
+    """
+    total = st[at] + error
+    if full:
+        total -= st[ring + head]  # the error that leaves the window
+    st[ring + head] = error
+    st[at] = total
+    last = st[at + 1]
+    st[at + 1] = error
+    kp = gains[g]
+    if n < 2:
+        return kp * error
+    dt = gains[9]
+    de = (error - last) / dt
+    ie = total * dt
+    return kp * error + gains[g + 1] * de + gains[g + 2] * ie

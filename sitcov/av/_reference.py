@@ -13,17 +13,23 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Collection, Mapping, Sequence
+from math import atan2, cos, sin
 from typing import Any, ClassVar
+
+import numpy as np
 
 from sitcov.av._base import AVStack, Control, Observation, RunInfo
 from sitcov.av._faults import resolve_params
-from sitcov.av._pid import LateralPID, LongitudinalPID
+from sitcov.av._pid import window_pid
 from sitcov.perception._base import CameraSpec, Detection
 
 Detector = Callable[[Any], Sequence[Detection]]
 
 #: Distance to the last route point at which the route counts as driven [m] (CARLA: 1 m).
 _ARRIVED = 1.0
+#: ``math.hypot`` under the name :func:`_route_step` uses (``sim/embedded/_jit.py``
+#: compiles that code with a bit-identical replacement).
+hypot = math.hypot
 
 
 #: How the distance test judges "close enough" per detection class: which extent of the
@@ -136,32 +142,34 @@ class ReferenceStack(AVStack):
         self.min_box_sizes = (
             aeb_min_box_sizes(self._distance, self._classes, self.camera) if self.aeb else {}
         )
-        self._target = p["target_speed_kmh"]
-        self._la_base = p["lookahead_base"]
-        self._la_gain = p["lookahead_gain"]
-        self._max_throttle = p["max_throttle"]
-        self._max_brake = p["max_brake"]
-        self._max_steer = p["max_steer"]
-        self._dsteer = p["max_steer_change"]
         self._route: tuple[tuple[float, float], ...] = ()
-        self._lat = LateralPID(p["lat_kp"], p["lat_kd"], p["lat_ki"], 0.05, p["pid_window"])
-        self._lon = LongitudinalPID(p["lon_kp"], p["lon_kd"], p["lon_ki"], 0.05, p["pid_window"])
+        self._dt = 0.05
         self._reset_state()
 
     def _reset_state(self) -> None:
-        self._idx = 0
-        self._done = False
         self._steer = 0.0
         self._fired_at: float | None = None
-        self._lat.reset()
-        self._lon.reset()
+        self._state: Any = None  # the route step's array, made at the first step
 
     def reset(self, info: RunInfo) -> None:
         """Start a run: take the route, camera and control period; clear the AEB latch."""
         self._route = tuple(info.route) or (tuple(info.goal),)
         self.camera = info.camera
-        self._lat.dt = self._lon.dt = float(info.dt)
+        self._dt = float(info.dt)
         self._reset_state()
+
+    def _start(self) -> None:
+        """The route step's array for this run (:func:`route_state`): gains, a fresh state
+        and the route's points."""
+        p = self.params
+        gains = (
+            *(p[k] for k in ("lookahead_base", "lookahead_gain", "target_speed_kmh")),
+            *(p[k] for k in ("lon_kp", "lon_kd", "lon_ki", "lat_kp", "lat_kd", "lat_ki")),
+            self._dt,
+            p["pid_window"],
+            *(p[k] for k in ("max_throttle", "max_brake", "max_steer", "max_steer_change")),
+        )
+        self._state = route_state(gains, self._route)
 
     @property
     def aeb_fired(self) -> bool:
@@ -201,37 +209,15 @@ class ReferenceStack(AVStack):
         return self.detector(image)
 
     def _drive(self, observation: Observation) -> Control:
+        """Route following: the next waypoint, the two PIDs and CARLA's steering
+        regulation, all in :func:`_route_step` (compiled when numba is there)."""
         ego = observation.ego
-        x, y = ego.x, ego.y
-        route = self._route
-        last = len(route) - 1
-        reach = self._la_base + self._la_gain * ego.speed
-        idx = self._idx
-        while idx < last:
-            wx, wy = route[idx]
-            if math.hypot(wx - x, wy - y) >= reach:
-                break
-            idx += 1
-        self._idx = idx
-        tx, ty = route[idx]
-        if idx == last and (self._done or math.hypot(tx - x, ty - y) < _ARRIVED):
-            # Route consumed: stop, as CARLA's local planner does with an empty queue.
-            self._done = True
-            return Control(0.0, 1.0, 0.0)
-        accel = self._lon.step(self._target, ego.speed * 3.6)
-        steer = self._lat.step(x, y, ego.yaw, tx, ty)
-        # CARLA's steering regulation: limited change per step, capped magnitude.
-        prev = self._steer
-        if steer > prev + self._dsteer:
-            steer = prev + self._dsteer
-        elif steer < prev - self._dsteer:
-            steer = prev - self._dsteer
-        cap = self._max_steer
-        steer = cap if steer > cap else (-cap if steer < -cap else steer)
-        self._steer = steer
-        if accel >= 0.0:
-            return Control(min(accel, self._max_throttle), 0.0, steer)
-        return Control(0.0, min(-accel, self._max_brake), steer)
+        if self._state is None:
+            self._start()
+        thr, brk, steer, self._steer = (_STEP or _step_kernel())(
+            self._state, ego.x, ego.y, ego.yaw, ego.speed
+        )
+        return Control(thr, brk, steer)
 
     def config(self) -> dict[str, Any]:
         """Name, fault and the effective parameters (JSON-serialisable)."""
@@ -239,6 +225,99 @@ class ReferenceStack(AVStack):
         params["centering"] = list(params["centering"])
         params["classes"] = list(params["classes"])
         return {"name": self.name, "fault": self.fault, "aeb": self.aeb, "params": params}
+
+
+#: Layout of the route step's one array (:func:`route_state`; one array because each array
+#: argument costs a compiled call about 0.3 us of checks): the 15 gains (indices 0-14, in
+#: ``ReferenceStack._start``'s order), then the state: waypoint index, route consumed,
+#: last steer, window length and ring head (shared by both PIDs: they push together),
+#: each PID's running sum and last error, the number of route points; then the two error
+#: windows (``pid_window`` each) and the route's xs and ys.
+_IDX, _DONE, _STEER, _COUNT, _HEAD, _LON, _LAT, _N, _RINGS = 15, 16, 17, 18, 19, 20, 22, 24, 25
+
+
+def route_state(gains: Sequence[float], route: Sequence[tuple[float, float]]) -> Any:
+    """The array :func:`_route_step` takes (layout above) with a fresh state: a float
+    array for the compiled step, else a list (the step updates it in place)."""
+    window = int(gains[10])
+    state = [0, 0.0, 0.0, 0, 0, 0.0, 0.0, 0.0, 0.0, len(route)] + [0.0] * (2 * window)
+    values = [*map(float, gains), *state, *(float(x) for x, _ in route)]
+    values += [float(y) for _, y in route]
+    if (_STEP or _step_kernel()) is _route_step:
+        return values
+    return np.array(values, dtype=np.float64)
+
+
+def _route_step(st: Any, x: float, y: float, yaw: float, speed: float) -> tuple[float, ...]:
+    """One route-following step (as CARLA's local planner and PID controllers do it):
+    ``(throttle, brake, steer, steer kept for the AEB)``.
+
+    The target is the first waypoint at least ``lookahead_base + lookahead_gain * speed``
+    ahead; at the last one within :data:`_ARRIVED` the route is consumed (full brake).
+    Else a longitudinal PID on the speed error [km/h] and a lateral PID on the heading
+    error to the target (:func:`sitcov.av._pid.window_pid`, the classes' arithmetic);
+    the steer changes by at most ``max_steer_change`` per step, capped at ``max_steer``.
+    ``st``: gains, state and route (layout above; the state is updated in place). Plain
+    floats and indexing, so numba compiles this very code (``sim/embedded/_jit.py``).
+    """
+    window, n = int(st[10]), int(st[_N])
+    xs, ys, last = _RINGS + 2 * window, _RINGS + 2 * window + n, n - 1
+    reach = st[0] + st[1] * speed
+    idx = int(st[_IDX])
+    while idx < last:
+        if hypot(st[xs + idx] - x, st[ys + idx] - y) >= reach:
+            break
+        idx += 1
+    st[_IDX] = idx
+    tx, ty = st[xs + idx], st[ys + idx]
+    if idx == last and (st[_DONE] != 0.0 or hypot(tx - x, ty - y) < _ARRIVED):
+        st[_DONE] = 1.0  # route consumed: stop, as CARLA's planner does with an empty queue
+        return 0.0, 1.0, 0.0, st[_STEER]
+    head = int(st[_HEAD])
+    full = int(st[_COUNT]) == window
+    count = window if full else int(st[_COUNT]) + 1
+    u = window_pid(st, _LON, _RINGS, st[2] - speed * 3.6, st, 3, full, head, count)
+    accel = 1.0 if u > 1.0 else (-1.0 if u < -1.0 else u)
+    wx, wy = tx - x, ty - y  # heading error to the target
+    if wx == 0.0 and wy == 0.0:
+        error = 0.0
+    else:
+        hx, hy = cos(yaw), sin(yaw)
+        error = atan2(hx * wy - hy * wx, hx * wx + hy * wy)
+    u = window_pid(st, _LAT, _RINGS + window, error, st, 6, full, head, count)
+    steer = 1.0 if u > 1.0 else (-1.0 if u < -1.0 else u)
+    st[_COUNT] = count
+    st[_HEAD] = head + 1 if head + 1 < window else 0
+    prev, change, cap = st[_STEER], st[14], st[13]
+    if steer > prev + change:  # CARLA's steering regulation
+        steer = prev + change
+    elif steer < prev - change:
+        steer = prev - change
+    steer = cap if steer > cap else (-cap if steer < -cap else steer)
+    st[_STEER] = steer
+    if accel >= 0.0:
+        return (st[11] if st[11] < accel else accel), 0.0, steer, steer
+    return 0.0, (st[12] if st[12] < -accel else -accel), steer, steer
+
+
+_STEP: Any = None
+
+
+def _step_kernel() -> Any:
+    """:func:`_route_step` compiled by numba when it is installed (``_jit.py``; the same
+    bits), else itself. Loaded once per process."""
+    global _STEP
+    if _STEP is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        gains = [3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 2.0, 0.75, 0.3, 0.8, 0.1]
+        state = [0.0] * 10 + [0.0] * 4
+        state[_N - 15] = 3.0
+        route = [0.0, 5.0, 10.0, 0.0, 0.0, 1.0]
+        example = np.array(gains + state + route, dtype=np.float64)
+        _STEP = compiled(_route_step, example, 0.0, 0.5, 0.1, 3.0, helpers=(window_pid,))
+        _STEP = _STEP or _route_step
+    return _STEP
 
 
 class NoPerceptionStack(ReferenceStack):

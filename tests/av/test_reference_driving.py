@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import math
+import random
 
 import pytest
 from _kinematic import cross_track, drive
 
 from sitcov.av import LateralPID, LongitudinalPID, ReferenceStack, heading_error
+from sitcov.av._base import EgoState, Observation, RunInfo
+from sitcov.av._pid import window_pid
+from sitcov.perception import CameraSpec
 
 
 def test_heading_error_sign_and_magnitude():
@@ -72,3 +76,68 @@ def test_follows_a_turn_left_and_right(direction):
     assert end[3] == 0.0
     assert math.cos(end[2] - direction * math.pi / 2) > 0.99
     assert rows[-1][4].brake == 1.0 and not rows[-1][4].info
+
+
+@pytest.mark.parametrize("window", [1, 2, 10])
+def test_flat_window_pid_gives_the_classes_bits(window):
+    """``window_pid`` (the compiled route step's PID) equals ``_WindowPID.update``
+    bit for bit, before and after its window fills."""
+    pid = LateralPID(0.58, 0.02, 0.5, 0.05, window)
+    gains = (0.0,) * 6 + (0.58, 0.02, 0.5, 0.05)
+    st = [0.0, 0.0] + [0.0] * window
+    rnd = random.Random(window)
+    count = head = 0
+    for _ in range(40):
+        error = rnd.uniform(-1.0, 1.0)
+        full = count == window
+        count = window if full else count + 1
+        got = window_pid(st, 0, 2, error, gains, 6, full, head, count)
+        head = head + 1 if head + 1 < window else 0
+        assert repr(got) == repr(pid.update(error))
+
+
+def _reference_drive(route, params, steps):
+    """The stack's route following written with the PID classes (the code before
+    ``_route_step``): ``state -> (throttle, brake, steer)``, per step."""
+    p = params
+    lat = LateralPID(p["lat_kp"], p["lat_kd"], p["lat_ki"], 0.05, p["pid_window"])
+    lon = LongitudinalPID(p["lon_kp"], p["lon_kd"], p["lon_ki"], 0.05, p["pid_window"])
+    idx, done, prev, out = 0, False, 0.0, []
+    for x, y, yaw, speed in steps:
+        reach = p["lookahead_base"] + p["lookahead_gain"] * speed
+        while idx < len(route) - 1 and math.hypot(route[idx][0] - x, route[idx][1] - y) < reach:
+            idx += 1
+        tx, ty = route[idx]
+        if idx == len(route) - 1 and (done or math.hypot(tx - x, ty - y) < 1.0):
+            done = True
+            out.append((0.0, 1.0, 0.0))
+            continue
+        accel = lon.step(p["target_speed_kmh"], speed * 3.6)
+        steer = lat.step(x, y, yaw, tx, ty)
+        change = p["max_steer_change"]
+        steer = min(max(steer, prev - change), prev + change)
+        prev = steer = min(max(steer, -p["max_steer"]), p["max_steer"])
+        if accel >= 0.0:
+            out.append((min(accel, p["max_throttle"]), 0.0, steer))
+        else:
+            out.append((0.0, min(-accel, p["max_brake"]), steer))
+    return out
+
+
+@pytest.mark.parametrize("window", [1, 3, 10])
+def test_route_step_gives_the_pid_classes_bits(window):
+    """The stack's controls along a noisy drive to the end of a curved route equal those
+    of the same controller written with the PID classes, bit for bit (either path)."""
+    route = [(20.0 * math.sin(0.02 * k), 0.8 * k - 0.004 * k * k) for k in range(60)]
+    stack = ReferenceStack(params={"pid_window": window})
+    stack.reset(RunInfo(0.05, tuple(route), route[-1], "test", CameraSpec(), 0))
+    rnd = random.Random(window)
+    steps = []
+    for k in range(400):
+        x, y = route[min(k // 6, 59)]
+        pose = (x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), rnd.uniform(-3.2, 3.2))
+        steps.append((*pose, rnd.choice([0.0, rnd.uniform(0.0, 12.0)])))
+    got = [stack.step(Observation(0.0, EgoState(*s, 0.0))) for s in steps]
+    want = _reference_drive(route, stack.params, steps)
+    assert [repr((c.throttle, c.brake, c.steer)) for c in got] == [repr(w) for w in want]
+    assert want[-1] == (0.0, 1.0, 0.0)  # the route was consumed

@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 from needs import need_module
 
+from sitcov.av import _reference
+from sitcov.av._pid import window_pid
 from sitcov.perception import _camera
 from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
 from sitcov.sim.embedded._jit import _hypot_cr, compiled, enabled
@@ -134,6 +136,50 @@ def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
     assert car.speed == 0.0  # the run really braked to a stop
 
 
+def test_compiled_integrate_tracked_is_bit_identical_to_python(monkeypatch) -> None:
+    """The car's fused step (integrator, heading wrap, route tracking; compiled) against
+    the Python code, over the integrator's cases placed along a curved route."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    helpers = (_dynamics.integrate, ("track", _path._track))
+    fast = compiled(_dynamics.integrate_tracked, helpers=helpers)
+    assert fast is not None
+    k = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)._k
+    path = _path.Path(tuple(20.0 * math.sin(0.02 * i) for i in range(150)), tuple(range(150)))
+    pts = (path.xs, path.ys, path.ss)
+    arr = np.array(pts)
+    rnd = random.Random(7)
+    wrapped = 0
+    for case in _cases(3000, 8):
+        x, y, _ = path.point_at(rnd.uniform(0.0, path.length))
+        case = (x + case[0] % 3.0, y + case[1] % 3.0, rnd.uniform(-3.3, 3.3), *case[3:])
+        hint = rnd.randrange(-1, 160)
+        want = _dynamics.integrate_tracked(k, *case, 0.05, 2, pts, hint)
+        assert repr(fast(np.array(k), *case, 0.05, 2, arr, hint)) == repr(want), case
+        wrapped += abs(case[2]) > math.pi
+    assert wrapped > 50  # headings past pi were wrapped
+
+
+def test_vehicle_step_on_a_route_equals_step_then_track() -> None:
+    """``Vehicle.step`` with a route (one call, whichever path this process uses) gives
+    the state of ``step`` and the arc length of ``Path.track`` afterwards, bit for bit,
+    standing still included."""
+    path = _path.Path(tuple(0.5 * i for i in range(200)), tuple(0.01 * i * i for i in range(200)))
+    points = path.tracker().args[0]
+    car = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+    ref = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+    hint = want_hint = 0
+    for i in range(300):
+        thr, brake = (0.6, 0.0) if i < 150 else (0.0, 1.0)
+        s, hint = car.step(thr, brake, 0.3 * math.sin(0.05 * i), 0.8, 0.1, 0.05, 2, points, hint)
+        ref.step(thr, brake, 0.3 * math.sin(0.05 * i), 0.8, 0.1, 0.05, 2)
+        want_s, want_hint = path.track(ref.x, ref.y, want_hint)
+        assert repr((car.x, car.y, car.yaw, car.vx, car.vy, car.r, s, hint)) == repr(
+            (ref.x, ref.y, ref.yaw, ref.vx, ref.vy, ref.r, want_s, want_hint)
+        ), f"step {i}"
+    assert car.speed == 0.0 and hint > 10  # drove along and braked to a stop
+
+
 def _boxes(n: int, seed: int) -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
     """Box pairs (x, y, yaw, half length, half width): apart, touching and overlapping."""
     rnd = random.Random(seed)
@@ -153,12 +199,13 @@ def _boxes(n: int, seed: int) -> list[tuple[tuple[float, ...], tuple[float, ...]
 def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
-    fast = _collision.box_distance_fn()
-    assert fast is not _collision.box_distance  # numba compiled it
+    monkeypatch.setattr(_collision, "_FLAT", None)  # load it now, compiled
+    fast = _collision.box_distance_flat_fn()
+    assert fast is not _collision.box_distance_flat  # numba compiled it
     pairs = _boxes(20000, 2)
     dists = [_collision.box_distance(a, b) for a, b in pairs]
     assert 0.0 in dists and max(dists) > 10.0  # overlapping and distant pairs both tested
-    bad = [(a, b) for (a, b), d in zip(pairs, dists, strict=True) if repr(fast(a, b)) != repr(d)]
+    bad = [(a, b) for (a, b), d in zip(pairs, dists, strict=True) if repr(fast(*a, *b)) != repr(d)]
     assert not bad, f"{len(bad)} of 20000 pairs differ, e.g. {bad[0]}"
 
 
@@ -167,6 +214,7 @@ def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
     numba: every output field, for boxes in front, beside and behind the camera."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_camera, "_PROJECT", None)  # load it now, compiled
     fast = _camera._kernel()
     assert fast is not _camera._project  # numba compiled it
     rnd = random.Random(3)
@@ -201,6 +249,7 @@ def test_compiled_route_tracking_is_bit_identical_to_python(monkeypatch) -> None
     forward with noise, from stale and out-of-range hints too."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_path, "_TRACK", None)  # load it now, compiled
     xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
     ys = tuple(0.8 * k - 0.004 * k * k for k in range(150))
     path = _path.Path(xs, ys)
@@ -227,6 +276,7 @@ def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
     search finds bisect's index."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_controllers, "_CAR", None)  # load it now, compiled
     fast = _controllers._car_kernel()
     assert fast is not _controllers._car_steer  # numba compiled it
     xs = tuple(20.0 * math.sin(0.02 * k) for k in range(150))
@@ -240,6 +290,32 @@ def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
         args = (s, rnd.uniform(-30, 30), rnd.uniform(-10, 120), rnd.uniform(-4, 4), 1.4, 2.7, 0.6)
         assert repr(fast(arr, *args)) == repr(_controllers._car_steer(pts, *args)), args
         assert _path._bisect_right(path.ss, s) == bisect.bisect_right(path.ss, s)
+
+
+def test_compiled_route_step_is_bit_identical_to_python(monkeypatch) -> None:
+    """The reference stack's route following (compiled, float array) against the Python
+    code (list): a noisy drive to the end of a curved route, throttle and brake, before
+    and after the PID windows fill; outputs and the whole array, step by step."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    fast = compiled(_reference._route_step, helpers=(window_pid,))
+    assert fast is not None
+    route = [(20.0 * math.sin(0.02 * k), 0.8 * k - 0.004 * k * k) for k in range(60)]
+    gains = (3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 4.0, 0.75, 0.3, 0.8, 0.1)
+    monkeypatch.setattr(_reference, "_STEP", _reference._route_step)  # route_state: a list
+    state = _reference.route_state(gains, route)
+    array = np.array(state, dtype=np.float64)
+    rnd = random.Random(6)
+    braked = 0
+    for k in range(500):
+        x, y = route[min(k // 7, 59)]
+        args = (x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), rnd.uniform(-3.2, 3.2))
+        args += (rnd.choice([0.0, rnd.uniform(0.0, 12.0)]),)
+        want = _reference._route_step(state, *args)
+        assert repr(fast(array, *args)) == repr(want), (k, args)
+        assert array.tolist() == [float(v) for v in state]
+        braked += want[1] > 0.0
+    assert state[_reference._DONE] == 1.0 and 10 < braked < 500  # braked; route consumed
 
 
 def _helper_a(x: float) -> float:

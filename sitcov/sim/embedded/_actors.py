@@ -13,6 +13,7 @@ from typing import Any
 from sitcov.perception._base import ActorView, Pose
 from sitcov.sim._metrics import disc_radius
 from sitcov.sim.embedded._bodies import Body, BodySpec
+from sitcov.sim.embedded._dynamics import SUBSTEPS
 from sitcov.sim.embedded._map import Conflict
 from sitcov.sim.embedded._path import Path
 
@@ -58,6 +59,7 @@ class Actor:
         "s",
         "hint",
         "tracker",
+        "_points",
         "active",
         "crashed",
         "rows",
@@ -89,6 +91,8 @@ class Actor:
         self.s = 0.0
         self.hint = 0
         self.tracker = route.tracker()  # route.track, compiled when numba is there
+        # a car's body tracks itself in its integrator's call (Vehicle.step's route)
+        self._points = self.tracker.args[0] if kind == "car" else None
         self.active = True
         self.crashed = False
         self.rows: list[Row] = []
@@ -120,6 +124,17 @@ class Actor:
         b = self.body
         c, s = math.cos(b.yaw), math.sin(b.yaw)
         return b.vx * c - b.vy * s, b.vx * s + b.vy * c
+
+    def move(self, thr: float, brk: float, steer: float, mu: float, lat: float, dt: float) -> None:
+        """Step the body under the commands, then update ``s`` and ``hint`` (a car does
+        both in one compiled call: see ``Vehicle.step``)."""
+        b = self.body
+        if self._points is not None:
+            route, hint = self._points, self.hint
+            self.s, self.hint = b.step(thr, brk, steer, mu, lat, dt, SUBSTEPS, route, hint)
+        else:
+            b.step(thr, brk, steer, mu, lat, dt)
+            self.s, self.hint = self.tracker(b.x, b.y, self.hint)
 
     def track(self) -> None:
         """Update ``s`` and ``hint`` from the body's position."""

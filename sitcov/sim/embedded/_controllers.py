@@ -21,6 +21,7 @@ drive and the world (``world.ego``, ``world.ego_speed``, ``world.actors``, ``wor
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import replace
@@ -61,11 +62,8 @@ def lateral_controller(actor: Actor, dt: float = 0.05) -> Callable[[float], floa
     cos, sin = math.cos, math.sin
     if actor.kind == "car":
         lr, wb, steer_max = body.p.lr, body.p.wheelbase, body.p.steer_max
-        route = actor.route
-        pts: Any = (route.xs, route.ys, route.hs, route.ss)
         kernel = _car_kernel()
-        if kernel is not _car_steer:  # compiled: the points as one array (one type check)
-            pts = np.array(pts, dtype=np.float64)
+        pts = _car_points(actor.route, kernel is not _car_steer)
 
         def car(lookahead: float) -> float:
             return kernel(pts, actor.s + lookahead, body.x, body.y, body.yaw, lr, wb, steer_max)
@@ -120,6 +118,15 @@ def _car_kernel() -> Any:
         helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit)
         _CAR = compiled(_car_steer, *example, helpers=helpers) or _car_steer
     return _CAR
+
+
+@functools.lru_cache(maxsize=256)
+def _car_points(route: Any, compiled: bool) -> Any:
+    """The route's (xs, ys, hs, ss) as :func:`_car_steer` takes them fastest: one float
+    array for the ``compiled`` one (one type check), else the tuples. Once per route, not
+    per run (a map's routes are cached, so runs share them; the kernel only reads it)."""
+    pts = (route.xs, route.ys, route.hs, route.ss)
+    return np.array(pts, dtype=np.float64) if compiled else pts
 
 
 def _speed_command(actor: Actor, target: float, dt: float) -> tuple[float, float]:

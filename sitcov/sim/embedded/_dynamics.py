@@ -28,8 +28,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from math import atan, atan2, cos, sin, sqrt, tan, tanh
+from math import atan, atan2, cos, pi, sin, sqrt, tan, tanh
 from typing import Any
+
+import numpy as np
+
+from sitcov.sim.embedded._path import _track as track
+from sitcov.sim.embedded._path import _track_kernel
 
 G = 9.81  #: gravity [m/s^2]
 #: Control period [s] and dynamic sub-steps per period.
@@ -224,7 +229,54 @@ def integrate(
     return x, y, yaw, vx, vy, r
 
 
+def integrate_tracked(
+    k: tuple[float, ...],
+    x: float,
+    y: float,
+    yaw: float,
+    vx: float,
+    vy: float,
+    r: float,
+    throttle: float,
+    brake: float,
+    delta: float,
+    mu: float,
+    lateral_accel: float,
+    dt: float,
+    substeps: int,
+    route: Any,
+    hint: int,
+) -> tuple[float, float, float, float, float, float, float, int]:
+    """:func:`integrate`, the heading wrapped to [-pi, pi], then the new position tracked
+    on ``route`` from segment ``hint`` (``_path._track``): ``(x, y, yaw, vx, vy, r, s,
+    segment)``. One compiled call per car and step instead of two (a call into numba
+    costs more than either computation)."""
+    x, y, yaw, vx, vy, r = integrate(
+        k, x, y, yaw, vx, vy, r, throttle, brake, delta, mu, lateral_accel, dt, substeps
+    )
+    if yaw > pi or yaw < -pi:
+        yaw = atan2(sin(yaw), cos(yaw))
+    s, i = track(route, x, y, hint)
+    return x, y, yaw, vx, vy, r, s, i
+
+
 _INTEGRATE: Any = None
+_TRACKED: Any = None
+
+
+def _tracked_kernel() -> Any:
+    """:func:`integrate_tracked` compiled by numba when it is installed, else itself."""
+    global _TRACKED
+    if _TRACKED is None:
+        from sitcov.sim.embedded._jit import compiled
+
+        k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
+        route = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
+        example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
+        helpers = (integrate, ("track", track))
+        _TRACKED = compiled(integrate_tracked, *example, route, 0, helpers=helpers)
+        _TRACKED = _TRACKED or integrate_tracked
+    return _TRACKED
 
 
 def _kernel() -> Any:
@@ -246,8 +298,6 @@ def _constants(k: tuple[float, ...], as_array: bool | None = None) -> Any:
         as_array = _kernel() is not integrate
     if not as_array:
         return k
-    import numpy as np
-
     return np.array(k, dtype=np.float64)
 
 
@@ -315,24 +365,39 @@ class Vehicle:
         lateral_accel: float = 0.0,
         dt: float = DT,
         substeps: int = SUBSTEPS,
-    ) -> None:
+        route: Any = None,
+        hint: int = 0,
+    ) -> tuple[float, int] | None:
         """Advance by ``dt`` under constant commands.
 
         Args:
             throttle, brake: in [0, 1]. steer: in [-1, 1], positive left, times steer_max.
             mu: tyre-road friction [-]. lateral_accel: external acceleration to the
                 vehicle's left [m/s^2] (crosswind).
+            route, hint: a path's points as its tracker takes them (``Path.tracker``)
+                and the last segment: then the new position is tracked on it in the same
+                compiled call (:func:`integrate_tracked`) and ``(s, segment)`` returned
+                (``_path._track``'s values); else None.
         """
         throttle = 0.0 if throttle < 0.0 else (1.0 if throttle > 1.0 else throttle)
         vx, vy, r = self.vx, self.vy, self.r
         if throttle == 0.0 and vx == 0.0 and vy == 0.0 and r == 0.0:
-            return  # standing still with no drive: nothing moves (wind cannot push a braked car)
+            # standing still with no drive: nothing moves (wind cannot push a braked car)
+            return None if route is None else _track_kernel()(route, self.x, self.y, hint)
         brake = 0.0 if brake < 0.0 else (1.0 if brake > 1.0 else brake)
         steer = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
         self.steer = delta = steer * self.p.steer_max
         kc = self._kc
         if kc is None:
             kc = self._kc = _constants(self._k)
+        if route is not None:
+            self.x, self.y, self.yaw, self.vx, self.vy, self.r, s, i = (
+                _TRACKED or _tracked_kernel()
+            )(
+                kc, self.x, self.y, self.yaw, vx, vy, r, throttle, brake, delta, mu,
+                lateral_accel, dt, substeps, route, hint,
+            )  # fmt: skip
+            return s, i
         x, y, yaw, self.vx, self.vy, self.r = (_INTEGRATE or _kernel())(
             kc, self.x, self.y, self.yaw, vx, vy, r, throttle, brake, delta, mu,
             lateral_accel, dt, substeps,
@@ -340,3 +405,4 @@ class Vehicle:
         if yaw > math.pi or yaw < -math.pi:
             yaw = math.atan2(math.sin(yaw), math.cos(yaw))
         self.x, self.y, self.yaw = x, y, yaw
+        return None

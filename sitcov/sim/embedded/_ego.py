@@ -3,8 +3,9 @@
 :class:`EgoDriver` does per step what stands between the world and the stack: at the
 sensor rate it shows the sensor every active actor (PEM mode: ``Sensor.detect`` with an
 ``ActorView`` per actor, ``kind`` set; camera mode: a rendered frame), delays frames by
-the perception delay, asks the stack for a ``Control``, notes when its AEB fired, and
-delays the brake command by the brake delay (throttle and steering act at once).
+the perception delay, asks the stack for a ``Control``, notes when its AEB fired (from
+then on perception stops: the stack ignores it), and delays the brake command by the
+brake delay (throttle and steering act at once).
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ class EgoDriver:
         self.brakes: deque[float] = deque([0.0] * delay_b)
         self.gate_px = gate_px
         self.camera = stack.camera
-        self.latched = False  # camera mode: the AEB latched, no more frames are rendered
+        self.latched = False  # the AEB latched: no more frames or detections
         self.camera_mode = sensor is None
         self.aeb_time: float | None = None
 
@@ -91,9 +92,11 @@ class EgoDriver:
         if info and info.get("aeb"):
             if self.aeb_time is None:
                 self.aeb_time = t
-            # camera mode: no more frames once the brake has latched (Control.info["aeb"]
-            # promises the stack ignores perception from now on)
-            self.latched = self.camera_mode
+            # no more frames (camera) or detections (PEM) once the brake has latched:
+            # Control.info["aeb"] promises the stack ignores perception from now on, and
+            # the sensor's noise draws come last from the run's generator, so skipping
+            # them changes no other draw
+            self.latched = True
         brake = ctrl.brake
         if self.brakes:
             self.brakes.append(brake)

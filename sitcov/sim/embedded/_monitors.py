@@ -35,6 +35,7 @@ simulated facts are the same whatever counts as a failure.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -42,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from sitcov.sim._metrics import PET_ZONE, post_encroachment_time, time_to_collision
-from sitcov.sim.embedded._collision import box_distance_fn, corridor_gap, overlap
+from sitcov.sim.embedded._collision import box_distance_flat_fn, corridor_gap, overlap
 from sitcov.sim.embedded._dynamics import G
 
 #: How far the ego's box may reach beyond its lane's edge before it counts as a lane
@@ -203,6 +204,13 @@ class RoadDepartureMonitor:
 # --- world monitors -------------------------------------------------------------------------
 
 
+@functools.lru_cache(maxsize=256)
+def _heading_trig(route: Any) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    """sin and cos of each heading of ``route``: once per route, not per run (a map's
+    routes are cached, so runs share them)."""
+    return tuple(math.sin(h) for h in route.hs), tuple(math.cos(h) for h in route.hs)
+
+
 class EgoRouteMonitor:
     """The ego's lateral offset from its route: lane and road departure, largest offset.
 
@@ -213,20 +221,22 @@ class EgoRouteMonitor:
 
     def __init__(self, route: Any, lane: LaneDepartureMonitor, road: RoadDepartureMonitor):
         self.xs, self.ys = route.xs, route.ys
-        self.sin = [math.sin(h) for h in route.hs]
-        self.cos = [math.cos(h) for h in route.hs]
+        self.sin, self.cos = _heading_trig(route)
         self.lane, self.road = lane, road
         self.max_lat = 0.0
 
     def update(self, world: Any) -> None:
         """Offset of the ego at its tracked segment; feed both departure monitors."""
         ego = world.ego
-        b, i, t = ego.body, ego.hint, world.t
+        b, i = ego.body, ego.hint
         lat = -(b.x - self.xs[i]) * self.sin[i] + (b.y - self.ys[i]) * self.cos[i]
-        if self.lane.time is None:  # each records only its first departure
-            self.lane.update(t, b.x, b.y, b.yaw, i, lat)
-        if self.road.time is None:
-            self.road.update(t, b.x, b.y, b.yaw, i, lat)
+        lane, road = self.lane, self.road
+        # each records only its first departure; the lane monitor is called only when
+        # its limit is exceeded (its own test, written out: this runs every step)
+        if lane.time is None and (lat > lane.limit or -lat > lane.limit):
+            lane.update(world.t, b.x, b.y, b.yaw, i, lat)
+        if road.time is None:
+            road.update(world.t, b.x, b.y, b.yaw, i, lat)
         lat = -lat if lat < 0.0 else lat
         if lat > self.max_lat:
             self.max_lat = lat
@@ -300,7 +310,7 @@ class DistanceMonitor:
 
     def __init__(self, world: Any) -> None:
         self.best = [math.inf] * len(world.actors)
-        self._distance = box_distance_fn()  # compiled when numba is there (same bits)
+        self._distance = box_distance_flat_fn()  # compiled when numba is there (same bits)
 
     def update(self, world: Any) -> None:
         """Box distance to each active actor when it may be a new minimum."""
@@ -310,7 +320,10 @@ class DistanceMonitor:
         for i, a in enumerate(world.actors):
             gap = a.gap  # inf while inactive
             if gap - (ego.radius + a.radius) < best[i] and (gap < FAR or far_step):
-                d = box_distance(ego.box(), a.box())
+                e, b = ego.body, a.body
+                d = box_distance(
+                    e.x, e.y, e.yaw, ego.half_l, ego.half_w, b.x, b.y, b.yaw, a.half_l, a.half_w
+                )
                 if d < best[i]:
                     best[i] = d
 

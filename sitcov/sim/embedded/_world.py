@@ -3,7 +3,9 @@
 :class:`World` advances every actor by one control period: the ego's stack decides first
 (from perception of the state at the start of the step), the wind's gust updates, every
 other active actor's controller decides from the same state and its body moves, then the
-ego's body moves; finally each actor's position along its route is tracked. Monitors
+ego's body moves; each body's position along its route is tracked as it moves (no
+controller reads another actor's position along its route but the ego's, which moves
+last). Monitors
 (``_monitors.py``) look at the world after each step; the run loop (``_backend.py``) only
 alternates the two.
 """
@@ -111,19 +113,17 @@ class World:
         for a in self.actors:
             if a.active:
                 cmd = (0.0, 1.0, 0.0) if a.crashed else a.controller.command(a, self)
-                a.body.step(cmd[0], cmd[1], cmd[2], mu, wind.lateral(a) if windy else 0.0, dt)
-        eb = ego.body
-        eb.step(throttle, brake, steer, mu, lat_e, dt)
+                a.move(cmd[0], cmd[1], cmd[2], mu, wind.lateral(a) if windy else 0.0, dt)
+        ego.move(throttle, brake, steer, mu, lat_e, dt)
         self.k += 1
         self.t = self.k * dt
+        eb = ego.body
         ex, ey = eb.x, eb.y
-        ego.s, ego.hint = ego.tracker(ex, ey, ego.hint)
         hypot = math.hypot
         for a in self.actors:
             a.prev_gap = a.gap
             if a.active:
                 b = a.body
-                a.s, a.hint = a.tracker(b.x, b.y, a.hint)
                 a.dx, a.dy = dx, dy = b.x - ex, b.y - ey
                 a.gap = hypot(dx, dy)
             else:
