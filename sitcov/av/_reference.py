@@ -27,7 +27,7 @@ Detector = Callable[[Any], Sequence[Detection]]
 
 #: Distance to the last route point at which the route counts as driven [m] (CARLA: 1 m).
 _ARRIVED = 1.0
-#: ``math.hypot`` under the name :func:`_route_step` uses (``sim/embedded/_jit.py``
+#: ``math.hypot`` under the name :func:`_route_step` uses (``sitcov/_jit.py``
 #: compiles that code with a bit-identical replacement).
 hypot = math.hypot
 
@@ -258,7 +258,7 @@ def _route_step(st: Any, x: float, y: float, yaw: float, speed: float) -> tuple[
     error to the target (:func:`sitcov.av._pid.window_pid`, the classes' arithmetic);
     the steer changes by at most ``max_steer_change`` per step, capped at ``max_steer``.
     ``st``: gains, state and route (layout above; the state is updated in place). Plain
-    floats and indexing, so numba compiles this very code (``sim/embedded/_jit.py``).
+    floats and indexing, so numba compiles this very code (``sitcov/_jit.py``).
     """
     window, n = int(st[10]), int(st[_N])
     xs, ys, last = _RINGS + 2 * window, _RINGS + 2 * window + n, n - 1
@@ -308,7 +308,7 @@ def _step_kernel() -> Any:
     bits), else itself. Loaded once per process."""
     global _STEP
     if _STEP is None:
-        from sitcov.sim.embedded._jit import compiled
+        from sitcov._jit import compiled
 
         gains = [3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 2.0, 0.75, 0.3, 0.8, 0.1]
         state = [0.0] * 10 + [0.0] * 4

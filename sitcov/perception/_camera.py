@@ -98,7 +98,7 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     """:func:`project_box` as a plain tuple in :class:`Projection`'s field order (faster).
 
     The arithmetic is :func:`_project` (compiled by numba when it is installed, the same
-    bits, see ``sitcov/sim/embedded/_jit.py``); the view angle needs ``math.remainder``,
+    bits, see ``sitcov/_jit.py``); the view angle needs ``math.remainder``,
     which numba lacks, so it is folded here.
     """
     ap = actor.pose
@@ -210,7 +210,7 @@ def _kernel() -> Any:
     """:func:`_project` compiled by numba when it is installed, else itself (loaded once)."""
     global _PROJECT
     if _PROJECT is None:
-        from sitcov.sim.embedded._jit import compiled
+        from sitcov._jit import compiled
 
         example = (0.0, 0.0, 0.0, 10.0, 1.0, 0.3, 4.6, 1.8, 1.5, 1.5, 1.3, 800.0, 640.0, 480.0)
         _PROJECT = compiled(_project, *example, helpers=(_clip_near,)) or _project

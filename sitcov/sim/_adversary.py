@@ -29,7 +29,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 #: ``math.hypot`` under the name :func:`pure_pursuit` uses (numba compiles that code with
-#: the name bound to a correctly rounded version, ``sim/embedded/_jit.py``: the same bits).
+#: the name bound to a correctly rounded version, ``sitcov/_jit.py``: the same bits).
 hypot = math.hypot
 
 

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 from needs import need_module
 
+from sitcov._jit import _hypot_cr, compiled, enabled
 from sitcov.av import _reference
 from sitcov.av._pid import window_pid
 from sitcov.perception import _camera
 from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
-from sitcov.sim.embedded._jit import _hypot_cr, compiled, enabled
 
 
 def _pairs(n: int, seed: int) -> list[tuple[float, float]]:

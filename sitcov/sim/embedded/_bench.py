@@ -34,12 +34,12 @@ def bench(
         ``{"runs", "runs_per_s", "ms_per_run", "mean_steps", "failures", "wall_s", "cpu_s",
         "warmup_cpu_s", "jit", "end_reasons"}``.
     """
+    from sitcov._jit import enabled
     from sitcov.av import make_stack
     from sitcov.generation import make_generator
     from sitcov.hyperspace import load_hyperspace
     from sitcov.sim._judge import Judge
     from sitcov.sim.embedded._backend import EmbeddedBackend
-    from sitcov.sim.embedded._jit import enabled
 
     hyperspace = load_hyperspace()
     generator = make_generator("random", hyperspace)

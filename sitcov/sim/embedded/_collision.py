@@ -137,7 +137,7 @@ def box_distance_flat_fn() -> Any:
     else itself. Loaded once per process, on first use."""
     global _FLAT
     if _FLAT is None:
-        from sitcov.sim.embedded._jit import compiled
+        from sitcov._jit import compiled
 
         example = (0.0, 0.0, 0.3, 2.3, 0.9, 4.0, 1.0, 1.2, 2.3, 0.9)
         helpers = (_axes_overlap, _corners_to_box, box_distance)

@@ -111,7 +111,7 @@ def _car_kernel() -> Any:
     bits), else itself. Loaded once per process."""
     global _CAR
     if _CAR is None:
-        from sitcov.sim.embedded._jit import compiled
+        from sitcov._jit import compiled
 
         pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
         example = (pts, 1.5, 0.0, 0.1, 0.2, 1.4, 2.7, 0.6)

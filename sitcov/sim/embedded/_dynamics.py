@@ -268,7 +268,7 @@ def _tracked_kernel() -> Any:
     """:func:`integrate_tracked` compiled by numba when it is installed, else itself."""
     global _TRACKED
     if _TRACKED is None:
-        from sitcov.sim.embedded._jit import compiled
+        from sitcov._jit import compiled
 
         k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         route = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
@@ -283,7 +283,7 @@ def _kernel() -> Any:
     """:func:`integrate` compiled by numba when it is installed (``_jit.py``), else itself."""
     global _INTEGRATE
     if _INTEGRATE is None:
-        from sitcov.sim.embedded._jit import compiled
+        from sitcov._jit import compiled
 
         k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)

@@ -181,7 +181,7 @@ def _track_kernel() -> Any:
     """:func:`_track` compiled by numba when it is installed, else itself (loaded once)."""
     global _TRACK
     if _TRACK is None:
-        from sitcov.sim.embedded._jit import compiled
+        from sitcov._jit import compiled
 
         pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
         _TRACK = compiled(_track, pts, 0.5, 0.1, 0) or _track
