@@ -2,12 +2,13 @@
 
 from typing import Any
 
+from sitcov.av._aeb import aeb_test
 from sitcov.av._base import AVStack, Control, EgoState, Observation, RunInfo
 from sitcov.av._external import ExternalProcessStack, external_stack
 from sitcov.av._factory import make_stack
 from sitcov.av._faults import DEFAULT_PARAMS, FAULT_DESCRIPTIONS, FAULTS, resolve_params
 from sitcov.av._pid import LateralPID, LongitudinalPID, heading_error
-from sitcov.av._reference import NoPerceptionStack, ReferenceStack, aeb_test
+from sitcov.av._reference import NoPerceptionStack, ReferenceStack
 
 __all__ = [
     "DEFAULT_PARAMS",

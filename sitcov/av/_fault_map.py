@@ -46,7 +46,7 @@ def reference_views(params: PEMParams | None = None, distance: float = 0.6) -> l
         params: the PEM (default: the shipped ``pem.yaml``).
         distance: the AEB distance parameter whose narrowest passing box sets the range.
     """
-    from sitcov.av._reference import aeb_min_box_width
+    from sitcov.av._aeb import aeb_min_box_width
     from sitcov.perception import CameraSpec, PEMSensor
     from sitcov.perception._base import ActorView, Pose
     from sitcov.sim.embedded._dynamics import default_params

@@ -26,7 +26,7 @@ DEFAULT_PARAMS: dict[str, Any] = {
     "distance": 0.6,  # fire when round((1 - box width / image width)^4, 1) <= distance [-]
     "label": "car",  # detection class that counts as a vehicle
     # detection classes the AEB acts on (the label above always counts); how closeness
-    # is judged per class: sitcov.av._reference.CLASS_SIZE, docs/embedded.md
+    # is judged per class: sitcov.av._aeb.CLASS_SIZE, docs/embedded.md
     "classes": ("car", "person", "bicycle"),
     # Route following (CARLA's local planner and PID controllers).
     "target_speed_kmh": 25.0,  # cruise speed [km/h]

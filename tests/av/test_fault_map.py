@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from sitcov.av import make_stack
+from sitcov.av._aeb import aeb_min_box_width
 from sitcov.av._fault_map import (
     F1_ACCEPTANCE_RATIO,
     REFERENCE_HEADINGS,
@@ -20,7 +21,6 @@ from sitcov.av._fault_map import (
     mapped_threshold,
     reference_views,
 )
-from sitcov.av._reference import aeb_min_box_width
 from sitcov.perception import CameraSpec, PEMSensor
 from sitcov.perception._base import ActorView, Pose
 from sitcov.perception._pem import load_pem_params

@@ -7,7 +7,7 @@ import dataclasses
 import pytest
 
 from sitcov.av import ReferenceStack, aeb_test
-from sitcov.av._reference import CLASS_SIZE
+from sitcov.av._aeb import CLASS_SIZE
 from sitcov.hyperspace import Situation
 from sitcov.perception import PEMSensor
 from sitcov.perception._base import Detection

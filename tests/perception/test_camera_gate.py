@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sitcov.av import ReferenceStack
-from sitcov.av._reference import aeb_min_box_width, aeb_test
+from sitcov.av._aeb import aeb_min_box_width, aeb_test
 from sitcov.errors import ConfigError
 from sitcov.generation import make_generator
 from sitcov.hyperspace import load_hyperspace

@@ -12,8 +12,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from sitcov.av import ReferenceStack
+from sitcov.av._aeb import aeb_min_box_sizes, aeb_test
 from sitcov.av._protocol import PROTOCOL_VERSION, parse_hello
-from sitcov.av._reference import aeb_min_box_sizes, aeb_test
 from sitcov.calibration._class_runs import class_hyperspace
 from sitcov.errors import StackError
 from sitcov.generation import make_generator
