@@ -153,7 +153,7 @@ def calibration_seeds(pem_file: str | os.PathLike[str] | None = None) -> list[in
     """
     import yaml
 
-    from sitcov.perception._pem import PEM_PARAMS_FILE
+    from sitcov.perception._pem_params import PEM_PARAMS_FILE
 
     path = Path(pem_file) if pem_file is not None else PEM_PARAMS_FILE
     try:
@@ -546,7 +546,7 @@ def run_agreement(
         ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
     """
     from sitcov import __version__
-    from sitcov.perception._pem import PEM_PARAMS_FILE, load_pem_params
+    from sitcov.perception._pem_params import PEM_PARAMS_FILE, load_pem_params
 
     if situations < 1:
         raise ConfigError(field="--situations", value=situations, expected="at least 1")

@@ -10,15 +10,8 @@ from sitcov.perception._models import (
     model_dir,
     model_path,
 )
-from sitcov.perception._pem import (
-    PEM_PARAMS_FILE,
-    PEMFeatures,
-    PEMParams,
-    PEMSensor,
-    load_pem_params,
-    pem_logit,
-    pem_score,
-)
+from sitcov.perception._pem import PEMFeatures, PEMSensor, pem_logit, pem_score
+from sitcov.perception._pem_params import PEM_PARAMS_FILE, PEMParams, load_pem_params
 from sitcov.perception._renderer import render_frame
 
 __all__ = [

@@ -24,7 +24,7 @@ from pathlib import Path
 import yaml
 
 from sitcov.errors import ConfigError
-from sitcov.perception._pem import PEMParams, load_pem_params
+from sitcov.perception._pem_params import PEMParams, load_pem_params
 
 #: The shipped per-class file.
 PEM_CLASSES_FILE = Path(__file__).parent / "data" / "pem_classes.yaml"

@@ -1,0 +1,169 @@
+"""The PEM's parameters: the numbers of the error model and the file they are read from.
+
+:mod:`sitcov.perception._pem` describes the model these numbers drive; the shipped values
+(``data/pem.yaml``) are the output of ``sitcov calibrate`` (its command heads the file). The
+per-class PEM (:mod:`sitcov.perception._pem_classes`) takes its missing names from these.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, fields
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from sitcov.errors import ConfigError
+
+#: The shipped parameter file.
+PEM_PARAMS_FILE = Path(__file__).parent / "data" / "pem.yaml"
+
+
+@dataclass(frozen=True)
+class PEMParams:
+    """Coefficients of the PEM (see the module docstring for the formula).
+
+    The defaults are the hand-tuned values first shipped in ``pem.yaml`` (docs/pem.md).
+
+    Attributes:
+        bias: logit of a rear view at the reference size in clear daylight [-].
+        size_gain: logit per e-fold of box height [-].
+        size_ref_px: box height where the size term is zero [px].
+        size_min_px: below this box height the detector finds nothing [px].
+        size_max_px: box heights above this count as this (detectors saturate) [px].
+        view_gain: logit lost when seen exactly side-on [-].
+        trunc_gain: logit lost when the box is entirely cut by the image edge [-].
+        fog_gain: multiplies ln(fog transmittance) [-].
+        illum_gain: multiplies ln(illumination) [-].
+        rain_gain: logit lost at full rain noise [-].
+        noise_sigma: standard deviation of the logit noise in clear weather [-].
+        rain_sigma: extra logit noise at full rain noise [-].
+        rain_miss: probability of a missed frame at full rain noise [-].
+        jitter: box-corner noise as a fraction of the box size [-].
+        rain_jitter: extra box-corner noise at full rain noise [-].
+        floor: the detector's output threshold: lower scores are not reported [-].
+        aspect_gain: logit per e-fold of the box's width/height ratio [-].
+        view2_gain: logit gained at a 45 degree (oblique) view, beyond the side-view term [-].
+        edge_gain: logit lost with the box centre at the image's left or right edge [-].
+        size2_gain: logit per squared e-fold of box height (curvature of the size term) [-].
+        side_size_gain: extra logit per e-fold of box height when seen side-on [-].
+        facing_gain: logit gained when seen from the rear rather than the front [-].
+        facing2_gain: logit gained when seen end-on (rear or front) rather than side-on,
+            as a cosine of twice the relative heading [-].
+        noise_run_share: share of the logit-noise variance that is constant over a run
+            for one actor (between-run share) [-].
+        noise_tau: correlation time of the frame-to-frame part of the noise [s]
+            (0 = independent frames).
+        contrast_gain: logit per unit of the body's luminance contrast against road and
+            sky (Michelson, 0..1) [-].
+        detail_gain: logit per unit of the body's contrast against the car's dark parts
+            (signed Michelson, -1..1) [-].
+        chroma_gain: logit per unit of the body's CIELAB chroma C*/100 (saturation) [-].
+        red_green_gain: logit per unit of the body's CIELAB a*/100 (red +, green -) [-].
+        yellow_blue_gain: logit per unit of the body's CIELAB b*/100 (yellow +, blue -) [-].
+    """
+
+    bias: float = 0.5
+    size_gain: float = 2.5
+    size_ref_px: float = 25.0
+    size_min_px: float = 6.0
+    size_max_px: float = 250.0
+    view_gain: float = 0.5
+    trunc_gain: float = 3.0
+    fog_gain: float = 2.5
+    illum_gain: float = 0.7
+    rain_gain: float = 2.0
+    noise_sigma: float = 0.5
+    rain_sigma: float = 1.0
+    rain_miss: float = 0.3
+    jitter: float = 0.03
+    rain_jitter: float = 0.05
+    floor: float = 0.3
+    noise_run_share: float = 0.0
+    noise_tau: float = 0.0
+    aspect_gain: float = 0.0
+    view2_gain: float = 0.0
+    edge_gain: float = 0.0
+    size2_gain: float = 0.0
+    side_size_gain: float = 0.0
+    facing_gain: float = 0.0
+    facing2_gain: float = 0.0
+    contrast_gain: float = 0.0
+    detail_gain: float = 0.0
+    chroma_gain: float = 0.0
+    red_green_gain: float = 0.0
+    yellow_blue_gain: float = 0.0
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
+        """Validate a mapping of parameter names to numbers (unknown names are errors)."""
+        known = {f.name for f in fields(cls)}
+        values: dict[str, float] = {}
+        for name, value in data.items():
+            if name not in known:
+                raise ConfigError(
+                    f"{file + ': ' if file else ''}unknown PEM parameter {name!r}; "
+                    f"expected one of: {', '.join(sorted(known))}",
+                    file=file,
+                    field=name,
+                    value=name,
+                )
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ConfigError(file=file, field=name, value=value, expected="a number")
+            values[name] = float(value)
+        params = cls(**values)
+        params._check(file)
+        return params
+
+    def _check(self, file: str | None) -> None:
+        for name in ("size_ref_px", "size_min_px", "size_max_px"):
+            if getattr(self, name) <= 0:
+                raise ConfigError(file=file, field=name, value=getattr(self, name), expected="> 0")
+        if self.size_max_px < self.size_min_px:
+            raise ConfigError(
+                file=file, field="size_max_px", value=self.size_max_px, expected=">= size_min_px"
+            )
+        for name in ("noise_sigma", "rain_sigma", "jitter", "rain_jitter"):
+            if getattr(self, name) < 0:
+                raise ConfigError(file=file, field=name, value=getattr(self, name), expected=">= 0")
+        if self.noise_tau < 0:
+            raise ConfigError(file=file, field="noise_tau", value=self.noise_tau, expected=">= 0")
+        for name in ("rain_miss", "floor", "noise_run_share"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ConfigError(
+                    file=file, field=name, value=getattr(self, name), expected="in [0, 1]"
+                )
+
+    def to_dict(self) -> dict[str, float]:
+        """Plain mapping, the form of ``pem.yaml``'s ``params``."""
+        return asdict(self)
+
+
+def load_pem_params(path: str | Path | None = None) -> PEMParams:
+    """Read PEM parameters from a YAML file (default: the shipped ``pem.yaml``).
+
+    The file holds ``params:`` (name -> number; missing names take the class defaults)
+    and an optional free-form ``meta:`` (where the numbers came from).
+    """
+    if path is None:
+        return _default_params()
+    return _read(Path(path))
+
+
+@lru_cache(maxsize=1)
+def _default_params() -> PEMParams:
+    return _read(PEM_PARAMS_FILE)
+
+
+def _read(path: Path) -> PEMParams:
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read PEM parameters: {exc}") from exc
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: invalid YAML: {exc}") from exc
+    if not isinstance(data, Mapping) or not isinstance(data.get("params", {}), Mapping):
+        raise ConfigError(file=str(path), field="params", expected="a mapping name -> number")
+    return PEMParams.from_mapping(data.get("params", {}), file=str(path))
