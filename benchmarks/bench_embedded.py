@@ -11,7 +11,7 @@ import argparse
 import cProfile
 import pstats
 
-from sitcov.sim.embedded import bench
+from sitcov.campaign._bench import bench
 
 
 def main() -> None:

@@ -737,7 +737,8 @@ def experiment_race_cmd(
 
     from sitcov.campaign import load_config
     from sitcov.campaign._console import created_store
-    from sitcov.campaign._race import race_configs, race_figure, race_lines, run_race
+    from sitcov.campaign._race import race_configs, race_lines, run_race
+    from sitcov.report._race_figure import race_figure
 
     checked = load_config(overrides={"physics": physics, "judge": judge})
     settings = {"av": av, "backend": backend, "hyperspace": hyperspace or "t-junction",
@@ -775,7 +776,7 @@ def bench_cmd(
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
     import json
 
-    from sitcov.sim.embedded import bench
+    from sitcov.campaign._bench import bench
 
     result = bench(runs, seed, fault=fault)
     if json_out:

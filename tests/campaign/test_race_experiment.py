@@ -7,8 +7,9 @@ from campaign_fakes import BACKEND, STACK
 from needs import need_module
 
 from sitcov.campaign import open_store
-from sitcov.campaign._race import race_configs, race_figure, race_lines, race_result, run_race
+from sitcov.campaign._race import race_configs, race_lines, race_result, run_race
 from sitcov.errors import ConfigError
+from sitcov.report._race_figure import race_figure
 
 SETTINGS = {"backend": BACKEND, "av": STACK, "executor": "serial", "workers": 1}
 

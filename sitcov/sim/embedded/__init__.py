@@ -1,7 +1,6 @@
 """The embedded simulator: junction maps as data, single-track dynamics, the backend."""
 
 from sitcov.sim.embedded._backend import ELEMENT_EFFECTS, EmbeddedBackend
-from sitcov.sim.embedded._bench import bench
 from sitcov.sim.embedded._collision import box_distance, overlap, time_to_collision
 from sitcov.sim.embedded._dynamics import Vehicle, VehicleParams, bmw_320i, default_params
 from sitcov.sim.embedded._layouts import MergeMap, RoundaboutMap  # registers the layouts
@@ -20,7 +19,6 @@ __all__ = [
     "Scenario",
     "Vehicle",
     "VehicleParams",
-    "bench",
     "bmw_320i",
     "box_distance",
     "default_params",

@@ -8,8 +8,8 @@ from collections import Counter
 from typer.testing import CliRunner
 
 from sitcov.campaign import CampaignConfig, open_store, run_campaign
+from sitcov.campaign._bench import bench
 from sitcov.cli import app
-from sitcov.sim.embedded import bench
 
 
 def test_bench_runs_exactly_what_a_random_campaign_runs() -> None:
