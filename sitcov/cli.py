@@ -878,7 +878,10 @@ def calibrate_cmd(
     workers: int = typer.Option(1, "--workers", min=1, help="Processes for the camera runs."),
     model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
     samples_out: Optional[Path] = typer.Option(  # noqa: UP045
-        None, "--samples", help="Also write the per-frame samples as JSON lines."
+        None,
+        "--samples",
+        help="Also write what was measured (sweep frames, camera runs) as JSON lines "
+        "(.jsonl or .jsonl.gz), for --from-samples.",
     ),
     classes: Optional[str] = typer.Option(  # noqa: UP045
         None, "--classes", help="pedestrian,cyclist: fit the per-class PEM (pem_classes.yaml)."
@@ -886,14 +889,12 @@ def calibrate_cmd(
     from_samples: Optional[Path] = typer.Option(  # noqa: UP045
         None,
         "--from-samples",
-        help="With --classes: refit from a --samples file (.jsonl or .jsonl.gz) instead of "
-        "rendering and running (--frames/--runs ignored).",
+        help="Refit from a --samples file (.jsonl or .jsonl.gz) instead of rendering and "
+        "running (--frames/--runs/--seed ignored; cars: the seed is the file's).",
     ),
 ) -> None:
     """Sweep distance, bearing, view and weather through renderer + detector; fit the PEM."""
-    import json
     import shlex
-    from dataclasses import asdict
 
     from rich.progress import Progress
 
@@ -902,34 +903,33 @@ def calibrate_cmd(
             classes, out, frames, runs, seed, workers, model, samples_out, from_samples
         )
         return
+    from sitcov.calibration import _calibrate as cal
+
     if from_samples is not None:
-        from sitcov.errors import ConfigError
-
-        raise ConfigError(field="--from-samples", expected="--classes with it")
-
-    from sitcov.calibration._calibrate import calibrate, pem_yaml
-
-    with Progress(console=err_console, transient=True) as bar:
-        task = bar.add_task("calibrating", total=frames + runs)
-        params, summary, samples = calibrate(
-            frames, runs=runs, seed=seed, model=None if model is None else str(model),
-            workers=workers, progress=lambda i: bar.update(task, completed=i),
-        )  # fmt: skip
-    command = f"sitcov calibrate --frames {frames} --runs {runs} --seed {seed}"
-    if workers > 1:
-        command += f" --workers {workers}"
+        recording = cal.read_recording(from_samples)
+        command = f"sitcov calibrate --from-samples {shlex.quote(str(from_samples))}"
+    else:
+        with Progress(console=err_console, transient=True) as bar:
+            task = bar.add_task("calibrating", total=frames + runs)
+            recording = cal.record(
+                frames, runs=runs, seed=seed, model=None if model is None else str(model),
+                workers=workers, progress=lambda i: bar.update(task, completed=i),
+            )  # fmt: skip
+        command = f"sitcov calibrate --frames {frames} --runs {runs} --seed {seed}"
+        if workers > 1:
+            command += f" --workers {workers}"
+    if samples_out is not None:
+        cal.write_recording(samples_out, recording)
+        err_console.print(f"wrote {samples_out}")
+    params, summary = cal.fit_recording(recording)
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
-    text = pem_yaml(params, command, summary)
+    text = cal.pem_yaml(params, command, summary)
     if out is not None:
         out.write_text(text)
         err_console.print(f"wrote {out}")
     else:
         console.print(text, highlight=False, markup=False)
-    if samples_out is not None:
-        with open(samples_out, "w") as fh:
-            for smp in samples:
-                fh.write(json.dumps(asdict(smp)) + "\n")
     views = summary["clear_box_ge_10pct"]
     for name, v in views.items():
         err_console.print(

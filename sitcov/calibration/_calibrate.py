@@ -511,6 +511,78 @@ def summarize_samples(samples: Sequence[Sample], floor: float = USE_FLOOR) -> di
     return out
 
 
+@dataclass(frozen=True)
+class Recording:
+    """Everything a car calibration measured, enough to refit without rendering.
+
+    Attributes:
+        seed: the calibration seed (sweep and camera runs). frames: sweep frames asked for.
+        samples: the sweep's frames with the OV in view (:func:`sweep`).
+        runs: the recorded camera-mode runs, with their situations, run seeds, verdicts and
+            frames: what :func:`fit_pem` and :func:`choose_noise` need.
+    """
+
+    seed: int
+    frames: int
+    samples: tuple[Sample, ...]
+    runs: tuple[CameraRun, ...] = ()
+
+
+def record(
+    frames: int = 1500,
+    *,
+    runs: int = DEFAULT_RUNS,
+    seed: int = 0,
+    model: str | None = None,
+    workers: int = 1,
+    progress: Callable[[int], None] | None = None,
+) -> Recording:
+    """Render and detect ``frames`` sweep scenes and record ``runs`` camera-mode runs.
+
+    ``progress`` receives the number of steps done out of ``frames + runs``.
+    """
+    from sitcov.perception._detector import SSDDetector
+
+    detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
+    samples = sweep(frames, detector, seed=seed, progress=progress)
+    recorded: list[CameraRun] = []
+    if runs > 0:
+        recorded = camera_runs(
+            runs,
+            seed=seed,
+            model=model,
+            workers=workers,
+            progress=None if progress is None else (lambda r: progress(frames + r)),
+        )
+    return Recording(seed, frames, tuple(samples), tuple(recorded))
+
+
+def fit_recording(recording: Recording) -> tuple[PEMParams, dict[str, Any]]:
+    """Fit the PEM to a :class:`Recording` (:func:`fit_pem`, then :func:`choose_noise` on
+    the runs' verdicts); returns the parameters and the summary ``pem_yaml`` stores."""
+    samples, recorded = list(recording.samples), list(recording.runs)
+    summary = summarize_samples(samples)
+    summary["seed"] = recording.seed
+    if not recorded:
+        return fit_pem(samples), summary
+    fitted = fit_pem(samples, runs=recorded)
+    params, table = choose_noise(fitted, recorded)
+    run_frames = [f for r in recorded for f in r.frames]
+    summary["camera_runs"] = {
+        "runs": len(recorded),
+        "seed": recording.seed,
+        "frames": len(run_frames),
+        "frames_per_run": round(len(run_frames) / max(1, len(recorded)), 1),
+        "events_score_ge_0.5": sum(f.score >= THRESHOLD for f in run_frames),
+        "failure_rate_camera": round(sum(r.failed for r in recorded) / len(recorded), 3),
+        "bias_shift": round(params.bias - fitted.bias, 4),
+        "noise_sigma_fitted": fitted.noise_sigma,
+        "noise_scale": round(params.noise_sigma / fitted.noise_sigma, 2),
+        "pem_agreement_by_noise": table,
+    }
+    return params, summary
+
+
 def calibrate(
     frames: int = 1500,
     *,
@@ -528,37 +600,99 @@ def calibrate(
     noise's correlation time, scale and the intercept's shift (:func:`choose_noise`).
     ``progress`` receives the number of steps done out of ``frames + runs``.
     """
-    from sitcov.perception._detector import SSDDetector
+    rec = record(frames, runs=runs, seed=seed, model=model, workers=workers, progress=progress)
+    params, summary = fit_recording(rec)
+    return params, summary, list(rec.samples)
 
-    detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
-    samples = sweep(frames, detector, seed=seed, progress=progress)
-    summary = summarize_samples(samples)
-    summary["seed"] = seed
-    if runs <= 0:
-        return fit_pem(samples), summary, samples
-    recorded = camera_runs(
-        runs,
-        seed=seed,
-        model=model,
-        workers=workers,
-        progress=None if progress is None else (lambda r: progress(frames + r)),
+
+def write_recording(path: Any, recording: Recording) -> None:
+    """A :class:`Recording` as JSON lines (gzip-compressed if ``path`` ends in ``.gz``):
+    a ``meta`` line (seed, frames), one ``sweep`` line per sample, one ``run`` line per run.
+
+    Floats are written by ``repr``, so :func:`read_recording` gives back equal values and a
+    refit reproduces the fit made right after recording.
+    """
+    import gzip
+    import json
+
+    opener = gzip.open if str(path).endswith(".gz") else open
+    with opener(path, "wt") as fh:
+        meta = {"seed": recording.seed, "frames": recording.frames}
+        fh.write(json.dumps({"meta": meta}) + "\n")
+        for smp in recording.samples:
+            fh.write(json.dumps({"sweep": asdict(smp)}) + "\n")
+        for run in recording.runs:
+            fh.write(json.dumps({"run": asdict(run)}) + "\n")
+
+
+def read_recording(path: Any) -> Recording:
+    """What :func:`write_recording` wrote.
+
+    Raises:
+        ConfigError: the file cannot be read, has no meta line, or a line is not a sweep,
+            run or meta row (one line naming the file and the line number).
+    """
+    import gzip
+    import json
+
+    from sitcov.errors import ConfigError
+
+    opener = gzip.open if str(path).endswith(".gz") else open
+    meta: dict[str, Any] | None = None
+    samples: list[Sample] = []
+    runs: list[CameraRun] = []
+    try:
+        fh = opener(path, "rt")
+        lines = list(fh)
+        fh.close()
+    except OSError as exc:
+        raise ConfigError(file=str(path), expected="a readable --samples file") from exc
+    for n, line in enumerate(lines, 1):
+        try:
+            row = json.loads(line)
+            if "meta" in row:
+                meta = {"seed": int(row["meta"]["seed"]), "frames": int(row["meta"]["frames"])}
+            elif "sweep" in row:
+                samples.append(_sample_from(row["sweep"]))
+            else:
+                runs.append(run_from_dict(row["run"]))
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ConfigError(
+                file=str(path), field=f"line {n}", value=line[:60],
+                expected="a meta, sweep or run row written by sitcov calibrate --samples",
+            ) from exc  # fmt: skip
+    if meta is None:
+        raise ConfigError(file=str(path), field="meta", expected="a meta line (seed, frames)")
+    return Recording(meta["seed"], meta["frames"], tuple(samples), tuple(runs))
+
+
+def _sample_from(row: dict[str, Any]) -> Sample:
+    err, color = row["box_error"], row["color"]
+    return Sample(
+        **{
+            **row,
+            "features": PEMFeatures(*row["features"]),
+            "box_error": None if err is None else tuple(err),
+            "color": None if color is None else tuple(color),
+        }
     )
-    fitted = fit_pem(samples, runs=recorded)
-    params, table = choose_noise(fitted, recorded)
-    run_frames = [f for r in recorded for f in r.frames]
-    summary["camera_runs"] = {
-        "runs": len(recorded),
-        "seed": seed,
-        "frames": len(run_frames),
-        "frames_per_run": round(len(run_frames) / max(1, len(recorded)), 1),
-        "events_score_ge_0.5": sum(f.score >= THRESHOLD for f in run_frames),
-        "failure_rate_camera": round(sum(r.failed for r in recorded) / len(recorded), 3),
-        "bias_shift": round(params.bias - fitted.bias, 4),
-        "noise_sigma_fitted": fitted.noise_sigma,
-        "noise_scale": round(params.noise_sigma / fitted.noise_sigma, 2),
-        "pem_agreement_by_noise": table,
-    }
-    return params, summary, samples
+
+
+def run_from_dict(row: dict[str, Any]) -> CameraRun:
+    """A :class:`CameraRun` from its ``asdict`` form read back from JSON."""
+    from sitcov.calibration._camera_runs import RunFrame
+
+    frames = tuple(
+        RunFrame(
+            **{
+                **f,
+                "features": PEMFeatures(*f["features"]),
+                "box_error": None if f["box_error"] is None else tuple(f["box_error"]),
+            }
+        )
+        for f in row["frames"]
+    )
+    return CameraRun(**{**row, "frames": frames})
 
 
 def pem_yaml(params: PEMParams, command: str, summary: dict[str, Any]) -> str:
