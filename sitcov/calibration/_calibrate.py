@@ -223,19 +223,24 @@ _LINEAR = (
 _RIDGE = 1.0
 
 
-def _probit(x: np.ndarray, event: np.ndarray) -> tuple[np.ndarray, float]:
-    """Ridge-penalised probit fit of ``P(event) = Phi(x @ g)``: (g, penalised NLL)."""
+def _probit(
+    x: np.ndarray, event: np.ndarray, ridge: float = _RIDGE
+) -> tuple[np.ndarray, float]:
+    """Ridge-penalised probit fit of ``P(event) = Phi(x @ g)``: (g, penalised NLL).
+
+    ``ridge`` multiplies the sum of the squared coefficients (the intercept is free).
+    """
     from scipy.optimize import minimize
     from scipy.special import log_ndtr, ndtr
 
     def nll(g: np.ndarray) -> tuple[float, np.ndarray]:
         z = x @ g
         lp, lq = log_ndtr(z), log_ndtr(-z)
-        value = -float(np.sum(np.where(event, lp, lq))) + _RIDGE * float(np.sum(g[1:] ** 2))
+        value = -float(np.sum(np.where(event, lp, lq))) + ridge * float(np.sum(g[1:] ** 2))
         pdf = np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
         p = np.clip(ndtr(z), 1e-12, 1 - 1e-12)
         dz = np.where(event, -pdf / p, pdf / (1.0 - p))
-        grad = x.T @ dz + 2.0 * _RIDGE * np.r_[0.0, g[1:]]
+        grad = x.T @ dz + 2.0 * ridge * np.r_[0.0, g[1:]]
         return value, grad
 
     res = minimize(nll, np.zeros(x.shape[1]), jac=True, method="L-BFGS-B")
@@ -285,14 +290,21 @@ def fit_pem(
     threshold: float = THRESHOLD,
     floor: float = USE_FLOOR,
     base: PEMParams | None = None,
+    ridge: float = _RIDGE,
+    drop: Sequence[str] = (),
 ) -> PEMParams:
     """Fit the PEM parameters to sweep samples and recorded camera runs (module docstring).
 
     With ``runs``, sweep samples count only below the narrowest box the runs rendered: above
     it the runs' frames are the ones campaigns meet (the sweep's colours, poses and
     one-element weather are not). The correlation time is not fitted here (``noise_tau``
-    = 0): see :func:`choose_noise`.
+    = 0): see :func:`choose_noise`. ``ridge``: the probit's L2 penalty; ``drop``: names
+    of ``_LINEAR`` coefficients left out of the fit (their gains are 0).
     """
+    unknown = sorted(set(drop) - set(_LINEAR[1:]))
+    if unknown:
+        raise ValueError(f"drop: unknown or undroppable coefficients {unknown}")
+    keep = [i for i, name in enumerate(_LINEAR) if name not in drop]
     base = base or PEMParams()
     run_frames = [f for run in runs for f in run.frames if f.features.height_px >= 1.0]
     # Where camera runs render frames (boxes at least as wide as the frame gate) they are
@@ -315,7 +327,9 @@ def fit_pem(
     best: tuple[float, np.ndarray, float, np.ndarray] | None = None
     for size_max in (60.0, 100.0, 150.0, 200.0, 300.0, 450.0):
         x = _design(feats, 1.0, size_max, base.size_ref_px)
-        g, value = _probit(x, event)
+        g_kept, value = _probit(x[:, keep], event, ridge)
+        g = np.zeros(x.shape[1])
+        g[keep] = g_kept
         if best is None or value < best[0]:
             best = (value, g, size_max, x)
     assert best is not None
