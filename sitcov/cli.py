@@ -892,6 +892,13 @@ def calibrate_cmd(
         help="Refit from a --samples file (.jsonl or .jsonl.gz) instead of rendering and "
         "running (--frames/--runs/--seed ignored; cars: the seed is the file's).",
     ),
+    cv_folds: Optional[int] = typer.Option(  # noqa: UP045
+        None,
+        "--cv-folds",
+        min=2,
+        help="Cars: choose the ridge penalty, noise scale and intercept shift by held-out "
+        "verdict agreement over this many run-grouped folds (instead of in-sample).",
+    ),
 ) -> None:
     """Sweep distance, bearing, view and weather through renderer + detector; fit the PEM."""
     import shlex
@@ -921,7 +928,9 @@ def calibrate_cmd(
     if samples_out is not None:
         cal.write_recording(samples_out, recording)
         err_console.print(f"wrote {samples_out}")
-    params, summary = cal.fit_recording(recording)
+    params, summary = cal.fit_recording(recording, cv_folds=cv_folds)
+    if cv_folds is not None:
+        command += f" --cv-folds {cv_folds}"
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     text = cal.pem_yaml(params, command, summary)
@@ -935,6 +944,15 @@ def calibrate_cmd(
         err_console.print(
             f"clear, box >= 10% width, {name}: n={v['n']} detected {v['rate_floor']:.0%} "
             f"(score >= 0.5: {v['rate_0.5']:.0%})",
+            highlight=False,
+        )
+    cv = summary.get("camera_runs", {}).get("cross_validation")
+    if cv is not None:
+        row = cv["table"][cv["chosen"]]
+        err_console.print(
+            f"cross-validated ({cv['folds']} folds): {cv['chosen']}: held-out agreement "
+            f"{row['agreement']:.1%} (PEM failures {row['failure_rate']:.1%}, camera "
+            f"{cv['camera_failure_rate']:.1%})",
             highlight=False,
         )
     for cand, row in summary.get("camera_runs", {}).get("pem_agreement_by_noise", {}).items():

@@ -223,9 +223,7 @@ _LINEAR = (
 _RIDGE = 1.0
 
 
-def _probit(
-    x: np.ndarray, event: np.ndarray, ridge: float = _RIDGE
-) -> tuple[np.ndarray, float]:
+def _probit(x: np.ndarray, event: np.ndarray, ridge: float = _RIDGE) -> tuple[np.ndarray, float]:
     """Ridge-penalised probit fit of ``P(event) = Phi(x @ g)``: (g, penalised NLL).
 
     ``ridge`` multiplies the sum of the squared coefficients (the intercept is free).
@@ -571,16 +569,27 @@ def record(
     return Recording(seed, frames, tuple(samples), tuple(recorded))
 
 
-def fit_recording(recording: Recording) -> tuple[PEMParams, dict[str, Any]]:
-    """Fit the PEM to a :class:`Recording` (:func:`fit_pem`, then :func:`choose_noise` on
-    the runs' verdicts); returns the parameters and the summary ``pem_yaml`` stores."""
+def fit_recording(
+    recording: Recording, *, cv_folds: int | None = None
+) -> tuple[PEMParams, dict[str, Any]]:
+    """Fit the PEM to a :class:`Recording`; returns the parameters and the summary
+    ``pem_yaml`` stores.
+
+    Without ``cv_folds``: :func:`fit_pem`, then :func:`choose_noise` on the runs' verdicts
+    (in-sample). With ``cv_folds``: the fit option (ridge penalty) and the noise (scale,
+    shift) are chosen together by held-out agreement over that many run-grouped folds
+    (:mod:`sitcov.calibration._cv`); the chosen option is then fitted on every run.
+    """
     samples, recorded = list(recording.samples), list(recording.runs)
     summary = summarize_samples(samples)
     summary["seed"] = recording.seed
     if not recorded:
         return fit_pem(samples), summary
-    fitted = fit_pem(samples, runs=recorded)
-    params, table = choose_noise(fitted, recorded)
+    if cv_folds is None:
+        fitted = fit_pem(samples, runs=recorded)
+        params, table = choose_noise(fitted, recorded)
+    else:
+        fitted, params, table = _fit_cv(recording, cv_folds)
     run_frames = [f for r in recorded for f in r.frames]
     summary["camera_runs"] = {
         "runs": len(recorded),
@@ -592,9 +601,25 @@ def fit_recording(recording: Recording) -> tuple[PEMParams, dict[str, Any]]:
         "bias_shift": round(params.bias - fitted.bias, 4),
         "noise_sigma_fitted": fitted.noise_sigma,
         "noise_scale": round(params.noise_sigma / fitted.noise_sigma, 2),
-        "pem_agreement_by_noise": table,
     }
+    key = "pem_agreement_by_noise" if cv_folds is None else "cross_validation"
+    summary["camera_runs"][key] = table
     return params, summary
+
+
+def _fit_cv(recording: Recording, folds: int) -> tuple[PEMParams, PEMParams, dict[str, Any]]:
+    """(fitted, chosen, CV record) of :func:`fit_recording` with ``cv_folds``."""
+    from sitcov.calibration import _cv
+
+    result = _cv.cross_validate(
+        recording, _cv.FIT_OPTIONS, scales=_cv.CV_SCALES, shifts=_cv.CV_SHIFTS, folds=folds
+    )
+    chosen = _cv.pick(result)
+    option, scale, shift = _cv.parse_key(chosen)
+    fitted = option.fit(recording, recording.runs)
+    record = {k: v for k, v in result.items() if k != "table"}
+    record.update(chosen=chosen, table=result["table"])
+    return fitted, _cv.noisy(fitted, scale, shift), record
 
 
 def calibrate(

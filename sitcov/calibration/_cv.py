@@ -40,6 +40,11 @@ from sitcov.calibration._calibrate import (
 from sitcov.calibration._camera_runs import CameraRun
 from sitcov.perception._pem import PEMParams
 
+#: Noise scales and intercept shifts [logit] tried with every fit option (a scale
+#: multiplies the fitted ``noise_sigma``; the in-sample grid's largest scale, 1, never won).
+CV_SCALES = (0.5, 0.25, 0.1, 0.05)
+CV_SHIFTS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6)
+
 
 @dataclass(frozen=True)
 class FitOption:
@@ -58,6 +63,20 @@ class FitOption:
     def fit(self, recording: Recording, runs: Sequence[CameraRun]) -> PEMParams:
         """The score model fitted on the recording's sweep and ``runs``."""
         return fit_pem(list(recording.samples), runs=runs, ridge=self.ridge, drop=self.drop)
+
+
+#: The fit options compared (ridge penalty on the probit's coefficients; 1 is the
+#: in-sample fit's).
+FIT_OPTIONS = (FitOption(1.0), FitOption(10.0), FitOption(100.0))
+
+
+def parse_key(key: str) -> tuple[FitOption, float, float]:
+    """(option, scale, shift) of a :func:`cross_validate` table key."""
+    name, noise = (part.strip() for part in key.split("|"))
+    fields = dict(item.split("=", 1) for item in name.split())
+    drop = tuple(fields["drop"].split(",")) if "drop" in fields else ()
+    nf = dict(item.split("=", 1) for item in noise.split())
+    return FitOption(float(fields["ridge"]), drop), float(nf["scale"]), float(nf["shift"])
 
 
 def fold_of(runs: int, folds: int, seed: int) -> np.ndarray:

@@ -50,8 +50,18 @@ def _samples(n: int, seed: int) -> list[Sample]:
         score = 1 / (1 + math.exp(-z))
         err = tuple(float(e) for e in rng.normal(0, 0.03, 4)) if score >= 0.05 else None
         out.append(
-            Sample("fog_density", 40.0, 12.5, 0.1, -0.3, feats.width_px, feats,
-                   score if score >= 0.05 else 0.0, err, (200, 30, 40))  # fmt: skip
+            Sample(
+                "fog_density",
+                40.0,
+                12.5,
+                0.1,
+                -0.3,
+                feats.width_px,
+                feats,
+                score if score >= 0.05 else 0.0,
+                err,
+                (200, 30, 40),
+            )  # fmt: skip
         )
     return out
 
