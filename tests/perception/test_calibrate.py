@@ -263,9 +263,18 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
     # the camera runs are recorded, and the correlation time is the best-agreeing one
     runs = data["meta"]["camera_runs"]
     assert runs["runs"] >= 100 and runs["frames"] >= 20 * runs["runs"]
-    table = runs["pem_agreement_by_noise"]
     chosen = noise_key(params.noise_tau, runs["noise_scale"], runs["bias_shift"])
-    assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
+    if "cross_validation" in runs:  # chosen by held-out agreement (calibrate --cv-folds)
+        from sitcov.calibration._cv import parse_key, pick
+
+        cv = runs["cross_validation"]
+        assert cv["chosen"] == pick(cv) and cv["chosen"].endswith(chosen)
+        _, scale, shift = parse_key(cv["chosen"])
+        assert (scale, shift) == (runs["noise_scale"], runs["bias_shift"])
+        assert f"--cv-folds {cv['folds']}" in command and cv["runs"] == runs["runs"]
+    else:
+        table = runs["pem_agreement_by_noise"]
+        assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
     assert params.noise_sigma == round(runs["noise_sigma_fitted"] * runs["noise_scale"], 4)
     assert params.noise_run_share == 0.0
 
