@@ -252,7 +252,8 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
     text = PEM_PARAMS_FILE.read_text()
     data = yaml.safe_load(text)
     command = data["meta"]["command"]
-    assert command.startswith("sitcov calibrate ") and "--runs" in command
+    assert command.startswith("sitcov calibrate ")
+    assert "--runs" in command or "--from-samples" in command
     assert command.endswith("--out sitcov/perception/data/pem.yaml")
     assert f"#   {command}" in text.splitlines()
     params = load_pem_params()
@@ -277,6 +278,29 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
         assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
     assert params.noise_sigma == round(runs["noise_sigma_fitted"] * runs["noise_scale"], 4)
     assert params.noise_run_share == 0.0
+
+
+def test_the_shipped_samples_file_holds_what_the_shipped_fit_read() -> None:
+    """``--from-samples F`` in the shipped file's command: F is in the repository and its
+    sweep and runs are the ones the file's meta describes (seed, runs, frames, events)."""
+    from pathlib import Path
+
+    from sitcov.calibration._calibrate import read_recording
+    from sitcov.perception import PEM_PARAMS_FILE
+
+    meta = yaml.safe_load(PEM_PARAMS_FILE.read_text())["meta"]
+    words = meta["command"].split()
+    if "--from-samples" not in words:
+        pytest.skip("the shipped file was not refitted from a samples file")
+    path = Path(__file__).parents[2] / words[words.index("--from-samples") + 1]
+    rec = read_recording(path)
+    runs = meta["camera_runs"]
+    frames = [f for r in rec.runs for f in r.frames]
+    assert meta["calibration_seeds"] == [rec.seed] == [runs["seed"]]
+    assert len(rec.runs) == runs["runs"] and len(frames) == runs["frames"]
+    assert sum(f.score >= 0.5 for f in frames) == runs["events_score_ge_0.5"]
+    assert round(sum(r.failed for r in rec.runs) / len(rec.runs), 3) == runs["failure_rate_camera"]
+    assert summarize_samples(list(rec.samples))["frames"] == meta["frames"]
 
 
 def test_with_camera_runs_the_sweep_only_fills_in_narrower_boxes() -> None:
