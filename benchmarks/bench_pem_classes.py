@@ -16,8 +16,9 @@ import math
 import numpy as np
 from scipy.stats import norm
 
+from sitcov.calibration._class_fit import SWEEP_MIN_SCORE, class_sweep
 from sitcov.perception import SSDDetector, pem_logit
-from sitcov.perception._pem_classes import SWEEP_MIN_SCORE, class_sweep, load_class_params
+from sitcov.perception._pem_classes import load_class_params
 
 BINS = ((0, 30), (30, 45), (45, 70), (70, 1000))
 

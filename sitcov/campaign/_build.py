@@ -6,6 +6,7 @@ Workers call :func:`build_backend` and :func:`build_stack` once each, when they 
 from __future__ import annotations
 
 import inspect
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from sitcov._plugins import import_path, load
@@ -16,6 +17,9 @@ if TYPE_CHECKING:
     from sitcov.campaign._config import CampaignConfig
     from sitcov.generation import Generator
     from sitcov.sim import Backend
+
+#: The embedded backend's map when ``backend_options`` names none.
+DEFAULT_EMBEDDED_MAP = "t-junction"
 
 
 def resolve_hyperspace(spec: str | None) -> Any:
@@ -55,12 +59,58 @@ def with_hyperspace_map(config: CampaignConfig, hyperspace: Any) -> CampaignConf
     if given is None:
         options = {**config.backend_options, "map": wanted}
         return config.model_copy(update={"backend_options": options})
-    if str(given) != wanted:
+    if map_file(given) != map_file(wanted):
         raise ConfigError(
             f"backend_options.map {given!r} contradicts metadata.map {wanted!r} of hyperspace "
             f"{config.hyperspace!r}; drop the map option or use a hyperspace derived on {given!r}"
         )
     return config
+
+
+def map_file(ref: Any) -> str:
+    """The embedded map file a ``map`` option names, resolved: a built-in name and any path
+    to the same file give the same string (a reference that cannot be resolved: itself)."""
+    from pathlib import Path
+
+    from sitcov.sim.embedded._map import MAPS_DIR
+
+    path = Path(str(ref))
+    if not path.suffix:
+        path = MAPS_DIR / f"{ref}.yaml"
+    try:
+        return str(path.resolve())
+    except (OSError, RuntimeError):  # pragma: no cover - a symlink loop
+        return str(ref)
+
+
+def stored_map_as_given(stored: Mapping[str, Any], config: CampaignConfig, where: str) -> dict:
+    """A stored campaign config with its embedded map spelled as ``config`` spells it.
+
+    Resume compares stored and new configs field by field; the map must compare by the
+    file it names: ``crossroads`` and a path to the shipped ``crossroads.yaml`` are one
+    map, and a config stored without a map option (before a derived hyperspace's
+    ``metadata.map`` was written into it) ran on the embedded default, ``t-junction``.
+
+    Raises:
+        ConfigError: the two configs name different maps (one line: both maps, the fix).
+    """
+    out = dict(stored)
+    if config.backend != "embedded" or stored.get("backend", "embedded") != "embedded":
+        return out
+    options = dict(stored.get("backend_options") or {})
+    how = "" if "map" in options else " (no map option: the default)"
+    old = options.pop("map", DEFAULT_EMBEDDED_MAP)
+    new = config.backend_options.get("map", DEFAULT_EMBEDDED_MAP)
+    if map_file(old) != map_file(new):
+        raise ConfigError(
+            f"{where}: ran on map {str(old)!r}{how}, this config runs map {str(new)!r}; a "
+            "campaign resumes on its own map: use another --name, or a hyperspace derived on "
+            f"{str(old)!r}"
+        )
+    if "map" in config.backend_options:
+        options["map"] = config.backend_options["map"]
+    out["backend_options"] = options
+    return out
 
 
 def make_generator(config: CampaignConfig, hyperspace: Any) -> Generator:

@@ -34,6 +34,7 @@ from sitcov.campaign._build import (
     make_generator,
     resolve_hyperspace,
     restore_generator,
+    stored_map_as_given,
     with_hyperspace_map,
 )
 from sitcov.campaign._config import CampaignConfig, config_differences
@@ -219,7 +220,8 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
         )
         return generator, False, len(replays)
     _refuse_other_world(store, info)
-    diffs = config_differences(info.config, config)
+    where = f"{store.location}: campaign {config.name!r}"
+    diffs = config_differences(stored_map_as_given(info.config, config, where), config)
     if info.hyperspace != hs_data:
         diffs.append(f"hyperspace content: the elements or bins of {config.hyperspace!r} changed")
     if diffs:

@@ -13,7 +13,7 @@ from sitcov._frozen import fast_init
 if TYPE_CHECKING:
     import numpy as np
 
-    from sitcov.sim import Conditions
+    from sitcov.weather import Conditions
 
 
 @dataclass(frozen=True)

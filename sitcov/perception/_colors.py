@@ -33,7 +33,7 @@ import numpy as np
 from sitcov.errors import ConfigError
 
 if TYPE_CHECKING:
-    from sitcov.sim import Conditions
+    from sitcov.weather import Conditions
 
 RGB = tuple[int, int, int]
 

@@ -62,7 +62,7 @@ from sitcov.perception._colors import chroma_features, color_features
 if TYPE_CHECKING:
     import numpy as np
 
-    from sitcov.sim import Conditions
+    from sitcov.weather import Conditions
 
 #: The shipped parameter file.
 PEM_PARAMS_FILE = Path(__file__).parent / "data" / "pem.yaml"

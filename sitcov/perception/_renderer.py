@@ -47,7 +47,7 @@ from sitcov.perception._vehicle import (
 )
 
 if TYPE_CHECKING:
-    from sitcov.sim import Conditions
+    from sitcov.weather import Conditions
 
 #: Farthest ground distance drawn [m]; beyond it the ground blends into the horizon haze.
 FAR = 400.0

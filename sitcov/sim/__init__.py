@@ -6,9 +6,9 @@ from typing import Any
 
 from sitcov import _plugins
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, arrival_time, pure_pursuit
-from sitcov.sim._base import STATUSES, WORLD_MODEL_VERSION, Backend, Conditions, Outcome, Trace
-from sitcov.sim._conditions import PHYSICS_PROFILES, conditions_from_values
+from sitcov.sim._base import STATUSES, WORLD_MODEL_VERSION, Backend, Outcome, Trace
 from sitcov.sim._judge import FAILURE_KINDS, JUDGES, OUTCOME_KINDS, Judge, normalize_judge
+from sitcov.weather import PHYSICS_PROFILES, Conditions, conditions_from_values
 
 _plugins.register_builtin("backend", "embedded", "sitcov.sim.embedded:EmbeddedBackend")
 _plugins.register_builtin("backend", "carla", "sitcov.sim.carla:CarlaBackend")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import abc
-import math
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -19,47 +18,6 @@ STATUSES = ("pass", "fail", "error", "timeout")
 #: campaign; campaigns made with another version cannot be extended. Version 1 ("legacy")
 #: is everything before physics profiles and failure kinds.
 WORLD_MODEL_VERSION = 2
-
-
-@dataclass(frozen=True)
-class Conditions:
-    """Physical quantities derived from a situation's environment elements.
-
-    Dynamics read ``mu`` and ``wind_lateral_accel``; sensors read the rest. The mapping
-    from CARLA-unit weather values to these quantities is documented in
-    ``sitcov.sim.conditions_from_values``.
-
-    Attributes:
-        mu: effective tyre-road friction coefficient [-].
-        fog_extinction: fog extinction coefficient beta [1/m] (Koschmieder: visibility 3.912/beta).
-        fog_start: distance from the camera at which fog begins [m].
-        illumination: relative scene illumination in (0, 1], 1 = clear noon.
-        rain_noise: perception noise intensity in [0, 1] from rain, spray and glare.
-        wind_speed: mean wind speed [m/s].
-        wind_lateral_accel: RMS of the wind's lateral acceleration [m/s^2] (0 in the
-            ``carla`` physics profile: CARLA's wind moves no vehicle).
-        raw: the environment values as given (CARLA units), for renderers.
-    """
-
-    mu: float = 1.0
-    fog_extinction: float = 0.0
-    fog_start: float = 0.0
-    illumination: float = 1.0
-    rain_noise: float = 0.0
-    wind_speed: float = 0.0
-    wind_lateral_accel: float = 0.0
-    raw: dict[str, Any] = field(default_factory=dict)
-
-    def transmittance(self, distance: float) -> float:
-        """Fraction of contrast that survives fog over ``distance`` metres (Beer-Lambert)."""
-        return math.exp(-self.fog_extinction * max(0.0, distance - self.fog_start))
-
-    @property
-    def visibility(self) -> float:
-        """Meteorological visibility [m] (inf without fog)."""
-        if self.fog_extinction <= 0:
-            return math.inf
-        return self.fog_start + 3.912 / self.fog_extinction
 
 
 @dataclass(frozen=True)

@@ -225,19 +225,6 @@ def test_pem_only_command_is_the_same_with_two_workers(tmp_path: Path, capsys) -
     assert verdicts[1] == verdicts[2]
 
 
-@pytest.fixture(scope="module")
-def ssd_model() -> Path:
-    """The detector model in sitcov's model directory, fetched there if missing (a failure,
-    not a skip, when it cannot be had: this test is the evidence for the command)."""
-    from sitcov.perception import fetch_model
-    from sitcov.perception._models import ModelNotFoundError, model_path
-
-    try:
-        return model_path()
-    except ModelNotFoundError:
-        return fetch_model()
-
-
 @pytest.mark.slow
 def test_command_end_to_end_with_camera_mode(tmp_path: Path, ssd_model, capsys) -> None:
     """Every pair on 3 situations of seed 2, camera mode included, over 2 workers; the

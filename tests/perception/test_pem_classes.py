@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from sitcov.calibration._class_fit import fit_class
 from sitcov.errors import ConfigError
 from sitcov.perception import ActorView, PEMFeatures, PEMParams, PEMSensor, Pose, pem_score
-from sitcov.perception._pem_classes import fit_class, load_class_params
+from sitcov.perception._pem_classes import load_class_params
 from sitcov.sim import conditions_from_values
 
 EGO = Pose(0.0, 0.0, 0.0)

@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import functools
-from collections.abc import Mapping
 from typing import Any
 
-from sitcov.hyperspace import Situation, load_hyperspace
+from sitcov.hyperspace import Situation
 
 #: The paper's twelve intersection situations: (ego, OV, conflict label).
 INTSITS = [
@@ -33,15 +31,3 @@ def make_situation(intsit: int = 1, **env: Any) -> Situation:
     bins = {k: str(v) for k, v in env.items()}
     bins["intsit"] = f"IntSit-{intsit}"
     return Situation(bins=bins, values=values)
-
-
-@functools.lru_cache(maxsize=1)
-def _hyperspace():
-    return load_hyperspace()
-
-
-def hyperspace_values(bins: Mapping[str, str]) -> dict[str, Any]:
-    """Concrete values of a default-hyperspace situation with the given bins (rest lowest)."""
-    hs = _hyperspace()
-    chosen = {e.name: bins.get(e.name, hs.labels(e.name)[0]) for e in hs.elements}
-    return dict(hs.situation_from_bins(chosen).values)

@@ -29,7 +29,6 @@ from sitcov.av._base import RunInfo
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
 from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
-from sitcov.sim._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
 from sitcov.sim.carla._actors import (
     Scene,
     ScenePlanned,
@@ -45,6 +44,7 @@ from sitcov.sim.carla._mapfile import CarlaMap, SpawnPoint, load_carla_map
 from sitcov.sim.carla._metrics import MetricTracker
 from sitcov.sim.carla._ovdriver import OVDriver
 from sitcov.sim.embedded._backend import MAX_ACTOR_SLOT
+from sitcov.weather._conditions import WEATHER_ELEMENTS, check_profile, conditions_from_values
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sitcov.sim._conditions import WEATHER_ELEMENTS
+from sitcov.weather._conditions import WEATHER_ELEMENTS
 
 
 @dataclass(frozen=True)

@@ -36,7 +36,6 @@ from pathlib import Path
 from typing import Any
 
 from sitcov.errors import ConfigError, MissingExtraError
-from sitcov.sim._conditions import WEATHER_ELEMENTS
 from sitcov.sim.carla._actors import conflict_point, plan_scene
 from sitcov.sim.carla._mapfile import CarlaMap, load_carla_map
 from sitcov.sim.carla._xosc_actors import (
@@ -49,6 +48,7 @@ from sitcov.sim.carla._xosc_actors import (
     speed_action,
     world_position,
 )
+from sitcov.weather._conditions import WEATHER_ELEMENTS
 
 #: The ego's cruise speed assumed for the OV's timing [m/s] (25 km/h).
 EGO_SPEED = 25.0 / 3.6
@@ -95,8 +95,8 @@ def approach_speed(d_ego: float, d_ov: float) -> float:
 
 
 def _weather(xosc: Any, values: Mapping[str, Any]) -> Any:
-    from sitcov.sim._conditions import conditions_from_values
     from sitcov.sim.carla._backend import friction_scale
+    from sitcov.weather._conditions import conditions_from_values
 
     cloud = float(values.get("cloudiness", 0.0))
     rain = float(values.get("precipitation", 0.0))

@@ -24,13 +24,6 @@ from sitcov.errors import ConfigError
 from sitcov.perception._base import CameraSpec, Sensor
 from sitcov.sim._adversary import AdversaryParams
 from sitcov.sim._base import Backend, Outcome, Trace
-from sitcov.sim._conditions import (
-    AIR_DENSITY,
-    SIDE_AREA,
-    SIDE_FORCE_COEFF,
-    check_profile,
-    conditions_from_values,
-)
 from sitcov.sim.embedded._controllers import TimingController
 from sitcov.sim.embedded._dynamics import default_params
 from sitcov.sim.embedded._ego import EgoDriver
@@ -48,6 +41,13 @@ from sitcov.sim.embedded._monitors import (  # noqa: F401 - constants re-exporte
 )
 from sitcov.sim.embedded._scene import DEFAULT_INTSIT, build_actors, parse_scene  # noqa: F401
 from sitcov.sim.embedded._world import Wind, World
+from sitcov.weather._conditions import (
+    AIR_DENSITY,
+    SIDE_AREA,
+    SIDE_FORCE_COEFF,
+    check_profile,
+    conditions_from_values,
+)
 
 if TYPE_CHECKING:
     from sitcov.av import AVStack

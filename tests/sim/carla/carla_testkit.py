@@ -11,7 +11,9 @@ from sitcov.perception import Detection
 from sitcov.sim.carla import CarlaBackend, load_carla_map
 from sitcov.sim.carla._fake import FakeCarla, FakeServer
 
-#: A clean T-junction in CARLA coordinates with short legs (fast fake runs).
+#: A clean T-junction in CARLA coordinates with short legs (fast fake runs). Right-hand
+#: traffic as on CARLA's roads and the embedded t-junction: CARLA is left-handed (y points
+#: south), so a vehicle heading east (yaw 0) keeps to +y, one heading west (yaw 180) to -y.
 SMALL_MAP = """
 name: small-t
 town: Town03
@@ -19,16 +21,16 @@ junction: {x: 0.0, y: 0.0, radius: 12.0}
 conflict_points: {c1: [0.0, 0.0], c2: [0.0, -2.0], c4: [-2.0, 0.0]}
 ego_spawns:
   B: {x: 1.75, y: 40.0, yaw: 270.0}
-  L: {x: -40.0, y: -1.75, yaw: 0.0}
-  R: {x: 40.0, y: 1.75, yaw: 180.0}
+  L: {x: -40.0, y: 1.75, yaw: 0.0}
+  R: {x: 40.0, y: -1.75, yaw: 180.0}
 ov_spawns:
   B: {x: 1.75, y: 25.0, yaw: 270.0}
-  L: {x: -25.0, y: -1.75, yaw: 0.0}
-  R: {x: 25.0, y: 1.75, yaw: 180.0}
+  L: {x: -25.0, y: 1.75, yaw: 0.0}
+  R: {x: 25.0, y: -1.75, yaw: 180.0}
 goals:
   B: [-1.75, 30.0]
-  L: [-30.0, 1.75]
-  R: [30.0, -1.75]
+  L: [-30.0, -1.75]
+  R: [30.0, 1.75]
 """
 
 WEATHER = {

@@ -55,7 +55,7 @@ def test_a_blind_ego_hits_the_timed_pedestrian(tmp_path: Path) -> None:
 
 #: A lane route like the fake server's for the ego's L-B (CARLA frame): east to the
 #: junction centre, a sharp corner, then on to leg B's goal, beside the embedded ego path.
-CORNER_ROUTE = [(float(x), -1.75 + 1.75 * (x + 40.0) / 40.0) for x in range(-40, 1)] + [
+CORNER_ROUTE = [(float(x), -1.75 * x / 40.0) for x in range(-40, 1)] + [
     (-1.75 * y / 30.0, float(y)) for y in range(1, 31)
 ]
 
@@ -88,7 +88,7 @@ def test_timed_twins_meet_the_ego_on_its_carla_route(tmp_path: Path) -> None:
     # an ego cutting the corner inside (as the fake server's ego drove it): its arc length
     # keeps growing past the corner
     view = Scene(planned, [], [(x, -y) for x, y in CORNER_ROUTE], DT, 1.0)
-    ego_xy = [(float(x), -1.75 * x / 40.0) for x in range(-40, -4)]
+    ego_xy = [(float(x), 1.75 * x / 40.0) for x in range(-40, -4)]
     ego_xy += [(-3.44, -0.58), (-2.21, -1.79), (-1.38, -3.31), (-0.88, -4.97), (-0.62, -6.69)]
     ego_xy += [(-0.52 - 0.04 * j, -8.42 - j) for j in range(20)]
     arc = []
@@ -163,15 +163,20 @@ def test_a_blind_ego_hits_the_timed_cyclist_on_a_two_wheeler(tmp_path: Path) -> 
 
 
 def test_a_scripted_car_stops_where_its_controller_says(tmp_path: Path) -> None:
-    """The embedded ScriptedController's stop point holds in CARLA within half a metre."""
+    """The embedded ScriptedController's stop point holds in CARLA within half a metre,
+    short of where the route the CARLA ego really drives meets the car's (scripted traffic
+    keeps the embedded scene's conflict: it must be a real one on the CARLA route too)."""
     from sitcov.sim.carla._actors import plan_scene
+    from sitcov.sim.embedded._map import find_conflict
+    from sitcov.sim.embedded._path import Path as RoutePath
 
     backend, _ = fake_backend(small_map(tmp_path))
     sit = scene(
         {"ego": "B-L", "ov": "L-R", "conflict": "c1"},
         actor2={"kind": "car", "route": "R-L", "behaviour": "stop"},
     )
-    out = backend.run(sit, DrivingStack(), seed=1, record=True)
+    stack = DrivingStack()
+    out = backend.run(sit, stack, seed=1, record=True)
     (car,) = plan_scene(backend.map, sit.values, 1).actors
     frame = Frame.of(backend.map)
     route = car.route
@@ -180,6 +185,12 @@ def test_a_scripted_car_stops_where_its_controller_says(tmp_path: Path) -> None:
     s, _ = route.project(mx, my, 0, 0, len(route.xs))
     assert rows[-1][4] == pytest.approx(0.0, abs=0.05)  # standing
     assert s == pytest.approx(car.controller.stop_at, abs=0.75)
+    assert stack.info is not None
+    driven = RoutePath.from_points([frame.to_map(x, y, 0.0)[:2] for x, y in stack.info.route])
+    real = find_conflict(driven, route, body_spec("car").width)
+    assert real is not None, "the CARLA ego's route never meets the scripted car's"
+    assert math.dist(real.point, car.conflict.point) < 4.0  # the fake lanes cut the corner
+    assert s < real.s_ov  # it stood short of the zone the ego drives through
 
 
 def test_extra_actors_are_measured_traced_and_deterministic(tmp_path: Path) -> None:

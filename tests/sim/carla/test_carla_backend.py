@@ -101,9 +101,9 @@ def test_camera_frames_reach_the_stack_at_10_hz_in_the_sitcov_frame(tmp_path) ->
     images = [o for o in obs if o.image is not None]
     assert images[0].image.shape == (450, 800, 3) and images[0].image.dtype == np.uint8
     assert [o.t for o in images[:3]] == pytest.approx([0.0, 0.1, 0.2])
-    # sitcov frame: CARLA (x, y, yaw) -> (x, -y, -yaw); the L spawn is (-40, -1.75, 0 deg)
-    assert (obs[0].ego.x, obs[0].ego.y) == pytest.approx((-40.0, 1.75))
-    assert stack.info.route[0] == pytest.approx((-40.0, 1.75), abs=1.1)
+    # sitcov frame: CARLA (x, y, yaw) -> (x, -y, -yaw); the L spawn is (-40, 1.75, 0 deg)
+    assert (obs[0].ego.x, obs[0].ego.y) == pytest.approx((-40.0, -1.75))
+    assert stack.info.route[0] == pytest.approx((-40.0, -1.75), abs=1.1)
     assert stack.info.goal == pytest.approx((-1.75, -30.0))
     # steering sign: following its route the ego reaches the goal (a sign error would not)
     assert outcome.end_reason == "goal" and outcome.status == "pass"

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
-from carla_testkit import SMALL_MAP
+from carla_testkit import SMALL_MAP, small_map
 
 from sitcov.errors import ConfigError
 from sitcov.sim.carla import available_maps, load_carla_map
@@ -44,6 +46,39 @@ def test_movement_lookup() -> None:
         m.ego_spawn("LB")
 
 
+def _left_of(junction: tuple[float, float], x: float, y: float, heading: float) -> float:
+    """Signed distance [m] of (x, y) to the left of the line through ``junction`` along
+    ``heading`` [rad] (sitcov's right-handed frame)."""
+    return -math.sin(heading) * (x - junction[0]) + math.cos(heading) * (y - junction[1])
+
+
+def test_small_map_drives_on_the_right_as_carla_and_its_embedded_map(tmp_path) -> None:
+    """Every spawn is half a lane right of its direction of travel, every goal half a lane
+    right of the way out, as on CARLA's roads and on the embedded map that places the
+    pedestrians, cyclists and extra cars (a left-hand leg puts the CARLA ego in the lane
+    the embedded world's oncoming traffic uses, and conflicts move or vanish)."""
+    from sitcov.sim.carla._actors import Frame
+    from sitcov.sim.embedded._map import load_map
+
+    spec = load_carla_map(small_map(tmp_path))
+    jmap = load_map(spec.embedded_map)
+    frame = Frame.of(spec)
+    junction, half = (frame.x0, frame.y0), 0.5 * jmap.lane_width
+    inbound = {}
+    for table in (spec.ego_spawns, spec.ov_spawns):
+        for key, sp in table.items():
+            leg, heading = key.split("-")[0], -math.radians(sp.yaw)  # CARLA -> sitcov
+            inbound[leg] = heading
+            assert _left_of(junction, sp.x, -sp.y, heading) == pytest.approx(-half), key
+            out = next(m for m in jmap.movements if m.startswith(f"{leg}-"))
+            ex, ey, eh = frame.to_sitcov(*jmap.ego_path(out).point_at(0.0))
+            assert math.cos(eh - heading) > 0.99, key  # the embedded lane goes the same way
+            assert _left_of(junction, ex, ey, heading) == pytest.approx(-half), key
+    assert set(inbound) == set(spec.goals)
+    for leg, (gx, gy) in spec.goals.items():
+        assert _left_of(junction, gx, -gy, inbound[leg] + math.pi) == pytest.approx(-half), leg
+
+
 def test_another_map_is_a_file(tmp_path) -> None:
     path = tmp_path / "small.yaml"
     path.write_text(SMALL_MAP, encoding="utf-8")
@@ -61,7 +96,7 @@ def test_another_map_is_a_file(tmp_path) -> None:
             "junction.radius",
         ),
         (("name: small-t", "name: small-t\ncolour: red"), "colour"),
-        (("  R: {x: 25.0, y: 1.75, yaw: 180.0}", "  X: {x: 25.0, y: 1.75, yaw: 180.0}"), "X"),
+        (("  R: {x: 25.0, y: -1.75, yaw: 180.0}", "  X: {x: 25.0, y: -1.75, yaw: 180.0}"), "X"),
     ],
 )
 def test_bad_map_files_name_file_and_field(tmp_path, edit, field) -> None:

@@ -6,17 +6,31 @@ code's own formula recomputed: see docs/weather.md for the table these tests bac
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Mapping
+from typing import Any
 
 import pytest
-from _sim_helpers import hyperspace_values
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sitcov.errors import ConfigError
 from sitcov.hyperspace import load_hyperspace
-from sitcov.sim import PHYSICS_PROFILES, Conditions, conditions_from_values
-from sitcov.sim._conditions import WEATHER_ELEMENTS
+from sitcov.weather import PHYSICS_PROFILES, WEATHER_ELEMENTS, Conditions, conditions_from_values
+
+
+@functools.lru_cache(maxsize=1)
+def _hyperspace():
+    return load_hyperspace()
+
+
+def hyperspace_values(bins: Mapping[str, str]) -> dict[str, Any]:
+    """Concrete values of a default-hyperspace situation with the given bins (rest lowest)."""
+    hs = _hyperspace()
+    chosen = {e.name: bins.get(e.name, hs.labels(e.name)[0]) for e in hs.elements}
+    return dict(hs.situation_from_bins(chosen).values)
+
 
 PERCENT = st.floats(min_value=0.0, max_value=100.0)
 FRICTION = st.floats(min_value=0.1, max_value=1.0)

@@ -1,0 +1,49 @@
+"""benchmarks/bench_faults.py, whose numbers docs/embedded.md quotes: a derived hyperspace runs
+on its own map, F4 changes nothing where no pedestrian exists, the blind-ego check counts."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+from sitcov.hyperspace import load_hyperspace
+
+ROOT = Path(__file__).resolve().parents[1]
+DERIVED = ROOT / "sitcov/hyperspace/data/derived"
+
+
+@pytest.fixture(scope="module")
+def bench() -> ModuleType:
+    spec = importlib.util.spec_from_file_location(
+        "bench_faults", ROOT / "benchmarks/bench_faults.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_a_derived_hyperspace_runs_on_its_map(bench) -> None:
+    assert (
+        bench.make_backend(load_hyperspace(str(DERIVED / "merge.yaml")), None).map.name == "merge"
+    )
+    paper = bench.make_backend(load_hyperspace(None), 8.0)
+    assert paper.map.name == "t-junction" and paper.adversary.switch_distance == 8.0
+
+
+def test_f4_fails_like_no_fault_wherever_no_pedestrian_exists(bench) -> None:
+    table, situations = bench.measure(12, 0, hyperspace=str(DERIVED / "t-junction.yaml"))
+    assert set(table) == {"NF", "f1", "f1-raw", "f2", "f3", "f4"}
+    kinds = [bench._kinds(s) for s in situations]
+    without = [i for i, (_, pedestrian) in enumerate(kinds) if not pedestrian]
+    assert without and len(without) < len(kinds)  # both kinds of scene were drawn
+    assert [table["f4"][i] for i in without] == [table["NF"][i] for i in without]
+
+
+def test_the_blind_ego_check_counts_every_bin_and_seed(bench, capsys) -> None:
+    bench.blind_check(str(DERIVED / "merge.yaml"), 2, None)
+    out = capsys.readouterr().out
+    assert out.startswith("blind ego hit in 10 of 10 clear-weather runs (5 situations x 2 seeds)")
