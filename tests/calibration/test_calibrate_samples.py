@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+import yaml
 
 from sitcov.calibration._calibrate import (
     Recording,
@@ -156,3 +157,57 @@ def test_cross_validation_finds_the_shift_that_made_the_verdicts() -> None:
     low, high = (table[f"ridge=1 | tau=0 scale=1 shift={s}"] for s in ("0", "1.5"))
     assert high["agreement"] > low["agreement"] and high["n"] == 40
     assert pick(result) == "ridge=1 | tau=0 scale=1 shift=1.5"
+
+
+def _sitcov(*args: str):
+    import subprocess
+    import sys
+
+    return subprocess.run(
+        [sys.executable, "-c", "from sitcov.cli import main; main()", *args],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+
+
+def _pem_made_recording(n: int) -> Recording:
+    """Sweep frames from the PEM's formula and runs whose verdicts a PEM made."""
+    from sitcov.av import ReferenceStack
+    from sitcov.generation import make_generator
+    from sitcov.hyperspace import load_hyperspace
+    from sitcov.perception import PEMSensor
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    backend = EmbeddedBackend(perception="pem", sensor=PEMSensor(load_pem_params()))
+    gen = make_generator("random", load_hyperspace())
+    runs = []
+    for i in range(n):
+        sit = gen.ask(np.random.default_rng([5, i]))
+        outcome = backend.run(sit, ReferenceStack(), 200 + i)
+        runs.append(CameraRun(i, 200 + i, sit.to_dict(), outcome.failed, None, ()))
+    return Recording(3, 400, tuple(_samples(400, 3)), tuple(runs))
+
+
+@pytest.mark.slow
+def test_calibrate_from_samples_refits_without_rendering(tmp_path) -> None:
+    """``sitcov calibrate --from-samples F [--cv-folds K]``: the file's seed becomes the
+    calibration seed, the header names the command, the params are fit_recording's."""
+    from sitcov.calibration._calibrate import fit_recording, pem_yaml
+
+    rec = _pem_made_recording(6)
+    samples = tmp_path / "s.jsonl.gz"
+    write_recording(samples, rec)
+    out = tmp_path / "pem.yaml"
+    result = _sitcov("calibrate", "--from-samples", str(samples), "--cv-folds", "2",
+                     "--out", str(out))  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    command = f"sitcov calibrate --from-samples {samples} --cv-folds 2 --out {out}"
+    params, summary = fit_recording(rec, cv_folds=2)
+    assert out.read_text() == pem_yaml(params, command, summary)
+    meta = yaml.safe_load(out.read_text())["meta"]
+    assert meta["calibration_seeds"] == [3] and meta["command"] == command
+    assert meta["camera_runs"]["cross_validation"]["folds"] == 2
+    bad = tmp_path / "bad.jsonl"
+    bad.write_text("not json\n")
+    result = _sitcov("calibrate", "--from-samples", str(bad))
+    assert result.returncode != 0 and "Traceback" not in result.stderr + result.stdout
+    assert "bad.jsonl" in result.stderr + result.stdout
