@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -348,8 +349,10 @@ def test_choose_noise_finds_the_noise_scale_that_made_the_verdicts() -> None:
 
     from sitcov.calibration._calibrate import choose_noise
 
-    # the frame-level spread of the detector's scores (the fit's, before any scaling)
-    params = replace(load_pem_params(), noise_tau=0.0, noise_sigma=0.26)
+    # a calibrated PEM pinned for tests (the shipped one moves with every recalibration),
+    # with the frame-level spread of the detector's scores (the fit's, before any scaling)
+    pinned = load_pem_params(Path(__file__).parents[1] / "sim/data/golden_world_pem.yaml")
+    params = replace(pinned, noise_tau=0.0, noise_sigma=0.26)
     runs = _pem_runs(replace(params, noise_sigma=round(params.noise_sigma * 0.05, 4)), 60)
     chosen, table = choose_noise(params, runs, taus=(0.0,), scales=(1.0, 0.05), shifts=(0.0,))
     assert chosen.noise_sigma == round(params.noise_sigma * 0.05, 4)
