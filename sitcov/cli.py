@@ -905,6 +905,10 @@ def calibrate_cmd(
 
     from rich.progress import Progress
 
+    if classes is not None and cv_folds is not None:
+        from sitcov.errors import ConfigError
+
+        raise ConfigError(field="--cv-folds", expected="no --classes with it (cars only)")
     if classes is not None:
         _calibrate_classes_cmd(
             classes, out, frames, runs, seed, workers, model, samples_out, from_samples
