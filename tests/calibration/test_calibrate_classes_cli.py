@@ -57,6 +57,7 @@ def test_bad_from_samples_is_one_message(tmp_path: Path) -> None:
         (("--classes", "pedestrian", "--from-samples", str(tmp_path / "none.jsonl")), "none"),
         (("--classes", "pedestrian", "--from-samples", str(bad)), "line 1"),
         (("--classes", "cyclist", "--from-samples", str(good)), "kind"),
+        (("--classes", "pedestrian", "--cv-folds", "3"), "--cv-folds"),
     )
     for args, needle in cases:
         result = sitcov("calibrate", *args)
