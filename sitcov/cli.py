@@ -879,7 +879,10 @@ def calibrate_cmd(
     workers: int = typer.Option(1, "--workers", min=1, help="Processes for the camera runs."),
     model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
     samples_out: Optional[Path] = typer.Option(  # noqa: UP045
-        None, "--samples", help="Also write the per-frame samples as JSON lines."
+        None,
+        "--samples",
+        help="Also write what was measured (sweep frames, camera runs) as JSON lines "
+        "(.jsonl or .jsonl.gz), for --from-samples.",
     ),
     classes: Optional[str] = typer.Option(  # noqa: UP045
         None, "--classes", help="pedestrian,cyclist: fit the per-class PEM (pem_classes.yaml)."
@@ -887,55 +890,74 @@ def calibrate_cmd(
     from_samples: Optional[Path] = typer.Option(  # noqa: UP045
         None,
         "--from-samples",
-        help="With --classes: refit from a --samples file (.jsonl or .jsonl.gz) instead of "
-        "rendering and running (--frames/--runs ignored).",
+        help="Refit from a --samples file (.jsonl or .jsonl.gz) instead of rendering and "
+        "running (--frames/--runs/--seed ignored; cars: the seed is the file's).",
+    ),
+    cv_folds: Optional[int] = typer.Option(  # noqa: UP045
+        None,
+        "--cv-folds",
+        min=2,
+        help="Cars: choose the ridge penalty, noise scale and intercept shift by held-out "
+        "verdict agreement over this many run-grouped folds (instead of in-sample).",
     ),
 ) -> None:
     """Sweep distance, bearing, view and weather through renderer + detector; fit the PEM."""
-    import json
     import shlex
-    from dataclasses import asdict
 
     from rich.progress import Progress
 
+    if classes is not None and cv_folds is not None:
+        from sitcov.errors import ConfigError
+
+        raise ConfigError(field="--cv-folds", expected="no --classes with it (cars only)")
     if classes is not None:
         _calibrate_classes_cmd(
             classes, out, frames, runs, seed, workers, model, samples_out, from_samples
         )
         return
+    from sitcov.calibration import _calibrate as cal
+
     if from_samples is not None:
-        from sitcov.errors import ConfigError
-
-        raise ConfigError(field="--from-samples", expected="--classes with it")
-
-    from sitcov.calibration._calibrate import calibrate, pem_yaml
-
-    with Progress(console=err_console, transient=True) as bar:
-        task = bar.add_task("calibrating", total=frames + runs)
-        params, summary, samples = calibrate(
-            frames, runs=runs, seed=seed, model=None if model is None else str(model),
-            workers=workers, progress=lambda i: bar.update(task, completed=i),
-        )  # fmt: skip
-    command = f"sitcov calibrate --frames {frames} --runs {runs} --seed {seed}"
-    if workers > 1:
-        command += f" --workers {workers}"
+        recording = cal.read_recording(from_samples)
+        command = f"sitcov calibrate --from-samples {shlex.quote(str(from_samples))}"
+    else:
+        with Progress(console=err_console, transient=True) as bar:
+            task = bar.add_task("calibrating", total=frames + runs)
+            recording = cal.record(
+                frames, runs=runs, seed=seed, model=None if model is None else str(model),
+                workers=workers, progress=lambda i: bar.update(task, completed=i),
+            )  # fmt: skip
+        command = f"sitcov calibrate --frames {frames} --runs {runs} --seed {seed}"
+        if workers > 1:
+            command += f" --workers {workers}"
+    if samples_out is not None:
+        cal.write_recording(samples_out, recording)
+        err_console.print(f"wrote {samples_out}")
+    params, summary = cal.fit_recording(recording, cv_folds=cv_folds)
+    if cv_folds is not None:
+        command += f" --cv-folds {cv_folds}"
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
-    text = pem_yaml(params, command, summary)
+    text = cal.pem_yaml(params, command, summary)
     if out is not None:
         out.write_text(text)
         err_console.print(f"wrote {out}")
     else:
         console.print(text, highlight=False, markup=False)
-    if samples_out is not None:
-        with open(samples_out, "w") as fh:
-            for smp in samples:
-                fh.write(json.dumps(asdict(smp)) + "\n")
     views = summary["clear_box_ge_10pct"]
     for name, v in views.items():
         err_console.print(
             f"clear, box >= 10% width, {name}: n={v['n']} detected {v['rate_floor']:.0%} "
             f"(score >= 0.5: {v['rate_0.5']:.0%})",
+            highlight=False,
+        )
+    cv = summary.get("camera_runs", {}).get("cross_validation")
+    if cv is not None:
+        row = cv["table"][cv["chosen"]]
+        err_console.print(
+            f"cross-validated ({cv['folds']} folds): {cv['chosen']}: held-out agreement "
+            f"{row['agreement']:.1%} (PEM failures {row['failure_rate']:.1%}, camera "
+            f"{cv['camera_failure_rate']:.1%})",
             highlight=False,
         )
     for cand, row in summary.get("camera_runs", {}).get("pem_agreement_by_noise", {}).items():

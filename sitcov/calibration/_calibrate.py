@@ -223,19 +223,22 @@ _LINEAR = (
 _RIDGE = 1.0
 
 
-def _probit(x: np.ndarray, event: np.ndarray) -> tuple[np.ndarray, float]:
-    """Ridge-penalised probit fit of ``P(event) = Phi(x @ g)``: (g, penalised NLL)."""
+def _probit(x: np.ndarray, event: np.ndarray, ridge: float = _RIDGE) -> tuple[np.ndarray, float]:
+    """Ridge-penalised probit fit of ``P(event) = Phi(x @ g)``: (g, penalised NLL).
+
+    ``ridge`` multiplies the sum of the squared coefficients (the intercept is free).
+    """
     from scipy.optimize import minimize
     from scipy.special import log_ndtr, ndtr
 
     def nll(g: np.ndarray) -> tuple[float, np.ndarray]:
         z = x @ g
         lp, lq = log_ndtr(z), log_ndtr(-z)
-        value = -float(np.sum(np.where(event, lp, lq))) + _RIDGE * float(np.sum(g[1:] ** 2))
+        value = -float(np.sum(np.where(event, lp, lq))) + ridge * float(np.sum(g[1:] ** 2))
         pdf = np.exp(-0.5 * z * z) / np.sqrt(2.0 * np.pi)
         p = np.clip(ndtr(z), 1e-12, 1 - 1e-12)
         dz = np.where(event, -pdf / p, pdf / (1.0 - p))
-        grad = x.T @ dz + 2.0 * _RIDGE * np.r_[0.0, g[1:]]
+        grad = x.T @ dz + 2.0 * ridge * np.r_[0.0, g[1:]]
         return value, grad
 
     res = minimize(nll, np.zeros(x.shape[1]), jac=True, method="L-BFGS-B")
@@ -285,14 +288,21 @@ def fit_pem(
     threshold: float = THRESHOLD,
     floor: float = USE_FLOOR,
     base: PEMParams | None = None,
+    ridge: float = _RIDGE,
+    drop: Sequence[str] = (),
 ) -> PEMParams:
     """Fit the PEM parameters to sweep samples and recorded camera runs (module docstring).
 
     With ``runs``, sweep samples count only below the narrowest box the runs rendered: above
     it the runs' frames are the ones campaigns meet (the sweep's colours, poses and
     one-element weather are not). The correlation time is not fitted here (``noise_tau``
-    = 0): see :func:`choose_noise`.
+    = 0): see :func:`choose_noise`. ``ridge``: the probit's L2 penalty; ``drop``: names
+    of ``_LINEAR`` coefficients left out of the fit (their gains are 0).
     """
+    unknown = sorted(set(drop) - set(_LINEAR[1:]))
+    if unknown:
+        raise ValueError(f"drop: unknown or undroppable coefficients {unknown}")
+    keep = [i for i, name in enumerate(_LINEAR) if name not in drop]
     base = base or PEMParams()
     run_frames = [f for run in runs for f in run.frames if f.features.height_px >= 1.0]
     # Where camera runs render frames (boxes at least as wide as the frame gate) they are
@@ -315,7 +325,9 @@ def fit_pem(
     best: tuple[float, np.ndarray, float, np.ndarray] | None = None
     for size_max in (60.0, 100.0, 150.0, 200.0, 300.0, 450.0):
         x = _design(feats, 1.0, size_max, base.size_ref_px)
-        g, value = _probit(x, event)
+        g_kept, value = _probit(x[:, keep], event, ridge)
+        g = np.zeros(x.shape[1])
+        g[keep] = g_kept
         if best is None or value < best[0]:
             best = (value, g, size_max, x)
     assert best is not None
@@ -511,6 +523,105 @@ def summarize_samples(samples: Sequence[Sample], floor: float = USE_FLOOR) -> di
     return out
 
 
+@dataclass(frozen=True)
+class Recording:
+    """Everything a car calibration measured, enough to refit without rendering.
+
+    Attributes:
+        seed: the calibration seed (sweep and camera runs). frames: sweep frames asked for.
+        samples: the sweep's frames with the OV in view (:func:`sweep`).
+        runs: the recorded camera-mode runs, with their situations, run seeds, verdicts and
+            frames: what :func:`fit_pem` and :func:`choose_noise` need.
+    """
+
+    seed: int
+    frames: int
+    samples: tuple[Sample, ...]
+    runs: tuple[CameraRun, ...] = ()
+
+
+def record(
+    frames: int = 1500,
+    *,
+    runs: int = DEFAULT_RUNS,
+    seed: int = 0,
+    model: str | None = None,
+    workers: int = 1,
+    progress: Callable[[int], None] | None = None,
+) -> Recording:
+    """Render and detect ``frames`` sweep scenes and record ``runs`` camera-mode runs.
+
+    ``progress`` receives the number of steps done out of ``frames + runs``.
+    """
+    from sitcov.perception._detector import SSDDetector
+
+    detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
+    samples = sweep(frames, detector, seed=seed, progress=progress)
+    recorded: list[CameraRun] = []
+    if runs > 0:
+        recorded = camera_runs(
+            runs,
+            seed=seed,
+            model=model,
+            workers=workers,
+            progress=None if progress is None else (lambda r: progress(frames + r)),
+        )
+    return Recording(seed, frames, tuple(samples), tuple(recorded))
+
+
+def fit_recording(
+    recording: Recording, *, cv_folds: int | None = None
+) -> tuple[PEMParams, dict[str, Any]]:
+    """Fit the PEM to a :class:`Recording`; returns the parameters and the summary
+    ``pem_yaml`` stores.
+
+    Without ``cv_folds``: :func:`fit_pem`, then :func:`choose_noise` on the runs' verdicts
+    (in-sample). With ``cv_folds``: the fit option (ridge penalty) and the noise (scale,
+    shift) are chosen together by held-out agreement over that many run-grouped folds
+    (:mod:`sitcov.calibration._cv`); the chosen option is then fitted on every run.
+    """
+    samples, recorded = list(recording.samples), list(recording.runs)
+    summary = summarize_samples(samples)
+    summary["seed"] = recording.seed
+    if not recorded:
+        return fit_pem(samples), summary
+    if cv_folds is None:
+        fitted = fit_pem(samples, runs=recorded)
+        params, table = choose_noise(fitted, recorded)
+    else:
+        fitted, params, table = _fit_cv(recording, cv_folds)
+    run_frames = [f for r in recorded for f in r.frames]
+    summary["camera_runs"] = {
+        "runs": len(recorded),
+        "seed": recording.seed,
+        "frames": len(run_frames),
+        "frames_per_run": round(len(run_frames) / max(1, len(recorded)), 1),
+        "events_score_ge_0.5": sum(f.score >= THRESHOLD for f in run_frames),
+        "failure_rate_camera": round(sum(r.failed for r in recorded) / len(recorded), 3),
+        "bias_shift": round(params.bias - fitted.bias, 4),
+        "noise_sigma_fitted": fitted.noise_sigma,
+        "noise_scale": round(params.noise_sigma / fitted.noise_sigma, 2),
+    }
+    key = "pem_agreement_by_noise" if cv_folds is None else "cross_validation"
+    summary["camera_runs"][key] = table
+    return params, summary
+
+
+def _fit_cv(recording: Recording, folds: int) -> tuple[PEMParams, PEMParams, dict[str, Any]]:
+    """(fitted, chosen, CV record) of :func:`fit_recording` with ``cv_folds``."""
+    from sitcov.calibration import _cv
+
+    result = _cv.cross_validate(
+        recording, _cv.FIT_OPTIONS, scales=_cv.CV_SCALES, shifts=_cv.CV_SHIFTS, folds=folds
+    )
+    chosen = _cv.pick(result)
+    option, scale, shift = _cv.parse_key(chosen)
+    fitted = option.fit(recording, recording.runs)
+    record = {k: v for k, v in result.items() if k != "table"}
+    record.update(chosen=chosen, table=result["table"])
+    return fitted, _cv.noisy(fitted, scale, shift), record
+
+
 def calibrate(
     frames: int = 1500,
     *,
@@ -528,37 +639,99 @@ def calibrate(
     noise's correlation time, scale and the intercept's shift (:func:`choose_noise`).
     ``progress`` receives the number of steps done out of ``frames + runs``.
     """
-    from sitcov.perception._detector import SSDDetector
+    rec = record(frames, runs=runs, seed=seed, model=model, workers=workers, progress=progress)
+    params, summary = fit_recording(rec)
+    return params, summary, list(rec.samples)
 
-    detector = SSDDetector(model, min_score=SWEEP_MIN_SCORE)
-    samples = sweep(frames, detector, seed=seed, progress=progress)
-    summary = summarize_samples(samples)
-    summary["seed"] = seed
-    if runs <= 0:
-        return fit_pem(samples), summary, samples
-    recorded = camera_runs(
-        runs,
-        seed=seed,
-        model=model,
-        workers=workers,
-        progress=None if progress is None else (lambda r: progress(frames + r)),
+
+def write_recording(path: Any, recording: Recording) -> None:
+    """A :class:`Recording` as JSON lines (gzip-compressed if ``path`` ends in ``.gz``):
+    a ``meta`` line (seed, frames), one ``sweep`` line per sample, one ``run`` line per run.
+
+    Floats are written by ``repr``, so :func:`read_recording` gives back equal values and a
+    refit reproduces the fit made right after recording.
+    """
+    import gzip
+    import json
+
+    opener = gzip.open if str(path).endswith(".gz") else open
+    with opener(path, "wt") as fh:
+        meta = {"seed": recording.seed, "frames": recording.frames}
+        fh.write(json.dumps({"meta": meta}) + "\n")
+        for smp in recording.samples:
+            fh.write(json.dumps({"sweep": asdict(smp)}) + "\n")
+        for run in recording.runs:
+            fh.write(json.dumps({"run": asdict(run)}) + "\n")
+
+
+def read_recording(path: Any) -> Recording:
+    """What :func:`write_recording` wrote.
+
+    Raises:
+        ConfigError: the file cannot be read, has no meta line, or a line is not a sweep,
+            run or meta row (one line naming the file and the line number).
+    """
+    import gzip
+    import json
+
+    from sitcov.errors import ConfigError
+
+    opener = gzip.open if str(path).endswith(".gz") else open
+    meta: dict[str, Any] | None = None
+    samples: list[Sample] = []
+    runs: list[CameraRun] = []
+    try:
+        fh = opener(path, "rt")
+        lines = list(fh)
+        fh.close()
+    except OSError as exc:
+        raise ConfigError(file=str(path), expected="a readable --samples file") from exc
+    for n, line in enumerate(lines, 1):
+        try:
+            row = json.loads(line)
+            if "meta" in row:
+                meta = {"seed": int(row["meta"]["seed"]), "frames": int(row["meta"]["frames"])}
+            elif "sweep" in row:
+                samples.append(_sample_from(row["sweep"]))
+            else:
+                runs.append(run_from_dict(row["run"]))
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ConfigError(
+                file=str(path), field=f"line {n}", value=line[:60],
+                expected="a meta, sweep or run row written by sitcov calibrate --samples",
+            ) from exc  # fmt: skip
+    if meta is None:
+        raise ConfigError(file=str(path), field="meta", expected="a meta line (seed, frames)")
+    return Recording(meta["seed"], meta["frames"], tuple(samples), tuple(runs))
+
+
+def _sample_from(row: dict[str, Any]) -> Sample:
+    err, color = row["box_error"], row["color"]
+    return Sample(
+        **{
+            **row,
+            "features": PEMFeatures(*row["features"]),
+            "box_error": None if err is None else tuple(err),
+            "color": None if color is None else tuple(color),
+        }
     )
-    fitted = fit_pem(samples, runs=recorded)
-    params, table = choose_noise(fitted, recorded)
-    run_frames = [f for r in recorded for f in r.frames]
-    summary["camera_runs"] = {
-        "runs": len(recorded),
-        "seed": seed,
-        "frames": len(run_frames),
-        "frames_per_run": round(len(run_frames) / max(1, len(recorded)), 1),
-        "events_score_ge_0.5": sum(f.score >= THRESHOLD for f in run_frames),
-        "failure_rate_camera": round(sum(r.failed for r in recorded) / len(recorded), 3),
-        "bias_shift": round(params.bias - fitted.bias, 4),
-        "noise_sigma_fitted": fitted.noise_sigma,
-        "noise_scale": round(params.noise_sigma / fitted.noise_sigma, 2),
-        "pem_agreement_by_noise": table,
-    }
-    return params, summary, samples
+
+
+def run_from_dict(row: dict[str, Any]) -> CameraRun:
+    """A :class:`CameraRun` from its ``asdict`` form read back from JSON."""
+    from sitcov.calibration._camera_runs import RunFrame
+
+    frames = tuple(
+        RunFrame(
+            **{
+                **f,
+                "features": PEMFeatures(*f["features"]),
+                "box_error": None if f["box_error"] is None else tuple(f["box_error"]),
+            }
+        )
+        for f in row["frames"]
+    )
+    return CameraRun(**{**row, "frames": frames})
 
 
 def pem_yaml(params: PEMParams, command: str, summary: dict[str, Any]) -> str:

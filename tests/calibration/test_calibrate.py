@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -252,7 +253,8 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
     text = PEM_PARAMS_FILE.read_text()
     data = yaml.safe_load(text)
     command = data["meta"]["command"]
-    assert command.startswith("sitcov calibrate ") and "--runs" in command
+    assert command.startswith("sitcov calibrate ")
+    assert "--runs" in command or "--from-samples" in command
     assert command.endswith("--out sitcov/perception/data/pem.yaml")
     assert f"#   {command}" in text.splitlines()
     params = load_pem_params()
@@ -263,11 +265,43 @@ def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
     # the camera runs are recorded, and the correlation time is the best-agreeing one
     runs = data["meta"]["camera_runs"]
     assert runs["runs"] >= 100 and runs["frames"] >= 20 * runs["runs"]
-    table = runs["pem_agreement_by_noise"]
     chosen = noise_key(params.noise_tau, runs["noise_scale"], runs["bias_shift"])
-    assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
+    if "cross_validation" in runs:  # chosen by held-out agreement (calibrate --cv-folds)
+        from sitcov.calibration._cv import parse_key, pick
+
+        cv = runs["cross_validation"]
+        assert cv["chosen"] == pick(cv) and cv["chosen"].endswith(chosen)
+        _, scale, shift = parse_key(cv["chosen"])
+        assert (scale, shift) == (runs["noise_scale"], runs["bias_shift"])
+        assert f"--cv-folds {cv['folds']}" in command and cv["runs"] == runs["runs"]
+    else:
+        table = runs["pem_agreement_by_noise"]
+        assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
     assert params.noise_sigma == round(runs["noise_sigma_fitted"] * runs["noise_scale"], 4)
     assert params.noise_run_share == 0.0
+
+
+def test_the_shipped_samples_file_holds_what_the_shipped_fit_read() -> None:
+    """``--from-samples F`` in the shipped file's command: F is in the repository and its
+    sweep and runs are the ones the file's meta describes (seed, runs, frames, events)."""
+    from pathlib import Path
+
+    from sitcov.calibration._calibrate import read_recording
+    from sitcov.perception import PEM_PARAMS_FILE
+
+    meta = yaml.safe_load(PEM_PARAMS_FILE.read_text())["meta"]
+    words = meta["command"].split()
+    if "--from-samples" not in words:
+        pytest.skip("the shipped file was not refitted from a samples file")
+    path = Path(__file__).parents[2] / words[words.index("--from-samples") + 1]
+    rec = read_recording(path)
+    runs = meta["camera_runs"]
+    frames = [f for r in rec.runs for f in r.frames]
+    assert meta["calibration_seeds"] == [rec.seed] == [runs["seed"]]
+    assert len(rec.runs) == runs["runs"] and len(frames) == runs["frames"]
+    assert sum(f.score >= 0.5 for f in frames) == runs["events_score_ge_0.5"]
+    assert round(sum(r.failed for r in rec.runs) / len(rec.runs), 3) == runs["failure_rate_camera"]
+    assert summarize_samples(list(rec.samples))["frames"] == meta["frames"]
 
 
 def test_with_camera_runs_the_sweep_only_fills_in_narrower_boxes() -> None:
@@ -315,8 +349,10 @@ def test_choose_noise_finds_the_noise_scale_that_made_the_verdicts() -> None:
 
     from sitcov.calibration._calibrate import choose_noise
 
-    # the frame-level spread of the detector's scores (the fit's, before any scaling)
-    params = replace(load_pem_params(), noise_tau=0.0, noise_sigma=0.26)
+    # a calibrated PEM pinned for tests (the shipped one moves with every recalibration),
+    # with the frame-level spread of the detector's scores (the fit's, before any scaling)
+    pinned = load_pem_params(Path(__file__).parents[1] / "sim/data/golden_world_pem.yaml")
+    params = replace(pinned, noise_tau=0.0, noise_sigma=0.26)
     runs = _pem_runs(replace(params, noise_sigma=round(params.noise_sigma * 0.05, 4)), 60)
     chosen, table = choose_noise(params, runs, taus=(0.0,), scales=(1.0, 0.05), shifts=(0.0,))
     assert chosen.noise_sigma == round(params.noise_sigma * 0.05, 4)

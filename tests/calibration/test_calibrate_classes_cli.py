@@ -53,10 +53,11 @@ def test_bad_from_samples_is_one_message(tmp_path: Path) -> None:
     bad = tmp_path / "bad.jsonl"
     bad.write_text("not json\n")
     cases = (
-        (("--from-samples", str(good)), "--from-samples"),
+        (("--from-samples", str(good)), "line 1"),  # cars: not a car samples file
         (("--classes", "pedestrian", "--from-samples", str(tmp_path / "none.jsonl")), "none"),
         (("--classes", "pedestrian", "--from-samples", str(bad)), "line 1"),
         (("--classes", "cyclist", "--from-samples", str(good)), "kind"),
+        (("--classes", "pedestrian", "--cv-folds", "3"), "--cv-folds"),
     )
     for args, needle in cases:
         result = sitcov("calibrate", *args)
