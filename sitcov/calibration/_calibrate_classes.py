@@ -9,7 +9,7 @@ For each kind (pedestrian, cyclist), as ``sitcov calibrate`` does for cars:
    reference stack through random situations of the kind (the derived t-junction
    hyperspace restricted to it), recorded frame by frame: the geometries and weather
    combinations campaigns meet, in the frames the AEB decides on, and each run's verdict;
-3. :func:`sitcov.perception._pem_classes.fit_class` on the sweep's frames and the runs'
+3. :func:`sitcov.calibration._class_fit.fit_class` on the sweep's frames and the runs'
    frames together;
 4. :func:`choose_shift`: the intercept shift, in units of the fitted ``noise_sigma``,
    whose PEM-mode verdicts (under run seeds of their own) agree with the runs' camera
