@@ -915,10 +915,12 @@ def calibrate_cmd(
             classes, out, frames, runs, seed, workers, model, samples_out, from_samples
         )
         return
-    from sitcov.calibration import _calibrate as cal
+    from sitcov.calibration import _calibrate_cars as cal
+    from sitcov.calibration._calibrate import pem_yaml
+    from sitcov.calibration._recording import read_recording, write_recording
 
     if from_samples is not None:
-        recording = cal.read_recording(from_samples)
+        recording = read_recording(from_samples)
         command = f"sitcov calibrate --from-samples {shlex.quote(str(from_samples))}"
     else:
         with Progress(console=err_console, transient=True) as bar:
@@ -931,14 +933,14 @@ def calibrate_cmd(
         if workers > 1:
             command += f" --workers {workers}"
     if samples_out is not None:
-        cal.write_recording(samples_out, recording)
+        write_recording(samples_out, recording)
         err_console.print(f"wrote {samples_out}")
     params, summary = cal.fit_recording(recording, cv_folds=cv_folds)
     if cv_folds is not None:
         command += f" --cv-folds {cv_folds}"
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
-    text = cal.pem_yaml(params, command, summary)
+    text = pem_yaml(params, command, summary)
     if out is not None:
         out.write_text(text)
         err_console.print(f"wrote {out}")

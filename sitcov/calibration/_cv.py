@@ -31,13 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from sitcov.calibration._calibrate import (
-    Recording,
-    cross_seed,
-    fit_pem,
-    noise_key,
-)
+from sitcov.calibration._calibrate import cross_seed, fit_pem, noise_key
 from sitcov.calibration._camera_runs import CameraRun
+from sitcov.calibration._recording import Recording
 from sitcov.perception._pem import PEMParams
 
 #: Noise scales and intercept shifts [logit] tried with every fit option (a scale

@@ -286,7 +286,7 @@ def test_the_shipped_samples_file_holds_what_the_shipped_fit_read() -> None:
     sweep and runs are the ones the file's meta describes (seed, runs, frames, events)."""
     from pathlib import Path
 
-    from sitcov.calibration._calibrate import read_recording
+    from sitcov.calibration._recording import read_recording
     from sitcov.perception import PEM_PARAMS_FILE
 
     meta = yaml.safe_load(PEM_PARAMS_FILE.read_text())["meta"]

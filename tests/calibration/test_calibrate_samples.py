@@ -10,15 +10,10 @@ import numpy as np
 import pytest
 import yaml
 
-from sitcov.calibration._calibrate import (
-    Recording,
-    Sample,
-    fit_pem,
-    read_recording,
-    write_recording,
-)
+from sitcov.calibration._calibrate import Sample, fit_pem
 from sitcov.calibration._camera_runs import CameraRun, RunFrame
 from sitcov.calibration._cv import FitOption, cross_validate, fold_of, pick
+from sitcov.calibration._recording import Recording, read_recording, write_recording
 from sitcov.errors import ConfigError
 from sitcov.perception import PEMFeatures, PEMParams, load_pem_params, pem_logit
 
@@ -191,7 +186,8 @@ def _pem_made_recording(n: int) -> Recording:
 def test_calibrate_from_samples_refits_without_rendering(tmp_path) -> None:
     """``sitcov calibrate --from-samples F [--cv-folds K]``: the file's seed becomes the
     calibration seed, the header names the command, the params are fit_recording's."""
-    from sitcov.calibration._calibrate import fit_recording, pem_yaml
+    from sitcov.calibration._calibrate import pem_yaml
+    from sitcov.calibration._calibrate_cars import fit_recording
 
     rec = _pem_made_recording(6)
     samples = tmp_path / "s.jsonl.gz"
