@@ -77,6 +77,23 @@ def run_all(stored: list[dict[str, Any]], every: int = 1) -> dict[str, dict[str,
     return out
 
 
+def differences(expected: dict[str, Any], actual: dict[str, Any]) -> list[str]:
+    """The fields of two outcome dicts that differ, as ``name: expected != actual``."""
+    return [
+        f"{k}: {expected.get(k)!r} != {actual.get(k)!r}"
+        for k in sorted(set(expected) | set(actual))
+        if expected.get(k) != actual.get(k)
+    ]
+
+
+def assert_reproduced(golden: dict[str, Any], actual: dict[str, dict[str, Any]]) -> None:
+    """Every run in ``actual`` equals its golden outcome exactly (shared by both golden tests)."""
+    assert actual, "no golden case ran"
+    bad = {key: differences(golden["outcomes"][key], out) for key, out in actual.items()}
+    bad = {key: d for key, d in bad.items() if d}
+    assert not bad, f"{len(bad)} of {len(actual)} runs differ, e.g. {next(iter(bad.items()))}"
+
+
 def main() -> None:
     """Write the golden file from the current code."""
     parser = argparse.ArgumentParser(description=__doc__)

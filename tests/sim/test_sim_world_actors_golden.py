@@ -17,6 +17,7 @@ import json
 import pytest
 import yaml
 from _golden_actors import GOLDEN, MAPS, PEM_CLASSES, run_all
+from _golden_world import assert_reproduced
 
 from sitcov.sim.embedded._scene import BEHAVIOURS
 
@@ -26,20 +27,8 @@ def golden() -> dict:
     return json.loads(GOLDEN.read_text(encoding="utf-8"))
 
 
-def _diff(expected: dict, actual: dict) -> list[str]:
-    return [
-        f"{k}: {expected.get(k)!r} != {actual.get(k)!r}"
-        for k in sorted(set(expected) | set(actual))
-        if expected.get(k) != actual.get(k)
-    ]
-
-
 def _check(golden: dict, every: int) -> None:
-    actual = run_all(golden["situations"], every=every)
-    assert actual, "no golden case ran"
-    bad = {key: _diff(golden["outcomes"][key], out) for key, out in actual.items()}
-    bad = {key: d for key, d in bad.items() if d}
-    assert not bad, f"{len(bad)} of {len(actual)} runs differ, e.g. {next(iter(bad.items()))}"
+    assert_reproduced(golden, run_all(golden["situations"], every=every))
 
 
 def test_golden_file_covers_every_map_kind_and_extra_slot(golden) -> None:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from _golden_world import GOLDEN, run_all
+from _golden_world import GOLDEN, assert_reproduced, run_all
 
 
 @pytest.fixture(scope="module")
@@ -19,20 +19,8 @@ def golden() -> dict:
     return json.loads(GOLDEN.read_text(encoding="utf-8"))
 
 
-def _diff(expected: dict, actual: dict) -> list[str]:
-    return [
-        f"{k}: {expected.get(k)!r} != {actual.get(k)!r}"
-        for k in sorted(set(expected) | set(actual))
-        if expected.get(k) != actual.get(k)
-    ]
-
-
 def _check(golden: dict, every: int) -> None:
-    actual = run_all(golden["situations"], every=every)
-    assert actual, "no golden case ran"
-    bad = {key: _diff(golden["outcomes"][key], out) for key, out in actual.items()}
-    bad = {key: d for key, d in bad.items() if d}
-    assert not bad, f"{len(bad)} of {len(actual)} runs differ, e.g. {next(iter(bad.items()))}"
+    assert_reproduced(golden, run_all(golden["situations"], every=every))
 
 
 def test_every_seventh_golden_run_is_reproduced_exactly(golden) -> None:
