@@ -105,14 +105,25 @@ class _Recorder:
 
     def _detect(self, image: np.ndarray) -> tuple[Any, ...]:
         detections = self.detector(image)
+        candidates = self._candidates(detections)
         camera, pose, actors, conditions = self._truth
         for actor in actors:
+            if not self._records(actor):
+                continue
             feats = self.sensor.features(pose, actor, conditions)
             proj = project_box(camera, pose, actor)
             if feats is None or proj is None:
                 continue
-            score, err = match(proj.box, detections)
+            score, err = match(proj.box, candidates)
             self.frames.append(RunFrame(feats, score, err, proj.width))
+        return detections
+
+    def _records(self, actor: Any) -> bool:
+        """Whether this actor's frames are recorded (every actor here)."""
+        return True
+
+    def _candidates(self, detections: Any) -> Any:
+        """The detections an actor's box is matched against (all of them here)."""
         return detections
 
     def run(self, seed: int, index: int) -> CameraRun:

@@ -22,11 +22,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from sitcov.calibration._camera_runs import CameraRun, RunFrame, _Recorder, match
+from sitcov.calibration._camera_runs import CameraRun, _Recorder
 from sitcov.errors import ConfigError
-from sitcov.perception._camera import project_box
 
 #: The kinds a class hyperspace can be restricted to.
 CLASS_KINDS = ("pedestrian", "cyclist")
@@ -109,20 +106,11 @@ class ClassRecorder(_Recorder):
         self.labels = KIND_LABELS[kind]
         self.generator = make_generator("random", class_hyperspace(kind, map_name))
 
-    def _detect(self, image: np.ndarray) -> tuple[Any, ...]:
-        detections = self.detector(image)
-        mine = [d for d in detections if d.label in self.labels]
-        camera, pose, actors, conditions = self._truth
-        for actor in actors:
-            if actor.kind != self.kind:
-                continue
-            feats = self.sensor.features(pose, actor, conditions)
-            proj = project_box(camera, pose, actor)
-            if feats is None or proj is None:
-                continue
-            score, err = match(proj.box, mine)
-            self.frames.append(RunFrame(feats, score, err, proj.width))
-        return detections
+    def _records(self, actor: Any) -> bool:
+        return actor.kind == self.kind
+
+    def _candidates(self, detections: Any) -> Any:
+        return [d for d in detections if d.label in self.labels]
 
 
 _WORKER: dict[tuple[str, str | None], ClassRecorder] = {}
