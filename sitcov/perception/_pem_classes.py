@@ -21,10 +21,8 @@ from collections.abc import Mapping
 from functools import lru_cache
 from pathlib import Path
 
-import yaml
-
 from sitcov.errors import ConfigError
-from sitcov.perception._pem_params import PEMParams, load_pem_params
+from sitcov.perception._pem_params import PEMParams, load_pem_params, read_yaml
 
 #: The shipped per-class file.
 PEM_CLASSES_FILE = Path(__file__).parent / "data" / "pem_classes.yaml"
@@ -45,12 +43,7 @@ def _default_classes() -> tuple[tuple[str, tuple[str, PEMParams]], ...]:
 
 
 def _read(path: Path) -> dict[str, tuple[str, PEMParams]]:
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read per-class PEM parameters: {exc}") from exc
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: invalid YAML: {exc}") from exc
+    data = read_yaml(path, "per-class PEM parameters")
     classes = data.get("classes") if isinstance(data, Mapping) else None
     if not isinstance(classes, Mapping):
         raise ConfigError(file=str(path), field="classes", expected="a mapping kind -> entry")

@@ -157,13 +157,19 @@ def _default_params() -> PEMParams:
     return _read(PEM_PARAMS_FILE)
 
 
-def _read(path: Path) -> PEMParams:
+def read_yaml(path: Path, what: str) -> Any:
+    """The YAML document in ``path`` ({} when empty); one-line ``ConfigError`` naming the
+    file when it cannot be read (``what`` says what it should hold) or is not YAML."""
     try:
-        data = yaml.safe_load(path.read_text()) or {}
+        return yaml.safe_load(path.read_text()) or {}
     except OSError as exc:
-        raise ConfigError(f"{path}: cannot read PEM parameters: {exc}") from exc
+        raise ConfigError(f"{path}: cannot read {what}: {exc}") from exc
     except yaml.YAMLError as exc:
         raise ConfigError(f"{path}: invalid YAML: {exc}") from exc
+
+
+def _read(path: Path) -> PEMParams:
+    data = read_yaml(path, "PEM parameters")
     if not isinstance(data, Mapping) or not isinstance(data.get("params", {}), Mapping):
         raise ConfigError(file=str(path), field="params", expected="a mapping name -> number")
     return PEMParams.from_mapping(data.get("params", {}), file=str(path))
