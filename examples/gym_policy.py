@@ -11,7 +11,7 @@ The same policy tested by a whole campaign, as an AV stack (``PolicyStack``)::
 
     PYTHONPATH=. sitcov run --runs 100 --db policy.db --av examples.gym_policy:GymPolicyStack
 
-or in Python: ``sitcov.av.PolicyStack(my_policy)`` is an ``AVStack`` for any callable.
+or in Python: ``sitcov.gym.PolicyStack(my_policy)`` is an ``AVStack`` for any callable.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from sitcov.av import PolicyStack
+from sitcov.gym import PolicyStack
 
 TARGET_SPEED = 25.0 / 3.6  # cruise speed [m/s]
 STEER_GAIN = 0.9  # steer command per radian towards the route point 4 m ahead [1/rad]
@@ -70,7 +70,7 @@ def main(intsits: int = 12) -> None:
     """One episode for each of the first ``intsits`` intersection situations."""
     import gymnasium as gym
 
-    from sitcov.av import ENV_ID  # importing the id registers the environment
+    from sitcov.gym import ENV_ID  # importing sitcov.gym registers the environment
 
     env = gym.make(ENV_ID)  # "sitcov/TJunction-v0"
     policy = Policy()

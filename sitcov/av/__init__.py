@@ -31,14 +31,15 @@ __all__ = [
     "resolve_params",
 ]
 
-# The gymnasium environment and PolicyStack need the optional extra ``sitcov[gym]``: they
-# are imported (and ``sitcov/TJunction-v0`` registered) on first access.
-_GYM_NAMES = ("ENV_ID", "PolicyStack", "TJunctionEnv")
+# The gymnasium environment and PolicyStack moved to ``sitcov.gym`` (they run a simulator,
+# which stands above the stacks); the old names resolve until the next release, with a
+# DeprecationWarning.
+_MOVED_TO_GYM = ("ENV_ID", "PolicyStack", "TJunctionEnv")
 
 
 def __getattr__(name: str) -> Any:
-    if name in _GYM_NAMES:
-        from sitcov.av import _gym
+    if name in _MOVED_TO_GYM:
+        from sitcov.av._gym import moved_to_gym
 
-        return getattr(_gym, name)
+        return moved_to_gym(__name__, name)
     raise AttributeError(f"module 'sitcov.av' has no attribute {name!r}")

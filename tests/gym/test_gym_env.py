@@ -11,8 +11,8 @@ from needs import need_module
 
 gym = need_module("gymnasium", "gym")
 
-from sitcov.av import ENV_ID, PolicyStack, TJunctionEnv  # noqa: E402
 from sitcov.errors import ConfigError  # noqa: E402
+from sitcov.gym import ENV_ID, PolicyStack, TJunctionEnv  # noqa: E402
 from sitcov.hyperspace import load_hyperspace  # noqa: E402
 from sitcov.sim import make_backend  # noqa: E402
 
