@@ -14,8 +14,8 @@ with ``n ~ N(0, 1)``: ``P(score >= θ) = Φ((z - logit θ) / σ)``. The referenc
 OV straight ahead of the camera (box centred), seen at relative headings 0° (rear) to 180°
 (front) in 15° steps, each at the distance where its box is exactly as wide as the AEB's
 distance test requires (``aeb_min_box_width`` of the nominal ``distance``). The threshold is
-computed, not typed in, so a recalibrated PEM moves it. docs/reference-stack.md gives the
-derivation and the numbers.
+computed, not typed in, so a recalibrated PEM moves it. The OV's body is :data:`REFERENCE_CAR`.
+docs/reference-stack.md gives the derivation and the numbers.
 """
 
 from __future__ import annotations
@@ -37,6 +37,12 @@ NOMINAL_THRESHOLD = 0.5
 F1_ACCEPTANCE_RATIO = 0.25
 #: Relative headings of the OV in the reference views [deg] (0 = rear view, 180 = front).
 REFERENCE_HEADINGS: tuple[int, ...] = tuple(range(0, 181, 15))
+#: The OV's body in the reference views: length, width, height [m]. It is the embedded
+#: simulator's car (CommonRoad's BMW 320i, ``vehiclemodels.parameters_vehicle2``, 4.508 m x
+#: 1.61 m, with the simulator's saloon height 1.45 m), the car the PEM was calibrated on.
+#: Stored here so that the stacks do not import the simulator that drives them;
+#: tests/av/test_fault_map.py checks that it still equals the simulator's car.
+REFERENCE_CAR: tuple[float, float, float] = (4.508, 1.61, 1.45)
 
 
 def reference_views(params: PEMParams | None = None, distance: float = 0.6) -> list[PEMFeatures]:
@@ -49,18 +55,17 @@ def reference_views(params: PEMParams | None = None, distance: float = 0.6) -> l
     from sitcov.av._aeb import aeb_min_box_width
     from sitcov.perception import CameraSpec, PEMSensor
     from sitcov.perception._base import ActorView, Pose
-    from sitcov.sim.embedded._dynamics import default_params
     from sitcov.weather import conditions_from_values
 
     sensor = PEMSensor(params=params, camera=CameraSpec())
-    camera, vehicle = sensor.camera, default_params()
+    camera = sensor.camera
     clear = conditions_from_values({})
     ego = Pose(0.0, 0.0, 0.0)
     target = aeb_min_box_width(distance) * camera.width
 
     def features(heading: float, gap: float) -> Any:
         pose = Pose(camera.mount_x + gap, 0.0, heading)
-        actor = ActorView(pose, vehicle.length, vehicle.width, vehicle.height)
+        actor = ActorView(pose, *REFERENCE_CAR)
         return sensor.features(ego, actor, clear)
 
     views = []

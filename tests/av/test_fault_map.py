@@ -15,6 +15,7 @@ from sitcov.av import make_stack
 from sitcov.av._aeb import aeb_min_box_width
 from sitcov.av._fault_map import (
     F1_ACCEPTANCE_RATIO,
+    REFERENCE_CAR,
     REFERENCE_HEADINGS,
     acceptance,
     f1_threshold,
@@ -42,6 +43,12 @@ def pem():
 @pytest.fixture(scope="module")
 def views(pem):
     return reference_views(pem)
+
+
+def test_reference_car_is_the_simulator_s_car():
+    """The stored OV body is the embedded simulator's car (which the PEM was fitted on)."""
+    vp = default_params()
+    assert (vp.length, vp.width, vp.height) == REFERENCE_CAR
 
 
 def test_reference_views_sit_at_the_decision_distance(views):
