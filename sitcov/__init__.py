@@ -10,6 +10,7 @@ The public API is small; everything else lives in the sub-packages (one per conc
 """
 
 from sitcov._seeding import ask_rng, run_seed
+from sitcov._version import __version__
 from sitcov.analysis import summarize
 from sitcov.av import AVStack, Control, Observation, ReferenceStack, RunInfo, make_stack
 from sitcov.campaign import CampaignConfig, open_store, run_campaign
@@ -17,8 +18,6 @@ from sitcov.errors import ConfigError, SitcovError
 from sitcov.generation import Generator, make_generator
 from sitcov.hyperspace import Hyperspace, Situation, load_hyperspace
 from sitcov.sim import Backend, Outcome, make_backend
-
-__version__ = "0.1.0"
 
 __all__ = [
     "AVStack",

@@ -38,7 +38,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import sitcov
+from sitcov._version import __version__
 from sitcov.av import _protocol as proto
 from sitcov.av._base import AVStack, Control, Observation, RunInfo
 from sitcov.errors import ConfigError, StackError, StackTimeoutError
@@ -371,7 +371,7 @@ class ExternalProcessStack(AVStack):
                 proto.hello(
                     step_timeout=self.step_timeout,
                     grey_box=self.grey_box,
-                    version=sitcov.__version__,
+                    version=__version__,
                 )
             )
             self.peer = proto.parse_hello(self._receive(self.start_timeout, "hello"), who=self.who)
