@@ -7,6 +7,7 @@ import re
 from pathlib import Path
 
 import pytest
+from layering import SITCOV, from_the_face, imported_names
 
 import sitcov
 
@@ -90,3 +91,15 @@ def test_version_is_pyproject_s() -> None:
     from sitcov._version import __version__
 
     assert __version__ is sitcov.__version__
+
+
+def test_no_module_takes_names_from_the_package_face() -> None:
+    """``sitcov/__init__.py`` imports every layer: a module below it takes what it needs from
+    the submodule that defines it (``sitcov._version``, not ``sitcov``), or layers run back up.
+    """
+    offenders = {
+        str(path.relative_to(SITCOV)): sorted(n for n in imported_names(path) if from_the_face(n))
+        for path in SITCOV.rglob("*.py")
+        if path != SITCOV / "__init__.py"
+    }
+    assert {path: names for path, names in offenders.items() if names} == {}

@@ -545,7 +545,7 @@ def run_agreement(
     Raises:
         ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
     """
-    from sitcov import __version__
+    from sitcov._version import __version__
     from sitcov.perception._pem_params import PEM_PARAMS_FILE, load_pem_params
 
     if situations < 1:

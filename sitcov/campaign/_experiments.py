@@ -63,7 +63,7 @@ def _base_config(generator: str, seed_index: int, runs: int, seed: int, settings
 
 def _replay_into(store: Any, nf: Any, config: Any) -> None:
     """Create the fault campaign ``config`` planned as replays of ``nf``'s stored runs."""
-    from sitcov import __version__
+    from sitcov._version import __version__
     from sitcov.campaign._store import CampaignInfo, PlannedRun
     from sitcov.sim import WORLD_MODEL_VERSION
 

@@ -34,7 +34,7 @@ def repeat_seed(seed: int, repeat: int) -> int:
 
 def _plan_repeat(store: Any, base: Any, config: Any, repeat: int) -> None:
     """Create campaign ``config`` as the base's situations with repeat seeds."""
-    from sitcov import __version__
+    from sitcov._version import __version__
     from sitcov.campaign._store import CampaignInfo, PlannedRun
     from sitcov.sim import WORLD_MODEL_VERSION
 

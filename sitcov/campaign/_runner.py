@@ -110,7 +110,7 @@ class CampaignResult:
 
 
 def _version() -> str:
-    from sitcov import __version__
+    from sitcov._version import __version__
 
     return __version__
 

@@ -66,7 +66,7 @@ def build_report(
     """
     import jinja2
 
-    from sitcov import __version__
+    from sitcov._version import __version__
     from sitcov.analysis import worst_bins, worst_pairs
     from sitcov.campaign import fault_table, open_store
 
