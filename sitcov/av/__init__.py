@@ -33,13 +33,10 @@ __all__ = [
 
 # The gymnasium environment and PolicyStack moved to ``sitcov.gym`` (they run a simulator,
 # which stands above the stacks); the old names resolve until the next release, with a
-# DeprecationWarning.
-_MOVED_TO_GYM = ("ENV_ID", "PolicyStack", "TJunctionEnv")
+# DeprecationWarning (sitcov/av/_gym.py).
 
 
 def __getattr__(name: str) -> Any:
-    if name in _MOVED_TO_GYM:
-        from sitcov.av._gym import moved_to_gym
+    from sitcov.av._gym import moved_to_gym
 
-        return moved_to_gym(__name__, name)
-    raise AttributeError(f"module 'sitcov.av' has no attribute {name!r}")
+    return moved_to_gym(__name__, name)

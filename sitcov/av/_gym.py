@@ -16,16 +16,17 @@ from typing import Any
 
 #: The package the environment moved to.
 NEW_HOME = "sitcov.gym"
+#: The names that still resolve at the old paths (the public ones; the old module was private).
+MOVED = ("ENV_ID", "PolicyStack", "TJunctionEnv")
 
 
 def moved_to_gym(module: str, name: str) -> Any:
     """``name`` from :mod:`sitcov.gym`, warning that ``module.name`` is deprecated.
 
     Raises:
-        AttributeError: :mod:`sitcov.gym` has no public ``name``.
+        AttributeError: ``name`` is not one of :data:`MOVED` (nothing is imported then).
     """
-    new = importlib.import_module(NEW_HOME)
-    if name not in new.__all__:
+    if name not in MOVED:
         raise AttributeError(f"module {module!r} has no attribute {name!r}")
     warnings.warn(
         f"{module}.{name} moved to {NEW_HOME}.{name}; import it from {NEW_HOME} "
@@ -33,10 +34,8 @@ def moved_to_gym(module: str, name: str) -> Any:
         DeprecationWarning,
         stacklevel=3,
     )
-    return getattr(new, name)
+    return getattr(importlib.import_module(NEW_HOME), name)
 
 
 def __getattr__(name: str) -> Any:
-    if name.startswith("__"):
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     return moved_to_gym(__name__, name)

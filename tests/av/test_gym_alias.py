@@ -62,8 +62,13 @@ def test_the_old_entry_point_still_makes_the_environment() -> None:
 
 
 def test_importing_the_stacks_imports_no_gym() -> None:
-    """``sitcov.av`` (and ``sitcov``) stay importable without the optional extra."""
-    code = "import sys, sitcov.av; print(sorted(m for m in sys.modules if 'gym' in m))"
+    """``sitcov.av`` (and ``sitcov``) stay importable without the optional extra; asking
+    the old homes for a name that never moved imports nothing either."""
+    code = (
+        "import sys, sitcov.av, sitcov.av._gym as old\n"
+        "assert not hasattr(sitcov.av, 'observation_space') and not hasattr(old, 'Foo')\n"
+        "print(sorted(m for m in sys.modules if 'gym' in m and m != 'sitcov.av._gym'))"
+    )
     out = subprocess.run(
         [sys.executable, "-c", code],
         cwd=ROOT,
