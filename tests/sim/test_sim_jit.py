@@ -244,6 +244,32 @@ def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
     assert 1000 < clipped < 19000  # both branches ran
 
 
+def _folded_remainder(rel: float) -> float:
+    """The view angle as ``project_raw`` computed it before the fold was compiled."""
+    view = abs(math.remainder(rel, math.tau))
+    return math.pi - view if view > 0.5 * math.pi else view
+
+
+def test_view_angle_equals_the_folded_math_remainder(monkeypatch) -> None:
+    """The projection's view angle (``math.remainder`` written out for numba) gives
+    ``math.remainder``'s folded bits, in Python and compiled: random angles of every
+    size, the halfway cases (odd multiples of pi), their neighbours and signed zeros."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    fast = compiled(_camera._view_angle, 0.3)
+    assert fast is not None
+    rnd = random.Random(7)
+    rels = [rnd.uniform(-20.0, 20.0) * 10.0 ** rnd.randint(-6, 5) for _ in range(50000)]
+    halves = [k * 0.5 * math.pi for k in range(-41, 42)]
+    rels += halves + [math.nextafter(h, d) for h in halves for d in (-math.inf, math.inf)]
+    rels += [0.0, -0.0, 5e-324, 1e300, -1e300]
+    for rel in rels:
+        want = repr(_folded_remainder(rel))
+        assert repr(_camera._view_angle(rel)) == want, rel
+        assert repr(fast(rel)) == want, rel
+    assert math.isnan(_camera._view_angle(math.nan)) and math.isnan(fast(math.nan))
+
+
 def test_compiled_route_tracking_is_bit_identical_to_python(monkeypatch) -> None:
     """``Path.tracker()`` (compiled) against ``Path.track`` along a curved route driven
     forward with noise, from stale and out-of-range hints too."""
