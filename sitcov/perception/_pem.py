@@ -51,9 +51,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
-from sitcov.perception._camera import project_raw
+from sitcov.perception._camera import _clip_near, _project, _view_angle, project_raw
 from sitcov.perception._colors import chroma_features, color_features
 from sitcov.perception._pem_params import PEMParams, load_pem_params
+from sitcov.weather._conditions import fog_transmittance
 
 if TYPE_CHECKING:
     import numpy as np
@@ -106,13 +107,69 @@ class PEMFeatures(NamedTuple):
 _TINY = 1e-9  # floor inside logarithms [-]
 
 
+#: The coefficients :func:`_logit` reads, in the order of its array (:func:`coefficients`).
+COEFFICIENTS = (
+    "bias",
+    "size_gain",
+    "size2_gain",
+    "side_size_gain",
+    "size_ref_px",
+    "size_min_px",
+    "size_max_px",
+    "view_gain",
+    "view2_gain",
+    "facing_gain",
+    "facing2_gain",
+    "trunc_gain",
+    "fog_gain",
+    "illum_gain",
+    "rain_gain",
+    "aspect_gain",
+    "edge_gain",
+    "contrast_gain",
+    "detail_gain",
+    "chroma_gain",
+    "red_green_gain",
+    "yellow_blue_gain",
+)
+(
+    _BIAS,
+    _SIZE,
+    _SIZE2,
+    _SIDE_SIZE,
+    _SIZE_REF,
+    _SIZE_MIN,
+    _SIZE_MAX,
+    _VIEW,
+    _VIEW2,
+    _FACING,
+    _FACING2,
+    _TRUNC,
+    _FOG,
+    _ILLUM,
+    _RAIN,
+    _ASPECT,
+    _EDGE,
+    _CONTRAST,
+    _DETAIL,
+    _CHROMA,
+    _RED_GREEN,
+    _YELLOW_BLUE,
+) = range(len(COEFFICIENTS))
+
+
+def coefficients(params: PEMParams) -> tuple[float, ...]:
+    """``params``' values named in :data:`COEFFICIENTS`, in that order."""
+    return tuple(getattr(params, name) for name in COEFFICIENTS)
+
+
 def pem_logit(features: PEMFeatures, params: PEMParams) -> float:
     """The noise-free logit ``z`` of the detection score (formula in the module docstring)."""
-    return _logit(params, *features)
+    return _logit(coefficients(params), *features)
 
 
 def _logit(
-    p: PEMParams,
+    c: Any,
     height_px: float,
     view_angle: float,
     truncation: float,
@@ -128,30 +185,37 @@ def _logit(
     red_green: float = DEFAULT_RED_GREEN,
     yellow_blue: float = DEFAULT_YELLOW_BLUE,
 ) -> float:
-    h = min(max(height_px, p.size_min_px), p.size_max_px)
-    size = math.log(h / p.size_ref_px)
+    """The logit for coefficients ``c`` (:data:`COEFFICIENTS`' order, a sequence or float
+    array: the compiled score :func:`_pem_view` calls this very code). ``min``/``max``
+    are written out as the builtins decide (the first argument unless the second is
+    strictly smaller/greater), so both give the same bits."""
+    h = c[_SIZE_MIN] if c[_SIZE_MIN] > height_px else height_px
+    h = c[_SIZE_MAX] if c[_SIZE_MAX] < h else h
+    size = math.log(h / c[_SIZE_REF])
     shape = 0.0
     if width_px > 0.0 and height_px > 0.0:
-        shape = math.log(min(max(width_px / height_px, 0.25), 4.0))
+        ratio = width_px / height_px
+        ratio = 0.25 if ratio < 0.25 else ratio
+        shape = math.log(4.0 if ratio > 4.0 else ratio)
     side = math.sin(view_angle)
     return (
-        p.bias
-        + (p.size_gain + p.size2_gain * size + p.side_size_gain * side) * size
-        - p.view_gain * side
-        + p.view2_gain * math.sin(2.0 * view_angle)
-        + p.facing_gain * facing
-        + p.facing2_gain * (2.0 * facing * facing - 1.0)
-        - p.trunc_gain * truncation
-        + p.fog_gain * math.log(max(transmittance, _TINY))
-        + p.illum_gain * math.log(max(illumination, _TINY))
-        - p.rain_gain * rain_noise
-        + p.aspect_gain * shape
-        - p.edge_gain * offset
-        + p.contrast_gain * contrast
-        + p.detail_gain * detail
-        + p.chroma_gain * chroma
-        + p.red_green_gain * red_green
-        + p.yellow_blue_gain * yellow_blue
+        c[_BIAS]
+        + (c[_SIZE] + c[_SIZE2] * size + c[_SIDE_SIZE] * side) * size
+        - c[_VIEW] * side
+        + c[_VIEW2] * math.sin(2.0 * view_angle)
+        + c[_FACING] * facing
+        + c[_FACING2] * (2.0 * facing * facing - 1.0)
+        - c[_TRUNC] * truncation
+        + c[_FOG] * math.log(_TINY if transmittance < _TINY else transmittance)
+        + c[_ILLUM] * math.log(_TINY if illumination < _TINY else illumination)
+        - c[_RAIN] * rain_noise
+        + c[_ASPECT] * shape
+        - c[_EDGE] * offset
+        + c[_CONTRAST] * contrast
+        + c[_DETAIL] * detail
+        + c[_CHROMA] * chroma
+        + c[_RED_GREEN] * red_green
+        + c[_YELLOW_BLUE] * yellow_blue
     )
 
 
@@ -180,14 +244,72 @@ class _Track:
         self.offset, self.u, self.m, self.frame = offset, u, m, frame
 
 
-def _offset(camera: CameraSpec, raw: tuple[float, float, float, float]) -> float:
-    """Box centre's distance from the image centre over half the image width, in [0, 1]."""
-    half = 0.5 * camera.width
-    return min(abs(0.5 * (raw[0] + raw[2]) - half) / half, 1.0)
+def _offset(image_width: float, u0: float, u1: float) -> float:
+    """Centre of the box from ``u0`` to ``u1`` [px]: its distance from the image centre over
+    half the image width, in [0, 1] (``min`` written out as the builtin decides)."""
+    half = 0.5 * image_width
+    off = abs(0.5 * (u0 + u1) - half) / half
+    return 1.0 if off > 1.0 else off
 
 
 def _normal_cdf(x: float) -> float:
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
+
+
+#: Layout of the array :func:`_pem_view` takes (:meth:`PEMSensor._view_array`, one per
+#: actor kind, size and colour and run): the class's :data:`COEFFICIENTS`, then the
+#: camera (mount_x, mount_z, focal length, image width and height), the actor's box
+#: (length, width, height), the scene (fog extinction and start, illumination, rain
+#: noise) and the body colour's features (contrast, detail, chroma, red_green,
+#: yellow_blue). One array: each array argument costs a compiled call about 0.3 us.
+_CAMERA = len(COEFFICIENTS)
+_BOX, _SCENE, _COLOR = _CAMERA + 5, _CAMERA + 8, _CAMERA + 12
+
+
+def _pem_view(
+    q: Any, ex: float, ey: float, eyaw: float, ax: float, ay: float, ayaw: float
+) -> tuple:
+    """One actor at (ax, ay, ayaw) seen from the ego at (ex, ey, eyaw): ``(seen, x0, y0,
+    x1, y1, z)``, the box clipped to the image [px] and the noise-free logit, or ``seen``
+    False (zeros) when the box is not in the image or lower than ``size_min_px``.
+
+    The projection (:func:`~sitcov.perception._camera._project`), the features and
+    :func:`_logit` in one call, compiled by numba when it is there (``sitcov/_jit.py``;
+    the same bits). ``q``: the coefficients and what is constant over a run (layout above).
+    """
+    cam, box, scene, col = _CAMERA, _BOX, _SCENE, _COLOR
+    ok, x0, y0, x1, y1, u0, v0, u1, v1, trunc, dist, _, view, visible, facing = _project(
+        ex, ey, eyaw, ax, ay, ayaw, q[box], q[box + 1], q[box + 2],
+        q[cam], q[cam + 1], q[cam + 2], q[cam + 3], q[cam + 4],
+    )  # fmt: skip
+    height = v1 - v0
+    if not ok or not visible or height < q[_SIZE_MIN]:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    z = _logit(
+        q, height, view, trunc, fog_transmittance(q[scene], q[scene + 1], dist),
+        q[scene + 2], q[scene + 3], u1 - u0, _offset(q[cam + 3], u0, u1), facing,
+        q[col], q[col + 1], q[col + 2], q[col + 3], q[col + 4],
+    )  # fmt: skip
+    return True, x0, y0, x1, y1, z
+
+
+_VIEW_FN: Any = None
+
+
+def _view_kernel() -> Any:
+    """:func:`_pem_view` compiled by numba when it is installed, else itself (loaded once)."""
+    global _VIEW_FN
+    if _VIEW_FN is None:
+        import numpy as np
+
+        from sitcov._jit import compiled
+
+        q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1])  # fmt: skip
+        helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
+        _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
+        _VIEW_FN = _VIEW_FN or _pem_view
+    return _VIEW_FN
 
 
 class PEMSensor(Sensor):
@@ -234,6 +356,8 @@ class PEMSensor(Sensor):
         )  # per kind, lazily
         self._color_key: Any = None
         self._color_cache: dict[Any, tuple[float, ...]] = {}
+        self._view_token: tuple[Any, ...] | None = None
+        self._views: dict[Any, tuple[Any, PEMParams, str]] = {}
 
     def reset(self, frame_dt: float | None = None) -> None:
         """Start a new run: forget every actor's noise state (optionally set ``frame_dt`` [s])."""
@@ -257,7 +381,7 @@ class PEMSensor(Sensor):
             conditions.illumination,
             conditions.rain_noise,
             raw[2] - raw[0],
-            _offset(self.camera, raw),
+            _offset(self.camera.width, raw[0], raw[2]),
             proj[7],
             *self._colors(actor.color, conditions),
         )
@@ -315,6 +439,57 @@ class PEMSensor(Sensor):
         n = math.sqrt(share) * track.offset + math.sqrt(1.0 - share) * track.u
         return n, track.m
 
+    def _view_arrays(self, conditions: Conditions) -> dict[Any, tuple[Any, PEMParams, str]]:
+        """The cache of :meth:`_view_array`'s values: emptied whenever the conditions,
+        camera or parameters are other objects than at the last call (holding them, so no
+        id is reused)."""
+        token = self._view_token
+        if (
+            token is None
+            or token[0] is not conditions
+            or token[1] is not self.camera
+            or token[2] is not self.params
+        ):
+            self._view_token = (conditions, self.camera, self.params)
+            self._views = {}
+        return self._views
+
+    def _view_array(
+        self, views: dict[Any, Any], actor: ActorView, conditions: Conditions
+    ) -> tuple[Any, PEMParams, str]:
+        """What :func:`_pem_view` takes for ``actor`` (layout at ``_CAMERA``), its class's
+        parameters and label; cached in ``views`` per kind, size and colour (a run's
+        actors repeat every frame)."""
+        key = (actor.kind, actor.color, actor.length, actor.width, actor.height)
+        try:
+            return views[key]
+        except KeyError:
+            value = views[key] = self._make_view_array(actor, conditions)
+        except TypeError:  # an unhashable colour (a list): not cached
+            value = self._make_view_array(actor, conditions)
+        return value
+
+    def _make_view_array(
+        self, actor: ActorView, conditions: Conditions
+    ) -> tuple[Any, PEMParams, str]:
+        params, label = self._class_params(actor.kind)
+        cam = self.camera
+        values = [
+            *coefficients(params),
+            *(cam.mount_x, cam.mount_z, cam.focal_px, float(cam.width), float(cam.height)),
+            *(actor.length, actor.width, actor.height),
+            conditions.fog_extinction,
+            conditions.fog_start,
+            conditions.illumination,
+            conditions.rain_noise,
+            *self._colors(actor.color, conditions),
+        ]
+        if (_VIEW_FN or _view_kernel()) is not _pem_view:
+            import numpy as np
+
+            return np.array(values, dtype=np.float64), params, label
+        return values, params, label
+
     def detect(
         self,
         ego: Pose,
@@ -327,35 +502,21 @@ class PEMSensor(Sensor):
             self.reset()
             self._rng = rng
         self._frame += 1
-        p = self.params
         camera = self.camera
         out = []
+        view = _VIEW_FN or _view_kernel()
+        views = self._view_arrays(conditions)
+        ex, ey, eyaw = ego.x, ego.y, ego.yaw
+        rain = conditions.rain_noise
         for key, actor in enumerate(actors):
-            p, label = self._class_params(actor.kind)
-            proj = project_raw(camera, ego, actor)
-            if proj is None or not proj[6]:
-                continue
-            (x0, y0, x1, y1), raw, truncation, distance, _, view, _, facing = proj
-            height = raw[3] - raw[1]
-            if height < p.size_min_px:
+            q, p, label = self._view_array(views, actor, conditions)
+            pose = actor.pose
+            seen, x0, y0, x1, y1, z = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
+            if not seen:
                 continue
             n, m = self._noise(key, rng)
-            rain = conditions.rain_noise
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
-            z = _logit(
-                p,
-                height,
-                view,
-                truncation,
-                conditions.transmittance(distance),
-                conditions.illumination,
-                rain,
-                raw[2] - raw[0],
-                _offset(camera, raw),
-                facing,
-                *self._colors(actor.color, conditions),
-            )
             score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
             if score < p.floor:
                 continue
