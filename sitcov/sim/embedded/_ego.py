@@ -56,6 +56,8 @@ class EgoDriver:
         self.latched = False  # the AEB latched: no more frames or detections
         self.camera_mode = sensor is None
         self.aeb_time: float | None = None
+        plain = getattr(type(stack), "plain_step", None)  # the built-in stack's fast path
+        self.plain_step = plain(stack) if callable(plain) else None
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
         """(detections, image) captured at step ``k`` (a frame step)."""
@@ -86,10 +88,13 @@ class EgoDriver:
             if self.frames and self.frames[0][0] == k:
                 _, detections, image = self.frames.popleft()
         ego = world.ego.body
-        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, world.ego_speed, t), detections, image)
-        ctrl = self.stack.step(obs)
-        info = ctrl.info
-        if info and info.get("aeb"):
+        if self.plain_step is not None:  # the built-in stack: no per-step objects
+            throttle, brake, steer, fired = self.plain_step(
+                t, ego.x, ego.y, ego.yaw, world.ego_speed, detections, image
+            )
+        else:
+            throttle, brake, steer, fired = self._step(ego, world.ego_speed, t, detections, image)
+        if fired is not None:
             if self.aeb_time is None:
                 self.aeb_time = t
             # no more frames (camera) or detections (PEM) once the brake has latched:
@@ -97,8 +102,17 @@ class EgoDriver:
             # the sensor's noise draws come last from the run's generator, so skipping
             # them changes no other draw
             self.latched = True
-        brake = ctrl.brake
         if self.brakes:
             self.brakes.append(brake)
             brake = self.brakes.popleft()
-        return ctrl.throttle, brake, ctrl.steer
+        return throttle, brake, steer
+
+    def _step(
+        self, ego: Any, speed: float, t: float, detections: Any, image: Any
+    ) -> tuple[float, float, float, bool | None]:
+        """The AV stack's step through its protocol: (throttle, brake, steer, True once
+        its ``Control.info["aeb"]`` says the AEB latched, else None)."""
+        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, speed, t), detections, image)
+        ctrl = self.stack.step(obs)
+        info = ctrl.info
+        return ctrl.throttle, ctrl.brake, ctrl.steer, (True if info and info.get("aeb") else None)
