@@ -46,7 +46,7 @@ The parameters live in ``data/pem.yaml`` (documented in docs/pem.md), the output
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -490,6 +490,13 @@ class PEMSensor(Sensor):
             return np.array(values, dtype=np.float64), params, label
         return values, params, label
 
+    def prepare(self, actor: ActorView, conditions: Conditions) -> tuple[Any, PEMParams, str]:
+        """What :meth:`detect_prepared` needs of ``actor`` besides its pose (its size,
+        colour and kind with the camera, ``conditions`` and parameters; ``actor.pose`` is
+        not read): made once per run and actor by a backend that calls the sensor every
+        frame. Valid while the sensor's ``camera`` and ``params`` stay the same."""
+        return self._view_array(self._view_arrays(conditions), actor, conditions)
+
     def detect(
         self,
         ego: Pose,
@@ -498,19 +505,33 @@ class PEMSensor(Sensor):
         rng: np.random.Generator,
     ) -> tuple[Detection, ...]:
         """Detections of the actors in view whose noisy score reaches the floor."""
+        views = self._view_arrays(conditions)
+        seen = [(self._view_array(views, a, conditions), a.pose) for a in actors]
+        return self.detect_prepared(ego.x, ego.y, ego.yaw, seen, conditions, rng)
+
+    def detect_prepared(
+        self,
+        ex: float,
+        ey: float,
+        eyaw: float,
+        actors: Sequence[tuple[Any, Any]],
+        conditions: Conditions,
+        rng: np.random.Generator,
+    ) -> tuple[Detection, ...]:
+        """:meth:`detect` from the ego's pose (ex, ey, eyaw) for actors given as pairs
+        (:meth:`prepare`'s value, pose), the pose any object with ``x``, ``y`` and ``yaw``
+        (a body: no ``Pose`` or ``ActorView`` per frame), in ``detect``'s order (the
+        position keys each actor's noise)."""
         if rng is not self._rng:
             self.reset()
             self._rng = rng
         self._frame += 1
         camera = self.camera
-        out = []
+        w, h = float(camera.width), float(camera.height)
         view = _VIEW_FN or _view_kernel()
-        views = self._view_arrays(conditions)
-        ex, ey, eyaw = ego.x, ego.y, ego.yaw
         rain = conditions.rain_noise
-        for key, actor in enumerate(actors):
-            q, p, label = self._view_array(views, actor, conditions)
-            pose = actor.pose
+        out = []
+        for key, ((q, p, label), pose) in enumerate(actors):
             seen, x0, y0, x1, y1, z = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
             if not seen:
                 continue
@@ -523,7 +544,6 @@ class PEMSensor(Sensor):
             n1, n2, n3, n4 = rng.standard_normal(4).tolist()
             jit = p.jitter + p.rain_jitter * rain
             sx, sy = jit * (x1 - x0), jit * (y1 - y0)
-            w, h = float(camera.width), float(camera.height)
             x0 = min(max(x0 + sx * n1, 0.0), w)
             x1 = min(max(x1 + sx * n3, 0.0), w)
             y0 = min(max(y0 + sy * n2, 0.0), h)

@@ -10,6 +10,7 @@ import pytest
 from sitcov.av import AVStack, Control, NoPerceptionStack, Observation, ReferenceStack, RunInfo
 from sitcov.errors import ConfigError
 from sitcov.hyperspace import Situation
+from sitcov.perception import PEMSensor
 from sitcov.sim.embedded import EmbeddedBackend
 from sitcov.sim.embedded import _backend as backend_module
 from sitcov.sim.embedded._bodies import body_spec, make_body
@@ -150,6 +151,32 @@ def test_the_sensor_sees_every_actor_with_its_kind() -> None:
     )
     EmbeddedBackend(sensor=Spy()).run(s, NoPerceptionStack(), seed=1)
     assert seen[0] == ("cyclist", "pedestrian")
+
+
+def test_the_built_in_pems_prepared_path_sees_what_detect_sees() -> None:
+    """The ego's driver shows the built-in PEM each actor prepared once per run (no
+    ActorView per frame); a PEM subclass with its own ``detect`` gets ActorViews every
+    frame: the same outcomes, three-actor scenes and the paper's two cars alike."""
+
+    class OwnDetect(PEMSensor):
+        def detect(self, ego, actors, conditions, rng):
+            return super().detect(ego, actors, conditions, rng)
+
+    scenes = [
+        situation(intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4"}, actor2="none"),
+        situation(
+            intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4", "kind": "cyclist"},
+            actor2={"kind": "pedestrian", "route": "XBL"},
+        ),
+    ]
+    fired = 0
+    for s in scenes:
+        for seed in range(6):
+            want = EmbeddedBackend(sensor=OwnDetect()).run(s, ReferenceStack(), seed=seed)
+            got = EmbeddedBackend(sensor=PEMSensor()).run(s, ReferenceStack(), seed=seed)
+            assert got == want, seed
+            fired += got.aeb_fired
+    assert fired >= 3  # detections reached the stack
 
 
 def test_two_car_runs_keep_their_old_metrics(backend) -> None:

@@ -2,7 +2,8 @@
 
 :class:`EgoDriver` does per step what stands between the world and the stack: at the
 sensor rate it shows the sensor every active actor (PEM mode: ``Sensor.detect`` with an
-``ActorView`` per actor, ``kind`` set; camera mode: a rendered frame), delays frames by
+``ActorView`` per actor, ``kind`` set, or for the built-in PEM the same through
+``PEMSensor.detect_prepared``; camera mode: a rendered frame), delays frames by
 the perception delay, asks the stack for a ``Control``, notes when its AEB fired (from
 then on perception stops: the stack ignores it), and delays the brake command by the
 brake delay (throttle and steering act at once).
@@ -17,6 +18,7 @@ import numpy as np
 
 from sitcov.av._base import EgoState, Observation
 from sitcov.perception._base import Pose
+from sitcov.perception._pem import PEMSensor
 
 
 class EgoDriver:
@@ -58,9 +60,25 @@ class EgoDriver:
         self.aeb_time: float | None = None
         plain = getattr(type(stack), "plain_step", None)  # the built-in stack's fast path
         self.plain_step = plain(stack) if callable(plain) else None
+        # the built-in PEM (its detect not overridden): each actor prepared once per run,
+        # then shown by its body's pose (no Pose or ActorView per frame)
+        self.prepared = getattr(type(sensor), "detect", None) is PEMSensor.detect
+        self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
+
+    def _detect_prepared(self, world: Any) -> Any:
+        """The PEM's detections for this frame through ``PEMSensor.detect_prepared``."""
+        looks = self._looks
+        if looks is None:
+            prepare, cond = self.sensor.prepare, self.cond
+            looks = self._looks = [(a, prepare(a.view(), cond)) for a in world.actors]
+        ego = world.ego.body
+        seen = [(look, a.body) for a, look in looks if a.active]
+        return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self.rng)
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
         """(detections, image) captured at step ``k`` (a frame step)."""
+        if self.prepared:
+            return self._detect_prepared(world), None
         ego = world.ego.body
         actors = tuple([a.view() for a in world.actors if a.active])
         pose = Pose(ego.x, ego.y, ego.yaw)
