@@ -151,7 +151,12 @@ class ReferenceStack(AVStack):
         ):  # a new frame (between frames the last decision holds)
             self._fired_at = t
             return 0.0, 1.0, self._steer, t
-        return (*self._drive(x, y, yaw, speed), None)
+        # route following: the next waypoint, the two PIDs and CARLA's steering
+        # regulation, all in _route_step (compiled when numba is there)
+        if self._state is None:
+            self._start()
+        thr, brk, steer, self._steer = (_STEP or _step_kernel())(self._state, x, y, yaw, speed)
+        return thr, brk, steer, None
 
     def _perceive(self, detections: Sequence[Detection] | None, image: Any) -> bool:
         if detections is None:
@@ -170,14 +175,6 @@ class ReferenceStack(AVStack):
 
             self.detector = SSDDetector()
         return self.detector(image)
-
-    def _drive(self, x: float, y: float, yaw: float, speed: float) -> tuple[float, float, float]:
-        """Route following: the next waypoint, the two PIDs and CARLA's steering
-        regulation, all in :func:`_route_step` (compiled when numba is there)."""
-        if self._state is None:
-            self._start()
-        thr, brk, steer, self._steer = (_STEP or _step_kernel())(self._state, x, y, yaw, speed)
-        return thr, brk, steer
 
     def config(self) -> dict[str, Any]:
         """Name, fault and the effective parameters (JSON-serialisable)."""

@@ -77,8 +77,6 @@ class EgoDriver:
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
         """(detections, image) captured at step ``k`` (a frame step)."""
-        if self.prepared:
-            return self._detect_prepared(world), None
         ego = world.ego.body
         actors = tuple([a.view() for a in world.actors if a.active])
         pose = Pose(ego.x, ego.y, ego.yaw)
@@ -97,6 +95,8 @@ class EgoDriver:
         """(throttle, brake, steer) of the ego for step ``k`` at time ``t``."""
         if k % self.every or self.latched:
             detections = image = None
+        elif self.prepared:
+            detections, image = self._detect_prepared(world), None
         else:
             detections, image = self._perceive(world, k)
         if self.delay_p:
