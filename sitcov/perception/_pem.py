@@ -312,6 +312,40 @@ def _view_kernel() -> Any:
     return _VIEW_FN
 
 
+class NormalStream:
+    """Standard normals of a generator for the PEM's noise, drawn ahead in blocks of
+    ``block`` values (0: exactly as many as asked, when asked).
+
+    numpy's ``Generator`` draws normals one after another from its bit stream, so
+    ``standard_normal(a)`` then ``standard_normal(b)`` give the values of
+    ``standard_normal(a + b)``: the sensor gets the same values either way, one numpy
+    call per block instead of one or two per actor and frame. Drawing ahead leaves the
+    generator further on than the sensor's own draws would, which changes nothing only
+    when nothing draws from it afterwards: a block > 0 is for the generator's last
+    consumer in a run (the embedded backend's sensor; ``tests/sim/test_sim_world.py``
+    checks that no other draw follows the sensor's first).
+    """
+
+    __slots__ = ("rng", "block", "_buffer", "_at")
+
+    def __init__(self, rng: np.random.Generator, block: int = 0) -> None:
+        self.rng, self.block = rng, int(block)
+        self._buffer: list[float] = []
+        self._at = 0
+
+    def take(self, n: int) -> list[float]:
+        """The next ``n`` standard normals of the generator."""
+        at, end = self._at, self._at + n
+        if end > len(self._buffer):
+            if not self.block:
+                return self.rng.standard_normal(n).tolist()
+            fresh = self.rng.standard_normal(max(self.block, n)).tolist()
+            self._buffer = self._buffer[at:] + fresh
+            at, end = 0, n
+        self._at = end
+        return self._buffer[at:end]
+
+
 class PEMSensor(Sensor):
     """A simulated SSD car detector: projection + :func:`pem_score` + correlated noise.
 
@@ -348,6 +382,7 @@ class PEMSensor(Sensor):
         self.camera = camera or CameraSpec()
         self.frame_dt = float(frame_dt)
         self._rng: Any = None
+        self._normals: NormalStream | None = None
         self._tracks: dict[int, _Track] = {}
         self._frame = 0
         self._classes_file = classes if not isinstance(classes, Mapping) else None
@@ -364,6 +399,7 @@ class PEMSensor(Sensor):
         if frame_dt is not None:
             self.frame_dt = float(frame_dt)
         self._rng = None
+        self._normals = None
         self._tracks = {}
         self._frame = 0
 
@@ -421,15 +457,15 @@ class PEMSensor(Sensor):
         tau = self.params.noise_tau
         return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
 
-    def _noise(self, key: int, rng: np.random.Generator) -> tuple[float, float]:
+    def _noise(self, key: int, normals: NormalStream) -> tuple[float, float]:
         """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1) each."""
         p = self.params
         track = self._tracks.get(key)
         if track is None:
-            a, u, m = rng.standard_normal(3).tolist()
+            a, u, m = normals.take(3)
             track = self._tracks[key] = _Track(a, u, m, self._frame)
         else:
-            e_u, e_m = rng.standard_normal(2).tolist()
+            e_u, e_m = normals.take(2)
             phi = self._phi() ** (self._frame - track.frame)
             keep = math.sqrt(max(0.0, 1.0 - phi * phi))
             track.u = phi * track.u + keep * e_u
@@ -516,15 +552,18 @@ class PEMSensor(Sensor):
         eyaw: float,
         actors: Sequence[tuple[Any, Any]],
         conditions: Conditions,
-        rng: np.random.Generator,
+        rng: np.random.Generator | NormalStream,
     ) -> tuple[Detection, ...]:
         """:meth:`detect` from the ego's pose (ex, ey, eyaw) for actors given as pairs
         (:meth:`prepare`'s value, pose), the pose any object with ``x``, ``y`` and ``yaw``
         (a body: no ``Pose`` or ``ActorView`` per frame), in ``detect``'s order (the
-        position keys each actor's noise)."""
+        position keys each actor's noise). ``rng`` may be a :class:`NormalStream` of the
+        run's generator (drawing ahead: only for the generator's last consumer)."""
         if rng is not self._rng:
             self.reset()
             self._rng = rng
+            self._normals = rng if isinstance(rng, NormalStream) else NormalStream(rng)
+        normals: Any = self._normals
         self._frame += 1
         camera = self.camera
         w, h = float(camera.width), float(camera.height)
@@ -535,13 +574,13 @@ class PEMSensor(Sensor):
             seen, x0, y0, x1, y1, z = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
             if not seen:
                 continue
-            n, m = self._noise(key, rng)
+            n, m = self._noise(key, normals)
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
             score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
             if score < p.floor:
                 continue
-            n1, n2, n3, n4 = rng.standard_normal(4).tolist()
+            n1, n2, n3, n4 = normals.take(4)
             jit = p.jitter + p.rain_jitter * rain
             sx, sy = jit * (x1 - x0), jit * (y1 - y0)
             x0 = min(max(x0 + sx * n1, 0.0), w)

@@ -29,6 +29,7 @@ from sitcov.perception import (
     pem_logit,
     pem_score,
 )
+from sitcov.perception._pem import NormalStream
 from sitcov.sim import Conditions, conditions_from_values
 
 EGO = Pose(0.0, 0.0, 0.0)
@@ -281,6 +282,20 @@ def test_prepared_actors_give_detects_detections(name):
         detections += len(want)
     assert detections > 20
     assert rng_a.standard_normal() == rng_b.standard_normal()  # the same draws were made
+
+
+@pytest.mark.parametrize("block", [0, 1, 4, 7, 128])
+def test_normal_streams_give_the_generators_own_sequence(block):
+    """A ``NormalStream`` hands out exactly the normals the generator would have drawn
+    call by call, whatever its block; without a block it leaves the generator where the
+    direct draws would (so ``detect`` draws exactly what it uses)."""
+    sizes = np.random.default_rng(3).choice([2, 3, 4], 200)
+    direct, ahead = np.random.default_rng(21), np.random.default_rng(21)
+    stream = NormalStream(ahead, block)
+    for n in sizes:
+        assert stream.take(int(n)) == direct.standard_normal(int(n)).tolist()
+    if block == 0:
+        assert ahead.standard_normal() == direct.standard_normal()
 
 
 @params_ids

@@ -18,7 +18,12 @@ import numpy as np
 
 from sitcov.av._base import EgoState, Observation
 from sitcov.perception._base import Pose
-from sitcov.perception._pem import PEMSensor
+from sitcov.perception._pem import NormalStream, PEMSensor
+
+#: The built-in PEM's normals are drawn this many at a time (``NormalStream``): its noise
+#: is the run generator's last consumer (the wind's draws come first), so drawing ahead
+#: changes no value (``tests/sim/test_sim_world.py`` checks that no draw follows).
+NOISE_BLOCK = 128
 
 
 class EgoDriver:
@@ -64,6 +69,7 @@ class EgoDriver:
         # then shown by its body's pose (no Pose or ActorView per frame)
         self.prepared = getattr(type(sensor), "detect", None) is PEMSensor.detect
         self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
+        self._normals = NormalStream(rng, NOISE_BLOCK)
 
     def _detect_prepared(self, world: Any) -> Any:
         """The PEM's detections for this frame through ``PEMSensor.detect_prepared``."""
@@ -73,7 +79,7 @@ class EgoDriver:
             looks = self._looks = [(a, prepare(a.view(), cond)) for a in world.actors]
         ego = world.ego.body
         seen = [(look, a.body) for a, look in looks if a.active]
-        return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self.rng)
+        return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self._normals)
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
         """(detections, image) captured at step ``k`` (a frame step)."""
