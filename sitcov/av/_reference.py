@@ -109,23 +109,60 @@ class ReferenceStack(AVStack):
 
     def step(self, observation: Observation) -> Control:
         """One control step: perception and AEB first, then route following."""
+        ego = observation.ego
+        thr, brk, steer, fired = self._step_values(
+            observation.t,
+            ego.x,
+            ego.y,
+            ego.yaw,
+            ego.speed,
+            observation.detections,
+            observation.image,
+        )
+        if fired is None:
+            return Control(thr, brk, steer)
+        return Control(thr, brk, steer, {"aeb": True, "aeb_time": fired})
+
+    def plain_step(self) -> Callable[..., tuple[float, float, float, float | None]] | None:
+        """:meth:`step` on plain values for a backend that calls it every control step
+        (no ``Observation`` or ``Control`` objects): ``(t, x, y, yaw, speed, detections,
+        image) -> (throttle, brake, steer, aeb_time)``, ``aeb_time`` None until the AEB
+        fires; or None when a subclass overrides :meth:`step` (then only it says what a
+        step does)."""
+        return self._step_values if type(self).step is ReferenceStack.step else None
+
+    def _step_values(
+        self,
+        t: float,
+        x: float,
+        y: float,
+        yaw: float,
+        speed: float,
+        detections: Sequence[Detection] | None,
+        image: Any,
+    ) -> tuple[float, float, float, float | None]:
+        """:meth:`step`'s decision: (throttle, brake, steer, the AEB's firing time or None)."""
         if self._fired_at is not None:
-            return Control(0.0, 1.0, self._steer, {"aeb": True, "aeb_time": self._fired_at})
+            return 0.0, 1.0, self._steer, self._fired_at
         if (
             self.aeb
-            and (observation.detections is not None or observation.image is not None)
-            and self._perceive(observation)
+            and (detections is not None or image is not None)
+            and self._perceive(detections, image)
         ):  # a new frame (between frames the last decision holds)
-            self._fired_at = observation.t
-            return Control(0.0, 1.0, self._steer, {"aeb": True, "aeb_time": self._fired_at})
-        return self._drive(observation)
+            self._fired_at = t
+            return 0.0, 1.0, self._steer, t
+        # route following: the next waypoint, the two PIDs and CARLA's steering
+        # regulation, all in _route_step (compiled when numba is there)
+        if self._state is None:
+            self._start()
+        thr, brk, steer, self._steer = (_STEP or _step_kernel())(self._state, x, y, yaw, speed)
+        return thr, brk, steer, None
 
-    def _perceive(self, observation: Observation) -> bool:
-        detections = observation.detections
+    def _perceive(self, detections: Sequence[Detection] | None, image: Any) -> bool:
         if detections is None:
-            if observation.image is None:
+            if image is None:
                 return False  # no new frame: keep the last decision
-            detections = self._detect(observation.image)
+            detections = self._detect(image)
         width, classes = self.camera.width, self._classes
         for det in detections:
             if aeb_test(det, width, self._threshold, self._centering, self._distance, classes):
@@ -138,17 +175,6 @@ class ReferenceStack(AVStack):
 
             self.detector = SSDDetector()
         return self.detector(image)
-
-    def _drive(self, observation: Observation) -> Control:
-        """Route following: the next waypoint, the two PIDs and CARLA's steering
-        regulation, all in :func:`_route_step` (compiled when numba is there)."""
-        ego = observation.ego
-        if self._state is None:
-            self._start()
-        thr, brk, steer, self._steer = (_STEP or _step_kernel())(
-            self._state, ego.x, ego.y, ego.yaw, ego.speed
-        )
-        return Control(thr, brk, steer)
 
     def config(self) -> dict[str, Any]:
         """Name, fault and the effective parameters (JSON-serialisable)."""

@@ -98,11 +98,10 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     """:func:`project_box` as a plain tuple in :class:`Projection`'s field order (faster).
 
     The arithmetic is :func:`_project` (compiled by numba when it is installed, the same
-    bits, see ``sitcov/_jit.py``); the view angle needs ``math.remainder``,
-    which numba lacks, so it is folded here.
+    bits, see ``sitcov/_jit.py``).
     """
     ap = actor.pose
-    ok, bx0, by0, bx1, by1, u0, v0, u1, v1, trunc, dist, bearing, los, visible, facing = (
+    ok, bx0, by0, bx1, by1, u0, v0, u1, v1, trunc, dist, bearing, view, visible, facing = (
         _PROJECT or _kernel()
     )(
         ego_pose.x, ego_pose.y, ego_pose.yaw, ap.x, ap.y, ap.yaw, actor.length, actor.width,
@@ -111,9 +110,6 @@ def project_raw(camera: CameraSpec, ego_pose: Pose, actor: ActorView) -> tuple |
     )  # fmt: skip
     if not ok:
         return None
-    view = abs(math.remainder(ap.yaw - los, math.tau))
-    if view > 0.5 * math.pi:
-        view = math.pi - view
     return ((bx0, by0, bx1, by1), (u0, v0, u1, v1), trunc, dist, bearing, view, visible, facing)
 
 
@@ -134,8 +130,8 @@ def _project(
     h: float,
 ) -> tuple:
     """The projection's arithmetic on plain floats: (ok, clipped box, raw box, truncation,
-    distance, bearing, line-of-sight angle, visible, facing); ok is False (and the rest
-    zeros) when the whole box lies behind the near plane."""
+    distance, bearing, view angle, visible, facing); ok is False (and the rest zeros) when
+    the whole box lies behind the near plane."""
     c, s = cos(eyaw), sin(eyaw)
     cam_x = ex + mount_x * c
     cam_y = ey + mount_x * s
@@ -197,12 +193,35 @@ def _project(
         (1.0 if truncation >= 1.0 else truncation) if truncation > 0.0 else 0.0,
         hypot(dx, dy),
         atan2(-r_c, d_c),
-        los,
+        _view_angle(ayaw - los),
         visible,
         cos(ayaw - los),
     )
 
 
+def _view_angle(rel: float) -> float:
+    """The view angle [rad] for the actor's heading ``rel`` relative to the line of sight:
+    ``abs(math.remainder(rel, tau))`` folded to [0, pi/2] (0 rear or front, pi/2 side-on).
+
+    ``math.remainder`` (which numba lacks) is written out as CPython computes it: the
+    exact ``fmod`` (Python's ``%`` of two non-negative floats, numba's too) and the
+    rounding of the remainder to the nearer multiple, ties to even; only its magnitude
+    is needed, so the sign is dropped. The same bits as ``math.remainder`` for every
+    finite ``rel`` (``tests/sim/test_sim_jit.py``).
+    """
+    x = abs(rel)
+    m = x % _TAU
+    c = _TAU - m
+    if m < c:
+        r = m
+    elif m > c:
+        r = c
+    else:  # halfway: the multiple with an even quotient
+        r = abs(m - 2.0 * ((0.5 * (x - m)) % _TAU))
+    return math.pi - r if r > 0.5 * math.pi else r
+
+
+_TAU = math.tau
 _PROJECT: Any = None
 
 
@@ -213,5 +232,5 @@ def _kernel() -> Any:
         from sitcov._jit import compiled
 
         example = (0.0, 0.0, 0.0, 10.0, 1.0, 0.3, 4.6, 1.8, 1.5, 1.5, 1.3, 800.0, 640.0, 480.0)
-        _PROJECT = compiled(_project, *example, helpers=(_clip_near,)) or _project
+        _PROJECT = compiled(_project, *example, helpers=(_clip_near, _view_angle)) or _project
     return _PROJECT

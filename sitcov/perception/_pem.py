@@ -46,14 +46,15 @@ The parameters live in ``data/pem.yaml`` (documented in docs/pem.md), the output
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
-from sitcov.perception._camera import project_raw
+from sitcov.perception._camera import _clip_near, _project, _view_angle, project_raw
 from sitcov.perception._colors import chroma_features, color_features
 from sitcov.perception._pem_params import PEMParams, load_pem_params
+from sitcov.weather._conditions import fog_transmittance
 
 if TYPE_CHECKING:
     import numpy as np
@@ -106,13 +107,69 @@ class PEMFeatures(NamedTuple):
 _TINY = 1e-9  # floor inside logarithms [-]
 
 
+#: The coefficients :func:`_logit` reads, in the order of its array (:func:`coefficients`).
+COEFFICIENTS = (
+    "bias",
+    "size_gain",
+    "size2_gain",
+    "side_size_gain",
+    "size_ref_px",
+    "size_min_px",
+    "size_max_px",
+    "view_gain",
+    "view2_gain",
+    "facing_gain",
+    "facing2_gain",
+    "trunc_gain",
+    "fog_gain",
+    "illum_gain",
+    "rain_gain",
+    "aspect_gain",
+    "edge_gain",
+    "contrast_gain",
+    "detail_gain",
+    "chroma_gain",
+    "red_green_gain",
+    "yellow_blue_gain",
+)
+(
+    _BIAS,
+    _SIZE,
+    _SIZE2,
+    _SIDE_SIZE,
+    _SIZE_REF,
+    _SIZE_MIN,
+    _SIZE_MAX,
+    _VIEW,
+    _VIEW2,
+    _FACING,
+    _FACING2,
+    _TRUNC,
+    _FOG,
+    _ILLUM,
+    _RAIN,
+    _ASPECT,
+    _EDGE,
+    _CONTRAST,
+    _DETAIL,
+    _CHROMA,
+    _RED_GREEN,
+    _YELLOW_BLUE,
+) = range(len(COEFFICIENTS))
+
+
+def coefficients(params: PEMParams) -> tuple[float, ...]:
+    """``params``' values named in :data:`COEFFICIENTS`, in that order."""
+    return tuple(getattr(params, name) for name in COEFFICIENTS)
+
+
 def pem_logit(features: PEMFeatures, params: PEMParams) -> float:
     """The noise-free logit ``z`` of the detection score (formula in the module docstring)."""
-    return _logit(params, *features)
+    return _logit(coefficients(params), *features)
 
 
 def _logit(
-    p: PEMParams,
+    c: Any,
     height_px: float,
     view_angle: float,
     truncation: float,
@@ -128,30 +185,37 @@ def _logit(
     red_green: float = DEFAULT_RED_GREEN,
     yellow_blue: float = DEFAULT_YELLOW_BLUE,
 ) -> float:
-    h = min(max(height_px, p.size_min_px), p.size_max_px)
-    size = math.log(h / p.size_ref_px)
+    """The logit for coefficients ``c`` (:data:`COEFFICIENTS`' order, a sequence or float
+    array: the compiled score :func:`_pem_view` calls this very code). ``min``/``max``
+    are written out as the builtins decide (the first argument unless the second is
+    strictly smaller/greater), so both give the same bits."""
+    h = c[_SIZE_MIN] if c[_SIZE_MIN] > height_px else height_px
+    h = c[_SIZE_MAX] if c[_SIZE_MAX] < h else h
+    size = math.log(h / c[_SIZE_REF])
     shape = 0.0
     if width_px > 0.0 and height_px > 0.0:
-        shape = math.log(min(max(width_px / height_px, 0.25), 4.0))
+        ratio = width_px / height_px
+        ratio = 0.25 if ratio < 0.25 else ratio
+        shape = math.log(4.0 if ratio > 4.0 else ratio)
     side = math.sin(view_angle)
     return (
-        p.bias
-        + (p.size_gain + p.size2_gain * size + p.side_size_gain * side) * size
-        - p.view_gain * side
-        + p.view2_gain * math.sin(2.0 * view_angle)
-        + p.facing_gain * facing
-        + p.facing2_gain * (2.0 * facing * facing - 1.0)
-        - p.trunc_gain * truncation
-        + p.fog_gain * math.log(max(transmittance, _TINY))
-        + p.illum_gain * math.log(max(illumination, _TINY))
-        - p.rain_gain * rain_noise
-        + p.aspect_gain * shape
-        - p.edge_gain * offset
-        + p.contrast_gain * contrast
-        + p.detail_gain * detail
-        + p.chroma_gain * chroma
-        + p.red_green_gain * red_green
-        + p.yellow_blue_gain * yellow_blue
+        c[_BIAS]
+        + (c[_SIZE] + c[_SIZE2] * size + c[_SIDE_SIZE] * side) * size
+        - c[_VIEW] * side
+        + c[_VIEW2] * math.sin(2.0 * view_angle)
+        + c[_FACING] * facing
+        + c[_FACING2] * (2.0 * facing * facing - 1.0)
+        - c[_TRUNC] * truncation
+        + c[_FOG] * math.log(_TINY if transmittance < _TINY else transmittance)
+        + c[_ILLUM] * math.log(_TINY if illumination < _TINY else illumination)
+        - c[_RAIN] * rain_noise
+        + c[_ASPECT] * shape
+        - c[_EDGE] * offset
+        + c[_CONTRAST] * contrast
+        + c[_DETAIL] * detail
+        + c[_CHROMA] * chroma
+        + c[_RED_GREEN] * red_green
+        + c[_YELLOW_BLUE] * yellow_blue
     )
 
 
@@ -180,14 +244,106 @@ class _Track:
         self.offset, self.u, self.m, self.frame = offset, u, m, frame
 
 
-def _offset(camera: CameraSpec, raw: tuple[float, float, float, float]) -> float:
-    """Box centre's distance from the image centre over half the image width, in [0, 1]."""
-    half = 0.5 * camera.width
-    return min(abs(0.5 * (raw[0] + raw[2]) - half) / half, 1.0)
+def _offset(image_width: float, u0: float, u1: float) -> float:
+    """Centre of the box from ``u0`` to ``u1`` [px]: its distance from the image centre over
+    half the image width, in [0, 1] (``min`` written out as the builtin decides)."""
+    half = 0.5 * image_width
+    off = abs(0.5 * (u0 + u1) - half) / half
+    return 1.0 if off > 1.0 else off
 
 
 def _normal_cdf(x: float) -> float:
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
+
+
+#: Layout of the array :func:`_pem_view` takes (:meth:`PEMSensor._view_array`, one per
+#: actor kind, size and colour and run): the class's :data:`COEFFICIENTS`, then the
+#: camera (mount_x, mount_z, focal length, image width and height), the actor's box
+#: (length, width, height), the scene (fog extinction and start, illumination, rain
+#: noise) and the body colour's features (contrast, detail, chroma, red_green,
+#: yellow_blue). One array: each array argument costs a compiled call about 0.3 us.
+_CAMERA = len(COEFFICIENTS)
+_BOX, _SCENE, _COLOR = _CAMERA + 5, _CAMERA + 8, _CAMERA + 12
+
+
+def _pem_view(
+    q: Any, ex: float, ey: float, eyaw: float, ax: float, ay: float, ayaw: float
+) -> tuple:
+    """One actor at (ax, ay, ayaw) seen from the ego at (ex, ey, eyaw): ``(seen, x0, y0,
+    x1, y1, z)``, the box clipped to the image [px] and the noise-free logit, or ``seen``
+    False (zeros) when the box is not in the image or lower than ``size_min_px``.
+
+    The projection (:func:`~sitcov.perception._camera._project`), the features and
+    :func:`_logit` in one call, compiled by numba when it is there (``sitcov/_jit.py``;
+    the same bits). ``q``: the coefficients and what is constant over a run (layout above).
+    """
+    cam, box, scene, col = _CAMERA, _BOX, _SCENE, _COLOR
+    ok, x0, y0, x1, y1, u0, v0, u1, v1, trunc, dist, _, view, visible, facing = _project(
+        ex, ey, eyaw, ax, ay, ayaw, q[box], q[box + 1], q[box + 2],
+        q[cam], q[cam + 1], q[cam + 2], q[cam + 3], q[cam + 4],
+    )  # fmt: skip
+    height = v1 - v0
+    if not ok or not visible or height < q[_SIZE_MIN]:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    z = _logit(
+        q, height, view, trunc, fog_transmittance(q[scene], q[scene + 1], dist),
+        q[scene + 2], q[scene + 3], u1 - u0, _offset(q[cam + 3], u0, u1), facing,
+        q[col], q[col + 1], q[col + 2], q[col + 3], q[col + 4],
+    )  # fmt: skip
+    return True, x0, y0, x1, y1, z
+
+
+_VIEW_FN: Any = None
+
+
+def _view_kernel() -> Any:
+    """:func:`_pem_view` compiled by numba when it is installed, else itself (loaded once)."""
+    global _VIEW_FN
+    if _VIEW_FN is None:
+        import numpy as np
+
+        from sitcov._jit import compiled
+
+        q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1])  # fmt: skip
+        helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
+        _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
+        _VIEW_FN = _VIEW_FN or _pem_view
+    return _VIEW_FN
+
+
+class NormalStream:
+    """Standard normals of a generator for the PEM's noise, drawn ahead in blocks of
+    ``block`` values (0: exactly as many as asked, when asked).
+
+    numpy's ``Generator`` draws normals one after another from its bit stream, so
+    ``standard_normal(a)`` then ``standard_normal(b)`` give the values of
+    ``standard_normal(a + b)``: the sensor gets the same values either way, one numpy
+    call per block instead of one or two per actor and frame. Drawing ahead leaves the
+    generator further on than the sensor's own draws would, which changes nothing only
+    when nothing draws from it afterwards: a block > 0 is for the generator's last
+    consumer in a run (the embedded backend's sensor; ``tests/sim/test_sim_world.py``
+    checks that no other draw follows the sensor's first).
+    """
+
+    __slots__ = ("rng", "block", "_buffer", "_at")
+
+    def __init__(self, rng: np.random.Generator, block: int = 0) -> None:
+        self.rng, self.block = rng, int(block)
+        self._buffer: list[float] = []
+        self._at = 0
+
+    def take(self, n: int) -> list[float]:
+        """The next ``n`` standard normals of the generator."""
+        at, end = self._at, self._at + n
+        if end > len(self._buffer):
+            if not self.block:
+                return self.rng.standard_normal(n).tolist()
+            fresh = self.rng.standard_normal(max(self.block, n)).tolist()
+            self._buffer = self._buffer[at:] + fresh
+            at, end = 0, n
+        self._at = end
+        return self._buffer[at:end]
 
 
 class PEMSensor(Sensor):
@@ -226,6 +382,7 @@ class PEMSensor(Sensor):
         self.camera = camera or CameraSpec()
         self.frame_dt = float(frame_dt)
         self._rng: Any = None
+        self._normals: NormalStream | None = None
         self._tracks: dict[int, _Track] = {}
         self._frame = 0
         self._classes_file = classes if not isinstance(classes, Mapping) else None
@@ -234,12 +391,15 @@ class PEMSensor(Sensor):
         )  # per kind, lazily
         self._color_key: Any = None
         self._color_cache: dict[Any, tuple[float, ...]] = {}
+        self._view_token: tuple[Any, ...] | None = None
+        self._views: dict[Any, tuple[Any, PEMParams, str]] = {}
 
     def reset(self, frame_dt: float | None = None) -> None:
         """Start a new run: forget every actor's noise state (optionally set ``frame_dt`` [s])."""
         if frame_dt is not None:
             self.frame_dt = float(frame_dt)
         self._rng = None
+        self._normals = None
         self._tracks = {}
         self._frame = 0
 
@@ -257,7 +417,7 @@ class PEMSensor(Sensor):
             conditions.illumination,
             conditions.rain_noise,
             raw[2] - raw[0],
-            _offset(self.camera, raw),
+            _offset(self.camera.width, raw[0], raw[2]),
             proj[7],
             *self._colors(actor.color, conditions),
         )
@@ -297,15 +457,15 @@ class PEMSensor(Sensor):
         tau = self.params.noise_tau
         return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
 
-    def _noise(self, key: int, rng: np.random.Generator) -> tuple[float, float]:
+    def _noise(self, key: int, normals: NormalStream) -> tuple[float, float]:
         """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1) each."""
         p = self.params
         track = self._tracks.get(key)
         if track is None:
-            a, u, m = rng.standard_normal(3).tolist()
+            a, u, m = normals.take(3)
             track = self._tracks[key] = _Track(a, u, m, self._frame)
         else:
-            e_u, e_m = rng.standard_normal(2).tolist()
+            e_u, e_m = normals.take(2)
             phi = self._phi() ** (self._frame - track.frame)
             keep = math.sqrt(max(0.0, 1.0 - phi * phi))
             track.u = phi * track.u + keep * e_u
@@ -315,6 +475,64 @@ class PEMSensor(Sensor):
         n = math.sqrt(share) * track.offset + math.sqrt(1.0 - share) * track.u
         return n, track.m
 
+    def _view_arrays(self, conditions: Conditions) -> dict[Any, tuple[Any, PEMParams, str]]:
+        """The cache of :meth:`_view_array`'s values: emptied whenever the conditions,
+        camera or parameters are other objects than at the last call (holding them, so no
+        id is reused)."""
+        token = self._view_token
+        if (
+            token is None
+            or token[0] is not conditions
+            or token[1] is not self.camera
+            or token[2] is not self.params
+        ):
+            self._view_token = (conditions, self.camera, self.params)
+            self._views = {}
+        return self._views
+
+    def _view_array(
+        self, views: dict[Any, Any], actor: ActorView, conditions: Conditions
+    ) -> tuple[Any, PEMParams, str]:
+        """What :func:`_pem_view` takes for ``actor`` (layout at ``_CAMERA``), its class's
+        parameters and label; cached in ``views`` per kind, size and colour (a run's
+        actors repeat every frame)."""
+        key = (actor.kind, actor.color, actor.length, actor.width, actor.height)
+        try:
+            return views[key]
+        except KeyError:
+            value = views[key] = self._make_view_array(actor, conditions)
+        except TypeError:  # an unhashable colour (a list): not cached
+            value = self._make_view_array(actor, conditions)
+        return value
+
+    def _make_view_array(
+        self, actor: ActorView, conditions: Conditions
+    ) -> tuple[Any, PEMParams, str]:
+        params, label = self._class_params(actor.kind)
+        cam = self.camera
+        values = [
+            *coefficients(params),
+            *(cam.mount_x, cam.mount_z, cam.focal_px, float(cam.width), float(cam.height)),
+            *(actor.length, actor.width, actor.height),
+            conditions.fog_extinction,
+            conditions.fog_start,
+            conditions.illumination,
+            conditions.rain_noise,
+            *self._colors(actor.color, conditions),
+        ]
+        if (_VIEW_FN or _view_kernel()) is not _pem_view:
+            import numpy as np
+
+            return np.array(values, dtype=np.float64), params, label
+        return values, params, label
+
+    def prepare(self, actor: ActorView, conditions: Conditions) -> tuple[Any, PEMParams, str]:
+        """What :meth:`detect_prepared` needs of ``actor`` besides its pose (its size,
+        colour and kind with the camera, ``conditions`` and parameters; ``actor.pose`` is
+        not read): made once per run and actor by a backend that calls the sensor every
+        frame. Valid while the sensor's ``camera`` and ``params`` stay the same."""
+        return self._view_array(self._view_arrays(conditions), actor, conditions)
+
     def detect(
         self,
         ego: Pose,
@@ -323,46 +541,48 @@ class PEMSensor(Sensor):
         rng: np.random.Generator,
     ) -> tuple[Detection, ...]:
         """Detections of the actors in view whose noisy score reaches the floor."""
+        views = self._view_arrays(conditions)
+        seen = [(self._view_array(views, a, conditions), a.pose) for a in actors]
+        return self.detect_prepared(ego.x, ego.y, ego.yaw, seen, conditions, rng)
+
+    def detect_prepared(
+        self,
+        ex: float,
+        ey: float,
+        eyaw: float,
+        actors: Sequence[tuple[Any, Any]],
+        conditions: Conditions,
+        rng: np.random.Generator | NormalStream,
+    ) -> tuple[Detection, ...]:
+        """:meth:`detect` from the ego's pose (ex, ey, eyaw) for actors given as pairs
+        (:meth:`prepare`'s value, pose), the pose any object with ``x``, ``y`` and ``yaw``
+        (a body: no ``Pose`` or ``ActorView`` per frame), in ``detect``'s order (the
+        position keys each actor's noise). ``rng`` may be a :class:`NormalStream` of the
+        run's generator (drawing ahead: only for the generator's last consumer)."""
         if rng is not self._rng:
             self.reset()
             self._rng = rng
+            self._normals = rng if isinstance(rng, NormalStream) else NormalStream(rng)
+        normals: Any = self._normals
         self._frame += 1
-        p = self.params
         camera = self.camera
+        w, h = float(camera.width), float(camera.height)
+        view = _VIEW_FN or _view_kernel()
+        rain = conditions.rain_noise
         out = []
-        for key, actor in enumerate(actors):
-            p, label = self._class_params(actor.kind)
-            proj = project_raw(camera, ego, actor)
-            if proj is None or not proj[6]:
+        for key, ((q, p, label), pose) in enumerate(actors):
+            seen, x0, y0, x1, y1, z = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
+            if not seen:
                 continue
-            (x0, y0, x1, y1), raw, truncation, distance, _, view, _, facing = proj
-            height = raw[3] - raw[1]
-            if height < p.size_min_px:
-                continue
-            n, m = self._noise(key, rng)
-            rain = conditions.rain_noise
+            n, m = self._noise(key, normals)
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
-            z = _logit(
-                p,
-                height,
-                view,
-                truncation,
-                conditions.transmittance(distance),
-                conditions.illumination,
-                rain,
-                raw[2] - raw[0],
-                _offset(camera, raw),
-                facing,
-                *self._colors(actor.color, conditions),
-            )
             score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
             if score < p.floor:
                 continue
-            n1, n2, n3, n4 = rng.standard_normal(4).tolist()
+            n1, n2, n3, n4 = normals.take(4)
             jit = p.jitter + p.rain_jitter * rain
             sx, sy = jit * (x1 - x0), jit * (y1 - y0)
-            w, h = float(camera.width), float(camera.height)
             x0 = min(max(x0 + sx * n1, 0.0), w)
             x1 = min(max(x1 + sx * n3, 0.0), w)
             y0 = min(max(y0 + sy * n2, 0.0), h)

@@ -52,7 +52,7 @@ class Conditions:
 
     def transmittance(self, distance: float) -> float:
         """Fraction of contrast that survives fog over ``distance`` metres (Beer-Lambert)."""
-        return math.exp(-self.fog_extinction * max(0.0, distance - self.fog_start))
+        return fog_transmittance(self.fog_extinction, self.fog_start, distance)
 
     @property
     def visibility(self) -> float:
@@ -60,6 +60,13 @@ class Conditions:
         if self.fog_extinction <= 0:
             return math.inf
         return self.fog_start + 3.912 / self.fog_extinction
+
+
+def fog_transmittance(extinction: float, start: float, distance: float) -> float:
+    """:meth:`Conditions.transmittance` on plain floats: ``exp(-extinction * max(0,
+    distance - start))`` (the PEM's compiled score calls it too, ``perception._pem``)."""
+    beyond = distance - start
+    return math.exp(-extinction * (beyond if beyond > 0.0 else 0.0))
 
 
 #: Clear, dry defaults in CARLA units (percent 0..100; friction is a coefficient).

@@ -38,3 +38,29 @@ def test_runs_are_reproducible_with_a_reused_stack():
     first = backend.run(situation, stack, 7)
     backend.run(_clear_situations()[0], stack, 8)  # a different run in between
     assert backend.run(situation, stack, 7) == first
+
+
+class _ProtocolStack(ReferenceStack):
+    """The reference stack seen only through the AVStack protocol (its ``step`` is its
+    own, so the backend cannot take the built-in stack's plain-values path)."""
+
+    def step(self, observation):
+        return super().step(observation)
+
+
+def test_the_backends_plain_values_path_gives_the_protocols_outcomes():
+    """The embedded backend steps the built-in stack on plain values (``plain_step``);
+    a subclass with its own ``step`` goes through Observation/Control: the same outcomes,
+    AEB firing times included, with and without a fault."""
+    assert ReferenceStack().plain_step() is not None
+    assert _ProtocolStack().plain_step() is None
+    backend = EmbeddedBackend()
+    situations = _clear_situations()
+    fired = 0
+    for fault in (None, "f2"):
+        for i, situation in enumerate(situations):
+            plain = backend.run(situation, ReferenceStack(fault=fault), 30 + i)
+            protocol = backend.run(situation, _ProtocolStack(fault=fault), 30 + i)
+            assert plain == protocol, (fault, i)
+            fired += plain.aeb_fired
+    assert fired >= 10  # the AEB's latch went through both paths

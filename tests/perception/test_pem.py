@@ -29,6 +29,7 @@ from sitcov.perception import (
     pem_logit,
     pem_score,
 )
+from sitcov.perception._pem import NormalStream
 from sitcov.sim import Conditions, conditions_from_values
 
 EGO = Pose(0.0, 0.0, 0.0)
@@ -251,6 +252,53 @@ def test_noise_is_deterministic_per_rng_and_reset_between_runs(name):
 
 
 @params_ids
+def test_prepared_actors_give_detects_detections(name):
+    """``prepare`` once per run and ``detect_prepared`` with bare poses (what the embedded
+    backend does) give ``detect``'s detections draw for draw: cars, a pedestrian and a
+    cyclist in rain and fog, an actor leaving the list mid-run (the keys shift)."""
+    params = replace(PARAM_SETS[name], rain_miss=0.3, rain_jitter=0.05)
+    cond = conditions_from_values({"precipitation": 70, "fog_density": 30})
+    plain, prepared = PEMSensor(params), PEMSensor(params)
+    rng_a, rng_b = np.random.default_rng(5), np.random.default_rng(5)
+    kinds = ("car", "pedestrian", "cyclist", "car")
+    sizes = ((4.7, 1.85, 1.5), (0.5, 0.5, 1.75), (1.8, 0.6, 1.7), (4.2, 1.8, 1.4))
+    looks = [
+        prepared.prepare(ActorView(EGO, *size, kind=kind, color=(20 * i, 90, 200)), cond)
+        for i, (kind, size) in enumerate(zip(kinds, sizes, strict=True))
+    ]
+    detections = 0
+    for frame in range(60):
+        ego = Pose(0.3 * frame, 0.01 * frame, 0.002 * frame)
+        poses = [Pose(4.0 + 0.5 * frame + 6.0 * i, 3.0 - 2.0 * i, 0.4 * i) for i in range(4)]
+        keep = range(4) if frame < 30 else (0, 2, 3)
+        actors = tuple(
+            ActorView(poses[i], *sizes[i], kind=kinds[i], color=(20 * i, 90, 200)) for i in keep
+        )
+        want = plain.detect(ego, actors, cond, rng_a)
+        got = prepared.detect_prepared(
+            ego.x, ego.y, ego.yaw, [(looks[i], poses[i]) for i in keep], cond, rng_b
+        )
+        assert got == want, frame
+        detections += len(want)
+    assert detections > 20
+    assert rng_a.standard_normal() == rng_b.standard_normal()  # the same draws were made
+
+
+@pytest.mark.parametrize("block", [0, 1, 4, 7, 128])
+def test_normal_streams_give_the_generators_own_sequence(block):
+    """A ``NormalStream`` hands out exactly the normals the generator would have drawn
+    call by call, whatever its block; without a block it leaves the generator where the
+    direct draws would (so ``detect`` draws exactly what it uses)."""
+    sizes = np.random.default_rng(3).choice([2, 3, 4], 200)
+    direct, ahead = np.random.default_rng(21), np.random.default_rng(21)
+    stream = NormalStream(ahead, block)
+    for n in sizes:
+        assert stream.take(int(n)) == direct.standard_normal(int(n)).tolist()
+    if block == 0:
+        assert ahead.standard_normal() == direct.standard_normal()
+
+
+@params_ids
 def test_detections_are_valid(name):
     sensor = PEMSensor(PARAM_SETS[name])
     cond = conditions_from_values({"precipitation": 60, "fog_density": 40})
@@ -366,6 +414,83 @@ def test_features_measure_box_width_and_offset_from_the_geometry():
     assert rear.offset == pytest.approx(0.0, abs=0.02)
     left = feats(s, car(20.0, 8.0))
     assert 0.2 < left.offset <= 1.0
+
+
+def documented_logit(f: PEMFeatures, p: PEMParams) -> float:
+    """The module docstring's formula with the builtins ``min`` and ``max``, term by term
+    in the order the PEM adds them."""
+    size = math.log(min(max(f.height_px, p.size_min_px), p.size_max_px) / p.size_ref_px)
+    shape = 0.0
+    if f.width_px > 0.0 and f.height_px > 0.0:
+        shape = math.log(min(max(f.width_px / f.height_px, 0.25), 4.0))
+    side = math.sin(f.view_angle)
+    return (
+        p.bias
+        + (p.size_gain + p.size2_gain * size + p.side_size_gain * side) * size
+        - p.view_gain * side
+        + p.view2_gain * math.sin(2.0 * f.view_angle)
+        + p.facing_gain * f.facing
+        + p.facing2_gain * (2.0 * f.facing * f.facing - 1.0)
+        - p.trunc_gain * f.truncation
+        + p.fog_gain * math.log(max(f.transmittance, 1e-9))
+        + p.illum_gain * math.log(max(f.illumination, 1e-9))
+        - p.rain_gain * f.rain_noise
+        + p.aspect_gain * shape
+        - p.edge_gain * f.offset
+        + p.contrast_gain * f.contrast
+        + p.detail_gain * f.detail
+        + p.chroma_gain * f.chroma
+        + p.red_green_gain * f.red_green
+        + p.yellow_blue_gain * f.yellow_blue
+    )
+
+
+@params_ids
+def test_pem_logit_is_the_documented_formula_bit_for_bit(name):
+    """``pem_logit`` (its clamps written out for the compiled score) gives the formula's
+    bits, clamped features included: boxes below and above the size range, extreme
+    shapes, no width, full fog and darkness."""
+    p = replace(PARAM_SETS[name], contrast_gain=0.4, chroma_gain=-0.3, yellow_blue_gain=0.2)
+    rng = np.random.default_rng(11)
+    features = random_features(rng, 400)
+    features += [
+        f._replace(height_px=h, width_px=w, transmittance=t, illumination=i)
+        for f, h, w, t, i in zip(
+            features,
+            rng.choice([0.5, 3.0, 400.0, 1e4], 400),
+            rng.choice([0.0, 0.1, 1.0, 5e3], 400),
+            rng.choice([0.0, 1e-12, 0.5], 400),
+            rng.choice([0.0, 1e-10, 0.7], 400),
+            strict=False,
+        )
+    ]
+    for f in features:
+        assert repr(pem_logit(f, p)) == repr(documented_logit(f, p)), f
+
+
+def test_detect_scores_as_features_then_pem_logit(monkeypatch):
+    """``detect``'s one-call score (projection, features and logit, compiled when numba
+    is there) is ``pem_logit(features(...))``: without noise every detection's score is
+    the sigmoid of that logit, bit for bit, in fog and darkness, near and far."""
+    p = replace(PARAM_SETS["random1"], noise_sigma=0.0, rain_sigma=0.0, jitter=0.0, floor=0.0)
+    p = replace(p, rain_jitter=0.0, rain_miss=0.0)
+    sensor = PEMSensor(p)
+    rng = np.random.default_rng(12)
+    detected = 0
+    for _ in range(600):
+        cond = Conditions(fog_extinction=float(rng.choice([0.0, 0.02])), illumination=0.6)
+        ego = Pose(*rng.uniform(-5.0, 5.0, 2), rng.uniform(-4.0, 4.0))
+        actor = car(*rng.uniform(-60.0, 60.0, 2), rng.uniform(-4.0, 4.0))
+        dets = sensor.detect(ego, (actor,), cond, rng)
+        f = sensor.features(ego, actor, cond)
+        if f is None or f.height_px < p.size_min_px:
+            assert dets == ()
+            continue
+        z = pem_logit(f, p)
+        assert [d.score for d in dets] == [1.0 / (1.0 + math.exp(-z)) if z >= 0 else
+                                           math.exp(z) / (1.0 + math.exp(z))]  # fmt: skip
+        detected += 1
+    assert detected > 60
 
 
 # -- the fitting procedure of `sitcov calibrate`: recovers known parameters ----------------

@@ -14,7 +14,7 @@ from needs import need_module
 from sitcov._jit import _hypot_cr, compiled, enabled
 from sitcov.av import _reference
 from sitcov.av._pid import window_pid
-from sitcov.perception import _camera
+from sitcov.perception import _camera, _pem
 from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
 
 
@@ -242,6 +242,68 @@ def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
         clipped += not want[0]
         assert repr(fast(*args)) == repr(want), args  # repr: -0.0 and 0.0 differ too
     assert 1000 < clipped < 19000  # both branches ran
+
+
+def _folded_remainder(rel: float) -> float:
+    """The view angle as ``project_raw`` computed it before the fold was compiled."""
+    view = abs(math.remainder(rel, math.tau))
+    return math.pi - view if view > 0.5 * math.pi else view
+
+
+def test_view_angle_equals_the_folded_math_remainder(monkeypatch) -> None:
+    """The projection's view angle (``math.remainder`` written out for numba) gives
+    ``math.remainder``'s folded bits, in Python and compiled: random angles of every
+    size, the halfway cases (odd multiples of pi), their neighbours and signed zeros."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    fast = compiled(_camera._view_angle, 0.3)
+    assert fast is not None
+    rnd = random.Random(7)
+    rels = [rnd.uniform(-20.0, 20.0) * 10.0 ** rnd.randint(-6, 5) for _ in range(50000)]
+    halves = [k * 0.5 * math.pi for k in range(-41, 42)]
+    rels += halves + [math.nextafter(h, d) for h in halves for d in (-math.inf, math.inf)]
+    rels += [0.0, -0.0, 5e-324, 1e300, -1e300]
+    for rel in rels:
+        want = repr(_folded_remainder(rel))
+        assert repr(_camera._view_angle(rel)) == want, rel
+        assert repr(fast(rel)) == want, rel
+    assert math.isnan(_camera._view_angle(math.nan)) and math.isnan(fast(math.nan))
+
+
+def _view_array(rnd: random.Random) -> list[float]:
+    """A random array for ``_pem._pem_view``: coefficients, camera, box, scene, colour."""
+    coeffs = [rnd.uniform(-3.0, 3.0) for _ in _pem.COEFFICIENTS]
+    size_min = rnd.choice([1.0, 6.0, 30.0])
+    coeffs[_pem._SIZE_MIN], coeffs[_pem._SIZE_REF] = size_min, rnd.uniform(10.0, 40.0)
+    coeffs[_pem._SIZE_MAX] = size_min + rnd.choice([5.0, 250.0])
+    camera = [rnd.choice([0.0, 2.5]), rnd.choice([1.0, 1.6]), rnd.uniform(200.0, 900.0), 800.0]
+    box = [rnd.uniform(0.3, 6.0), rnd.uniform(0.3, 2.5), rnd.uniform(0.5, 3.5)]
+    scene = [rnd.choice([0.0, 0.02, 5.0]), rnd.choice([0.0, 20.0]), rnd.uniform(1e-12, 1.0)]
+    scene.append(rnd.choice([0.0, rnd.uniform(0.0, 1.0)]))
+    color = [rnd.uniform(-1.0, 1.0) for _ in range(5)]
+    return coeffs + camera + [450.0] + box + scene + color
+
+
+def test_compiled_pem_view_is_bit_identical_to_python(monkeypatch) -> None:
+    """The PEM's per-actor score kernel (projection, features, logit) with and without
+    numba: actors in front, beside and behind, boxes below the size floor, fog, darkness."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_pem, "_VIEW_FN", None)  # load it now, compiled
+    fast = _pem._view_kernel()
+    assert fast is not _pem._pem_view  # numba compiled it
+    rnd = random.Random(8)
+    seen = 0
+    for _ in range(20000):
+        q = _view_array(rnd)
+        ex, ey, eyaw = rnd.uniform(-50.0, 50.0), rnd.uniform(-50.0, 50.0), rnd.uniform(-4, 4)
+        spread = rnd.choice([3.0, 15.0, 60.0])
+        pose = (ex, ey, eyaw, ex + rnd.uniform(-spread, spread), ey + rnd.uniform(-spread, spread))
+        args = (*pose, rnd.uniform(-4.0, 4.0))
+        want = _pem._pem_view(q, *args)
+        seen += want[0]
+        assert repr(fast(np.array(q), *args)) == repr(want), (q, args)
+    assert 1000 < seen < 19000  # both branches ran
 
 
 def test_compiled_route_tracking_is_bit_identical_to_python(monkeypatch) -> None:

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import math
+import sys
 from typing import Any
 
+import numpy as np
 import pytest
 
 from sitcov.av import AVStack, Control, NoPerceptionStack, Observation, ReferenceStack, RunInfo
 from sitcov.errors import ConfigError
 from sitcov.hyperspace import Situation
+from sitcov.perception import PEMSensor
 from sitcov.sim.embedded import EmbeddedBackend
 from sitcov.sim.embedded import _backend as backend_module
 from sitcov.sim.embedded._bodies import body_spec, make_body
@@ -150,6 +153,79 @@ def test_the_sensor_sees_every_actor_with_its_kind() -> None:
     )
     EmbeddedBackend(sensor=Spy()).run(s, NoPerceptionStack(), seed=1)
     assert seen[0] == ("cyclist", "pedestrian")
+
+
+def test_the_built_in_pems_prepared_path_sees_what_detect_sees() -> None:
+    """The ego's driver shows the built-in PEM each actor prepared once per run (no
+    ActorView per frame); a PEM subclass with its own ``detect`` gets ActorViews every
+    frame: the same outcomes, three-actor scenes and the paper's two cars alike."""
+
+    class OwnDetect(PEMSensor):
+        def detect(self, ego, actors, conditions, rng):
+            return super().detect(ego, actors, conditions, rng)
+
+    scenes = [
+        situation(intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4"}, actor2="none"),
+        situation(
+            intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4", "kind": "cyclist"},
+            actor2={"kind": "pedestrian", "route": "XBL"},
+        ),
+    ]
+    fired = 0
+    for s in scenes:
+        for seed in range(6):
+            want = EmbeddedBackend(sensor=OwnDetect()).run(s, ReferenceStack(), seed=seed)
+            got = EmbeddedBackend(sensor=PEMSensor()).run(s, ReferenceStack(), seed=seed)
+            assert got == want, seed
+            fired += got.aeb_fired
+    assert fired >= 3  # detections reached the stack
+
+
+class _Recorded:
+    """A run's generator that notes which file asks for each draw."""
+
+    def __init__(self, rng: np.random.Generator, callers: list[str]) -> None:
+        self._rng, self._callers = rng, callers
+
+    def __getattr__(self, name: str) -> Any:
+        method = getattr(self._rng, name)
+
+        def draw(*args: Any, **kwargs: Any) -> Any:
+            self._callers.append(sys._getframe(1).f_code.co_filename)
+            return method(*args, **kwargs)
+
+        return draw
+
+
+def test_the_pems_noise_is_the_run_generators_last_consumer(monkeypatch) -> None:
+    """The embedded backend lets the PEM draw its normals ahead in blocks (``NormalStream``),
+    which changes no value only if nothing draws from the run's generator after the
+    sensor's first draw: in two-car and three-actor runs, in rain (misses drawn too) and
+    with wind, every draw after the sensor's first is the sensor's."""
+    callers: list[str] = []
+    make = np.random.default_rng
+
+    def default_rng(seed: Any) -> Any:  # only the run's generator (the backend makes it)
+        rng = make(seed)
+        made_by = sys._getframe(1).f_code.co_filename
+        return _Recorded(rng, callers) if made_by.endswith("_backend.py") else rng
+
+    monkeypatch.setattr(np.random, "default_rng", default_rng)
+    scenes = [
+        situation(intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4"}, precipitation=80.0),
+        situation(
+            intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4", "kind": "cyclist"},
+            actor2={"kind": "pedestrian", "route": "XBL"},
+            wind_intensity=60.0,
+        ),
+    ]
+    for s in scenes:
+        for seed in range(4):
+            callers.clear()
+            EmbeddedBackend(physics="physical").run(s, ReferenceStack(), seed=seed)
+            pem = [c.endswith("_pem.py") for c in callers]
+            assert True in pem and not pem[0]  # the wind's draws came first
+            assert all(pem[pem.index(True) :]), callers
 
 
 def test_two_car_runs_keep_their_old_metrics(backend) -> None:

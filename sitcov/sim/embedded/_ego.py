@@ -2,7 +2,8 @@
 
 :class:`EgoDriver` does per step what stands between the world and the stack: at the
 sensor rate it shows the sensor every active actor (PEM mode: ``Sensor.detect`` with an
-``ActorView`` per actor, ``kind`` set; camera mode: a rendered frame), delays frames by
+``ActorView`` per actor, ``kind`` set, or for the built-in PEM the same through
+``PEMSensor.detect_prepared``; camera mode: a rendered frame), delays frames by
 the perception delay, asks the stack for a ``Control``, notes when its AEB fired (from
 then on perception stops: the stack ignores it), and delays the brake command by the
 brake delay (throttle and steering act at once).
@@ -17,6 +18,12 @@ import numpy as np
 
 from sitcov.av._base import EgoState, Observation
 from sitcov.perception._base import Pose
+from sitcov.perception._pem import NormalStream, PEMSensor
+
+#: The built-in PEM's normals are drawn this many at a time (``NormalStream``): its noise
+#: is the run generator's last consumer (the wind's draws come first), so drawing ahead
+#: changes no value (``tests/sim/test_sim_world.py`` checks that no draw follows).
+NOISE_BLOCK = 128
 
 
 class EgoDriver:
@@ -56,6 +63,23 @@ class EgoDriver:
         self.latched = False  # the AEB latched: no more frames or detections
         self.camera_mode = sensor is None
         self.aeb_time: float | None = None
+        plain = getattr(type(stack), "plain_step", None)  # the built-in stack's fast path
+        self.plain_step = plain(stack) if callable(plain) else None
+        # the built-in PEM (its detect not overridden): each actor prepared once per run,
+        # then shown by its body's pose (no Pose or ActorView per frame)
+        self.prepared = getattr(type(sensor), "detect", None) is PEMSensor.detect
+        self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
+        self._normals = NormalStream(rng, NOISE_BLOCK)
+
+    def _detect_prepared(self, world: Any) -> Any:
+        """The PEM's detections for this frame through ``PEMSensor.detect_prepared``."""
+        looks = self._looks
+        if looks is None:
+            prepare, cond = self.sensor.prepare, self.cond
+            looks = self._looks = [(a, prepare(a.view(), cond)) for a in world.actors]
+        ego = world.ego.body
+        seen = [(look, a.body) for a, look in looks if a.active]
+        return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self._normals)
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
         """(detections, image) captured at step ``k`` (a frame step)."""
@@ -77,6 +101,8 @@ class EgoDriver:
         """(throttle, brake, steer) of the ego for step ``k`` at time ``t``."""
         if k % self.every or self.latched:
             detections = image = None
+        elif self.prepared:
+            detections, image = self._detect_prepared(world), None
         else:
             detections, image = self._perceive(world, k)
         if self.delay_p:
@@ -86,10 +112,13 @@ class EgoDriver:
             if self.frames and self.frames[0][0] == k:
                 _, detections, image = self.frames.popleft()
         ego = world.ego.body
-        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, world.ego_speed, t), detections, image)
-        ctrl = self.stack.step(obs)
-        info = ctrl.info
-        if info and info.get("aeb"):
+        if self.plain_step is not None:  # the built-in stack: no per-step objects
+            throttle, brake, steer, fired = self.plain_step(
+                t, ego.x, ego.y, ego.yaw, world.ego_speed, detections, image
+            )
+        else:
+            throttle, brake, steer, fired = self._step(ego, world.ego_speed, t, detections, image)
+        if fired is not None:
             if self.aeb_time is None:
                 self.aeb_time = t
             # no more frames (camera) or detections (PEM) once the brake has latched:
@@ -97,8 +126,17 @@ class EgoDriver:
             # the sensor's noise draws come last from the run's generator, so skipping
             # them changes no other draw
             self.latched = True
-        brake = ctrl.brake
         if self.brakes:
             self.brakes.append(brake)
             brake = self.brakes.popleft()
-        return ctrl.throttle, brake, ctrl.steer
+        return throttle, brake, steer
+
+    def _step(
+        self, ego: Any, speed: float, t: float, detections: Any, image: Any
+    ) -> tuple[float, float, float, bool | None]:
+        """The AV stack's step through its protocol: (throttle, brake, steer, True once
+        its ``Control.info["aeb"]`` says the AEB latched, else None)."""
+        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, speed, t), detections, image)
+        ctrl = self.stack.step(obs)
+        info = ctrl.info
+        return ctrl.throttle, ctrl.brake, ctrl.steer, (True if info and info.get("aeb") else None)
