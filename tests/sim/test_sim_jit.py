@@ -15,7 +15,7 @@ from sitcov._jit import _hypot_cr, compiled, enabled
 from sitcov.av import _reference
 from sitcov.av._pid import window_pid
 from sitcov.perception import _camera
-from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
+from sitcov.sim.embedded import _collision, _controllers, _dynamics, _monitors, _path
 
 
 def _pairs(n: int, seed: int) -> list[tuple[float, float]]:
@@ -207,6 +207,27 @@ def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
     assert 0.0 in dists and max(dists) > 10.0  # overlapping and distant pairs both tested
     bad = [(a, b) for (a, b), d in zip(pairs, dists, strict=True) if repr(fast(*a, *b)) != repr(d)]
     assert not bad, f"{len(bad)} of 20000 pairs differ, e.g. {bad[0]}"
+
+
+def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
+    """The proximity monitor's kernel (box distance and disc TTC of a pair) against the
+    Python code: overlapping, near and distant boxes, closing and receding velocities."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_monitors, "_PROXIMITY", None)  # load it now, compiled
+    fast = _monitors.proximity_fn()
+    assert fast is not _monitors.proximity  # numba compiled it
+    rnd = random.Random(11)
+    ttcs = []
+    for a, b in _boxes(20000, 3):
+        ev, av = (rnd.uniform(-2.0, 12.0), rnd.uniform(-0.5, 0.5)), (rnd.uniform(0, 8), 0.0)
+        k = (a[3], a[4], b[3], b[4], rnd.uniform(1.0, 3.0))
+        near = rnd.random() < 0.8
+        args = (*a[:3], *ev, *b[:3], *av)
+        want = _monitors.proximity(*args, k, near)
+        assert repr(fast(*args, np.array(k), near)) == repr(want), (args, k, near)
+        ttcs.append(want[1])
+    assert min(ttcs) == -1.0 and 0.0 in ttcs and max(ttcs) > 1.0  # none, touching, ahead
 
 
 def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
