@@ -313,6 +313,32 @@ def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
         assert _path._bisect_right(path.ss, s) == bisect.bisect_right(path.ss, s)
 
 
+def test_compiled_timed_car_is_bit_identical_to_python(monkeypatch) -> None:
+    """The timed car's kernel (timing law and steering in one) against the Python code:
+    every phase and its switches, standing and moving cars and egos, any heading."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_controllers, "_TIMED", None)  # load it now, compiled
+    fast = _controllers._timed_kernel()
+    assert fast is not _controllers._timed_car  # numba compiled it
+    path = _path.Path(tuple(float(k) for k in range(120)), tuple(0.01 * k * k for k in range(120)))
+    pts = (path.xs, path.ys, path.hs, path.ss)
+    arr = np.array(pts)
+    rnd = random.Random(8)
+    phases = set()
+    for _ in range(20000):
+        k = (3.0, rnd.uniform(10, 30), 4.17, 0.5, 0.5, 0.1, rnd.choice([0.0, 1.0]))
+        k += (rnd.choice([40.0, math.inf]), 45.0, 0.8, 4.0, 1.4, 2.7, 0.6)
+        speed = rnd.choice([0.0, rnd.uniform(0.0, 0.2), rnd.uniform(0.0, 12.0)])
+        args = (rnd.randint(0, 2), rnd.uniform(-5, 60), speed, rnd.uniform(-5, 130))
+        args += (rnd.uniform(-5, 125), rnd.uniform(-5, 60), rnd.uniform(-4, 4))
+        args += (rnd.uniform(0, 12), rnd.choice([0.0, rnd.uniform(-0.3, 0.3)]))
+        want = _controllers._timed_car(pts, k, *args)
+        assert repr(fast(arr, np.array(k), *args)) == repr(want), (k, args)
+        phases.add((args[0], want[0]))
+    assert {(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)} <= phases
+
+
 def test_compiled_route_step_is_bit_identical_to_python(monkeypatch) -> None:
     """The reference stack's route following (compiled, float array) against the Python
     code (list): a noisy drive to the end of a curved route, throttle and brake, before
