@@ -4,8 +4,10 @@ numba is a dependency (until session 6 the optional ``fast`` extra): :func:`comp
 plain-float function of the hot loop into machine code (a car's integrator and route
 tracking ``_dynamics.integrate_tracked``, the camera projection
 ``perception._camera._project``, the box distance ``_collision.box_distance_flat``, the
-route tracking ``_path._track``, the cars' steering ``_controllers._car_steer``, the
-reference stack's route following ``av._reference._route_step``); without
+route tracking ``_path._track``, the cars' steering ``_controllers._car_steer``, a timed
+car's law and steering ``_controllers._timed_car``, the proximity monitor's distance and
+TTC ``_monitors.proximity``, the reference stack's route following
+``av._reference._route_step``); without
 numba, or with the environment variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or
 an empty string), the Python function runs as it is. Either way a run gives the same bits:
 

@@ -76,11 +76,23 @@ def color_rng(seed: int) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(OV_COLOR_KEY,)))
 
 
+def _palette_cdf() -> np.ndarray:
+    """The palette's cumulative shares, as ``Generator.choice(n, p=shares)`` builds them
+    (``p.cumsum()`` divided by its last entry)."""
+    shares = np.asarray([share for _, share in PALETTE.values()])
+    cdf = (shares / shares.sum()).cumsum()
+    cdf /= cdf[-1]
+    return cdf
+
+
+_NAMES, _CDF = tuple(PALETTE), _palette_cdf()
+
+
 def draw_color(rng: np.random.Generator) -> str:
-    """A palette name drawn by the palette's shares."""
-    names = list(PALETTE)
-    shares = np.asarray([PALETTE[n][1] for n in names])
-    return names[int(rng.choice(len(names), p=shares / shares.sum()))]
+    """A palette name drawn by the palette's shares: ``rng.choice(len(PALETTE), p=shares)``
+    done as that call does it (one ``rng.random()`` placed in the cumulative shares), the
+    same draw and name, without its per-call checks (it runs once per run)."""
+    return _NAMES[int(_CDF.searchsorted(rng.random(), side="right"))]
 
 
 def resolve_color(value: Any, *, field: str = "ov_color") -> RGB:

@@ -27,6 +27,7 @@ import math
 import statistics
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from typing import Any
 
 #: ``math.hypot`` under the name :func:`pure_pursuit` uses (numba compiles that code with
 #: the name bound to a correctly rounded version, ``sitcov/_jit.py``: the same bits).
@@ -66,6 +67,45 @@ def arrival_time(distance: float, speed: float, min_speed: float) -> float:
     return max(distance, 0.0) / max(speed, min_speed)
 
 
+#: The controller's phases, in order; the law (:func:`timing_law`) numbers them 0, 1, 2.
+PHASES = ("wait", "regulate", "cruise")
+
+
+def law_constants(params: AdversaryParams, switch: float, has_conflict: bool) -> tuple:
+    """What :func:`timing_law` reads of ``params``: (gain, switch distance, cruise speed,
+    cruise gain, min speed, start speed, has conflict as 1.0/0.0)."""
+    p = params
+    flag = 1.0 if has_conflict else 0.0
+    return (p.gain, switch, p.cruise_speed, p.cruise_gain, p.min_speed, p.start_speed, flag)
+
+
+def timing_law(
+    phase: int, k: Any, d_ego: float, v_ego: float, d_ov: float, v_ov: float
+) -> tuple[int, float, float]:
+    """One tick of the law (the module docstring): ``(phase, throttle, brake)``.
+
+    ``phase`` indexes :data:`PHASES`; ``k`` is :func:`law_constants`. Plain floats, so the
+    embedded world's timed car compiles it into its controller's kernel
+    (``_controllers._timed_car``): the same operations in the same order either way.
+    """
+    if phase == 0:
+        if v_ego <= k[5]:
+            return 0, 0.0, 1.0
+        phase = 1 if k[6] != 0.0 else 2
+    if phase == 1 and (d_ego <= k[1] or d_ov <= 0.0):
+        phase = 2
+    if phase == 1:
+        low = k[4]  # arrival_time(), inlined: this runs every step
+        t_ov = (d_ov if d_ov > 0.0 else 0.0) / (v_ov if v_ov > low else low)
+        t_ego = (d_ego if d_ego > 0.0 else 0.0) / (v_ego if v_ego > low else low)
+        u = k[0] * (t_ov - t_ego)
+    else:
+        u = k[3] * (k[2] - v_ov)
+    if u >= 0.0:
+        return phase, (1.0 if u > 1.0 else u), 0.0
+    return phase, 0.0, (1.0 if -u > 1.0 else -u)
+
+
 class AdversaryController:
     """Longitudinal phases of the OV. One instance per run.
 
@@ -77,9 +117,16 @@ class AdversaryController:
     def __init__(self, params: AdversaryParams | None = None, has_conflict: bool = True) -> None:
         self.params = params or AdversaryParams()
         self.has_conflict = has_conflict
-        self.phase = "wait"
+        self.phase_index = 0  # into PHASES
         p = self.params
         self._switch = FALLBACK_SWITCH_DISTANCE if p.switch_distance is None else p.switch_distance
+        #: :func:`timing_law`'s constants
+        self.constants = law_constants(p, self._switch, has_conflict)
+
+    @property
+    def phase(self) -> str:
+        """``wait``, ``regulate`` or ``cruise``."""
+        return PHASES[self.phase_index]
 
     def command(self, d_ego: float, v_ego: float, d_ov: float, v_ov: float) -> tuple[float, float]:
         """(throttle, brake) for this tick.
@@ -89,24 +136,10 @@ class AdversaryController:
                 (negative once past it).
             v_ego, v_ov: current speeds [m/s].
         """
-        p = self.params
-        phase = self.phase
-        if phase == "wait":
-            if v_ego <= p.start_speed:
-                return 0.0, 1.0
-            phase = self.phase = "regulate" if self.has_conflict else "cruise"
-        if phase == "regulate" and (d_ego <= self._switch or d_ov <= 0.0):
-            phase = self.phase = "cruise"
-        if phase == "regulate":
-            low = p.min_speed  # arrival_time(), inlined: this runs every step
-            t_ov = (d_ov if d_ov > 0.0 else 0.0) / (v_ov if v_ov > low else low)
-            t_ego = (d_ego if d_ego > 0.0 else 0.0) / (v_ego if v_ego > low else low)
-            u = p.gain * (t_ov - t_ego)
-        else:
-            u = p.cruise_gain * (p.cruise_speed - v_ov)
-        if u >= 0.0:
-            return min(u, 1.0), 0.0
-        return 0.0, min(-u, 1.0)
+        self.phase_index, thr, brk = timing_law(
+            self.phase_index, self.constants, d_ego, v_ego, d_ov, v_ov
+        )
+        return thr, brk
 
     def lookahead(self, speed: float) -> float:
         """Pure-pursuit look-ahead distance [m] at ``speed`` [m/s]."""

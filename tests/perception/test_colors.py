@@ -166,3 +166,14 @@ def test_a_pem_file_without_the_hue_names_loads_with_no_hue_term(tmp_path) -> No
     logits = {pem_logit(base._replace(chroma=c, red_green=a, yellow_blue=b), params)
               for c, a, b in (chroma_features(rgb) for rgb, _ in PALETTE.values())}  # fmt: skip
     assert len(logits) == 1
+
+
+def test_draw_color_is_the_generators_weighted_choice() -> None:
+    """The palette draw equals ``Generator.choice`` with the palette's shares, seed by
+    seed, and leaves the generator where that call leaves it."""
+    names = list(PALETTE)
+    shares = np.asarray([PALETTE[n][1] for n in names])
+    for seed in range(3000):
+        a, b = color_rng(seed), color_rng(seed)
+        assert draw_color(a) == names[int(b.choice(len(names), p=shares / shares.sum()))]
+        assert a.random() == b.random()

@@ -15,7 +15,7 @@ from sitcov._jit import _hypot_cr, compiled, enabled
 from sitcov.av import _reference
 from sitcov.av._pid import window_pid
 from sitcov.perception import _camera, _pem
-from sitcov.sim.embedded import _collision, _controllers, _dynamics, _path
+from sitcov.sim.embedded import _collision, _controllers, _dynamics, _monitors, _path
 
 
 def _pairs(n: int, seed: int) -> list[tuple[float, float]]:
@@ -209,6 +209,27 @@ def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
     assert not bad, f"{len(bad)} of 20000 pairs differ, e.g. {bad[0]}"
 
 
+def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
+    """The proximity monitor's kernel (box distance and disc TTC of a pair) against the
+    Python code: overlapping, near and distant boxes, closing and receding velocities."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_monitors, "_PROXIMITY", None)  # load it now, compiled
+    fast = _monitors.proximity_fn()
+    assert fast is not _monitors.proximity  # numba compiled it
+    rnd = random.Random(11)
+    ttcs = []
+    for a, b in _boxes(20000, 3):
+        ev, av = (rnd.uniform(-2.0, 12.0), rnd.uniform(-0.5, 0.5)), (rnd.uniform(0, 8), 0.0)
+        k = (a[3], a[4], b[3], b[4], rnd.uniform(1.0, 3.0))
+        near = rnd.random() < 0.8
+        args = (*a[:3], *ev, *b[:3], *av)
+        want = _monitors.proximity(*args, k, near)
+        assert repr(fast(*args, np.array(k), near)) == repr(want), (args, k, near)
+        ttcs.append(want[1])
+    assert min(ttcs) == -1.0 and 0.0 in ttcs and max(ttcs) > 1.0  # none, touching, ahead
+
+
 def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
     """The camera projection's kernel (near-plane clipping included) with and without
     numba: every output field, for boxes in front, beside and behind the camera."""
@@ -352,6 +373,32 @@ def test_compiled_car_steering_is_bit_identical_to_python(monkeypatch) -> None:
         args = (s, rnd.uniform(-30, 30), rnd.uniform(-10, 120), rnd.uniform(-4, 4), 1.4, 2.7, 0.6)
         assert repr(fast(arr, *args)) == repr(_controllers._car_steer(pts, *args)), args
         assert _path._bisect_right(path.ss, s) == bisect.bisect_right(path.ss, s)
+
+
+def test_compiled_timed_car_is_bit_identical_to_python(monkeypatch) -> None:
+    """The timed car's kernel (timing law and steering in one) against the Python code:
+    every phase and its switches, standing and moving cars and egos, any heading."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_controllers, "_TIMED", None)  # load it now, compiled
+    fast = _controllers._timed_kernel()
+    assert fast is not _controllers._timed_car  # numba compiled it
+    path = _path.Path(tuple(float(k) for k in range(120)), tuple(0.01 * k * k for k in range(120)))
+    pts = (path.xs, path.ys, path.hs, path.ss)
+    arr = np.array(pts)
+    rnd = random.Random(8)
+    phases = set()
+    for _ in range(20000):
+        k = (3.0, rnd.uniform(10, 30), 4.17, 0.5, 0.5, 0.1, rnd.choice([0.0, 1.0]))
+        k += (rnd.choice([40.0, math.inf]), 45.0, 0.8, 4.0, 1.4, 2.7, 0.6)
+        speed = rnd.choice([0.0, rnd.uniform(0.0, 0.2), rnd.uniform(0.0, 12.0)])
+        args = (rnd.randint(0, 2), rnd.uniform(-5, 60), speed, rnd.uniform(-5, 130))
+        args += (rnd.uniform(-5, 125), rnd.uniform(-5, 60), rnd.uniform(-4, 4))
+        args += (rnd.uniform(0, 12), rnd.choice([0.0, rnd.uniform(-0.3, 0.3)]))
+        want = _controllers._timed_car(pts, k, *args)
+        assert repr(fast(arr, np.array(k), *args)) == repr(want), (k, args)
+        phases.add((args[0], want[0]))
+    assert {(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)} <= phases
 
 
 def test_compiled_route_step_is_bit_identical_to_python(monkeypatch) -> None:

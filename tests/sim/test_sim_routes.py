@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+import pickle
 
 import pytest
 
 from sitcov.errors import ConfigError
 from sitcov.sim.embedded import load_map
+from sitcov.sim.embedded._path import Path
 from sitcov.sim.embedded._routes import (
     actor_route,
     kerb_positions,
@@ -83,3 +85,18 @@ def test_offset_path_is_parallel_at_a_corner() -> None:
     flat = [c for point in moved.points for c in point]
     assert flat == pytest.approx([0.0, -1.0, 11.0, -1.0, 11.0, 10.0])
     assert math.isclose(moved.length, 22.0)
+
+
+def test_a_paths_cached_hash_and_points_behave_as_its_fields_do() -> None:
+    """Equal paths hash alike (as dict keys of the per-route caches), a copy made after the
+    caches filled (pickled to a worker) equals and hashes as the original, and the cached
+    points and tracking array are the path's."""
+    a = Path.from_points([(float(x), 0.1 * x * x) for x in range(30)])
+    b = Path.from_points([(float(x), 0.1 * x * x) for x in range(30)])
+    other = Path.from_points([(float(x), 0.1 * x * x + 1e-9) for x in range(30)])
+    assert a == b and hash(a) == hash(b) and {a: 1}[b] == 1
+    assert a != other and other not in {a: 1}
+    assert a.points is a.points and a.points == tuple(zip(a.xs, a.ys, strict=True))
+    assert a._track_array.tolist() == [list(a.xs), list(a.ys), list(a.ss)]
+    copy = pickle.loads(pickle.dumps(a))
+    assert copy == a and hash(copy) == hash(a) and copy.points == a.points

@@ -18,6 +18,7 @@ from sitcov.sim.embedded._monitors import (
     GoalMonitor,
     LeaveMapRule,
     PETMonitor,
+    ProximityMonitor,
     TTCMonitor,
 )
 from sitcov.sim.embedded._path import Path
@@ -169,3 +170,35 @@ def test_actor_actor_collisions_are_recorded_once_and_both_brake() -> None:
     assert len(events) == 1 and events[0]["kinds"] == ["car", "pedestrian"]
     assert events[0]["time"] == 4.0 and events[0]["speed"] == pytest.approx(3.0)
     assert a.crashed and b.crashed and not ego.crashed
+
+
+def test_proximity_monitor_reports_what_the_distance_and_ttc_monitors_do() -> None:
+    """The built-in list's combined monitor: the same ``min_distance`` and ``min_ttc`` bits
+    as the two separate monitors over a random approach of several actors (near, far and
+    inactive ones, every fourth far step)."""
+    rnd = __import__("random").Random(4)
+    ego = actor("ego", "car", 0.0)
+    others = [
+        actor("o", "car", 30.0, 3.0, yaw=math.pi),
+        actor("p", "pedestrian", 8.0, -6.0, yaw=0.5 * math.pi),
+        actor("b", "cyclist", -25.0, 1.0),
+    ]
+    w = world(ego, *others)
+    mons = [DistanceMonitor(w), TTCMonitor(w), ProximityMonitor(w)]
+    for k in range(80):
+        w.k = k
+        for a in [ego, *others]:
+            a.body.x += rnd.uniform(-0.3, 0.6) * (1.0 if a is ego else -0.5)
+            a.body.y += rnd.uniform(-0.2, 0.2)
+            a.body.yaw += rnd.uniform(-0.05, 0.05)
+            a.body.vx = rnd.uniform(0.0, 6.0)
+        others[2].active = k < 40
+        relate(w)
+        for m in mons:
+            m.update(w)
+    separate = {**report(mons[0], w), **{}}
+    for name, facts in report(mons[1], w).items():
+        separate[name] = {**separate[name], **facts}
+    combined = report(mons[2], w)
+    assert repr(combined) == repr(separate)
+    assert all(combined[a.name]["min_ttc"] is not None for a in others[:2])

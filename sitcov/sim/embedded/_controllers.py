@@ -30,11 +30,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit
+from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit, timing_law
 from sitcov.sim.embedded._path import _bisect_right, _point_at
 
 if TYPE_CHECKING:
     from sitcov.sim.embedded._actors import Actor
+
+#: ``math.hypot`` under the name :func:`_timed_car` uses (``_jit.py`` compiles that code
+#: with the name bound to its correctly rounded version: the same bits).
+hypot = math.hypot
 
 #: Speed below which an actor counts as standing [m/s].
 STANDING = 0.05
@@ -120,6 +124,52 @@ def _car_kernel() -> Any:
     return _CAR
 
 
+def _timed_car(
+    pts: Any,
+    k: Any,
+    phase: int,
+    ego_s: float,
+    ego_speed: float,
+    s: float,
+    x: float,
+    y: float,
+    yaw: float,
+    vx: float,
+    vy: float,
+) -> tuple[int, float, float, float]:
+    """A timed car's step (:class:`TimingController`): the law (``timing_law``) from the
+    car's speed, then its steering (:func:`_car_steer`) at the law's look-ahead:
+    ``(phase, throttle, brake, steer)``. One compiled call per step instead of the law's
+    Python and the steering's kernel call.
+
+    ``k``: ``law_constants`` then (conflict start on the ego's route, on the car's route,
+    look-ahead time, minimum look-ahead, lr, wheelbase, steer_max).
+    """
+    speed = hypot(vx, vy)  # Vehicle.speed
+    phase, thr, brk = timing_law(phase, k, k[7] - ego_s, ego_speed, k[8] - s, speed)
+    ahead = k[9] * speed
+    steer = _car_steer(pts, s + (ahead if ahead > k[10] else k[10]), x, y, yaw, k[11], k[12], k[13])
+    return phase, thr, brk, steer
+
+
+_TIMED: Any = None
+
+
+def _timed_kernel() -> Any:
+    """:func:`_timed_car` compiled by numba when it is installed (the same bits), else
+    itself. Loaded once per process."""
+    global _TIMED
+    if _TIMED is None:
+        from sitcov._jit import compiled
+
+        pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
+        k = np.array([3.0, 20.0, 4.2, 0.5, 0.5, 0.1, 1.0, 30.0, 25.0, 0.8, 4.0, 1.4, 2.7, 0.6])
+        example = (pts, k, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01)
+        helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit, _car_steer, timing_law)
+        _TIMED = compiled(_timed_car, *example, helpers=helpers) or _timed_car
+    return _TIMED
+
+
 @functools.lru_cache(maxsize=256)
 def _car_points(route: Any, compiled: bool) -> Any:
     """The route's (xs, ys, hs, ss) as :func:`_car_steer` takes them fastest: one float
@@ -175,11 +225,14 @@ class TimingController:
         self.switch_gap: float | None = None
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
+        self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
         # AdversaryController.lookahead's constants, read every step
         self._la_min, self._la_time = params.lookahead_min, params.lookahead_time
 
     def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
-        """(throttle, brake, steer) for this step."""
+        """(throttle, brake, steer) for this step (a car's in one call: :func:`_timed_car`)."""
+        if actor.kind == "car":
+            return self._car_command(actor, world)
         speed = actor.body.speed
         law = self.law
         s_ego = world.ego.s
@@ -192,6 +245,38 @@ class TimingController:
             steer = self._steer = lateral_controller(actor, world.dt)
         ahead = self._la_time * speed  # law.lookahead(speed), inlined
         return thr, brk, steer(ahead if ahead > self._la_min else self._la_min)
+
+    def _car_command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
+        """:meth:`command` of a car: the law and the steering in one :func:`_timed_car`."""
+        if self._car is None:
+            self._car = self._bind_car(actor)
+        kernel, pts, k = self._car
+        law, b, s_ego = self.law, actor.body, world.ego.s
+        phase, thr, brk, steer = kernel(
+            pts, k, law.phase_index, s_ego, world.ego_speed, actor.s, b.x, b.y, b.yaw, b.vx, b.vy
+        )
+        law.phase_index = phase
+        if self.switch_time is None and phase == 2:  # cruise
+            self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
+        self.brake = brk
+        return thr, brk, steer
+
+    def _bind_car(self, actor: Actor) -> tuple[Any, Any, Any]:
+        """The kernel, the route's points and the constants of :func:`_timed_car`."""
+        kernel = _timed_kernel()
+        fast = kernel is not _timed_car
+        p = actor.body.p
+        k = (
+            *self.law.constants,
+            self.s_ego,
+            self.s_self,
+            self._la_time,
+            self._la_min,
+            p.lr,
+            p.wheelbase,
+            p.steer_max,
+        )
+        return kernel, _car_points(actor.route, fast), np.array(k) if fast else k
 
     def reach_speed(self, actor: Actor) -> float:
         """The speed the actor may still reach [m/s] (for the early end)."""

@@ -11,6 +11,9 @@ new metric is a new monitor in the list (``default_monitors``), not a change of 
 - :class:`PETMonitor`, :class:`DistanceMonitor`, :class:`TTCMonitor`: per actor, the
   post-encroachment time at its conflict with the ego, the minimum box distance and the
   minimum constant-velocity TTC (``sitcov.sim._metrics``, docs/metrics.md).
+- :class:`ProximityMonitor`: the built-in list's distance and TTC monitors in one (the
+  same two facts, the same bits): one compiled call per actor and step (:func:`proximity`)
+  instead of two monitors' Python loops.
 - :class:`CollisionMonitor`: the ego's box overlaps an actor's: ends the run.
 - :class:`ActorCollisionMonitor`: two other actors' boxes overlap: recorded, both brake
   to a stop; the run goes on.
@@ -43,7 +46,15 @@ from typing import Any
 import numpy as np
 
 from sitcov.sim._metrics import PET_ZONE, post_encroachment_time, time_to_collision
-from sitcov.sim.embedded._collision import box_distance_flat_fn, corridor_gap, overlap
+from sitcov.sim.embedded._collision import (
+    _axes_overlap,
+    _corners_to_box,
+    box_distance,
+    box_distance_flat,
+    box_distance_flat_fn,
+    corridor_gap,
+    overlap,
+)
 from sitcov.sim.embedded._dynamics import G
 
 #: How far the ego's box may reach beyond its lane's edge before it counts as a lane
@@ -364,6 +375,109 @@ class TTCMonitor:
             actors[a.name]["min_ttc"] = ttc
 
 
+def proximity(
+    ex: float,
+    ey: float,
+    eyaw: float,
+    evx: float,
+    evy: float,
+    ax: float,
+    ay: float,
+    ayaw: float,
+    avx: float,
+    avy: float,
+    k: Any,
+    distance: bool,
+) -> tuple[float, float]:
+    """The box distance (when ``distance``, else inf) and the disc TTC (-1: none) of the
+    ego (pose, body-frame velocity) and an actor, as :class:`DistanceMonitor` and
+    :class:`TTCMonitor` compute them (the same operations in the same order).
+
+    ``k``: [ego half length, ego half width, actor half length, actor half width, sum of
+    the footprint discs' radii] (one float array: one type check in the compiled call).
+    """
+    d = math.inf
+    if distance:
+        d = box_distance_flat(ex, ey, eyaw, k[0], k[1], ax, ay, ayaw, k[2], k[3])
+    ce, se = math.cos(eyaw), math.sin(eyaw)
+    wvx, wvy = evx * ce - evy * se, evx * se + evy * ce
+    c, s = math.cos(ayaw), math.sin(ayaw)
+    rvx = (avx * c - avy * s) - wvx
+    rvy = (avx * s + avy * c) - wvy
+    ttc = time_to_collision(ax - ex, ay - ey, rvx, rvy, k[4])
+    return d, (-1.0 if ttc is None else ttc)
+
+
+_PROXIMITY: Any = None
+
+
+def proximity_fn() -> Any:
+    """:func:`proximity` compiled by numba when it is installed (the same bits), else
+    itself. Loaded once per process, on first use."""
+    global _PROXIMITY
+    if _PROXIMITY is None:
+        from sitcov._jit import compiled
+
+        k = np.array([2.3, 0.9, 0.25, 0.25, 3.0])
+        example = (0.0, 0.0, 0.3, 5.0, 0.1, 4.0, 1.0, 1.2, 1.0, 0.0, k, True)
+        helpers = (
+            _axes_overlap,
+            _corners_to_box,
+            box_distance,
+            box_distance_flat,
+            time_to_collision,
+        )
+        _PROXIMITY = compiled(proximity, *example, helpers=helpers) or proximity
+    return _PROXIMITY
+
+
+class ProximityMonitor:
+    """:class:`DistanceMonitor` and :class:`TTCMonitor` in one object (the built-in
+    list's): per active actor one call of :func:`proximity`, compiled when numba is
+    there, which computes both; the box distance under the distance monitor's rule (only
+    when it may be a new minimum, every fourth step while farther than :data:`FAR`).
+    Reports the same ``min_distance`` and ``min_ttc``.
+    """
+
+    def __init__(self, world: Any) -> None:
+        ego = world.ego
+        n = len(world.actors)
+        self.best = [math.inf] * n
+        self.best_ttc: list[float | None] = [None] * n
+        self._reach = [ego.radius + a.radius for a in world.actors]
+        self._kernel = kernel = proximity_fn()
+        # the constants as a float array for the compiled kernel, plain floats for Python
+        pack = np.array if kernel is not proximity else tuple
+        self._k = [
+            pack((ego.half_l, ego.half_w, a.half_l, a.half_w, ego.disc + a.disc))
+            for a in world.actors
+        ]
+
+    def update(self, world: Any) -> None:
+        """Box distance (when it may be a new minimum) and TTC of each active actor."""
+        e = world.ego.body
+        ex, ey, eyaw, evx, evy = e.x, e.y, e.yaw, e.vx, e.vy
+        far_step = world.k & 3 == 0
+        best, best_ttc, kernel = self.best, self.best_ttc, self._kernel
+        for i, a in enumerate(world.actors):
+            if not a.active:
+                continue
+            gap = a.gap
+            near = gap - self._reach[i] < best[i] and (gap < FAR or far_step)
+            b = a.body
+            d, ttc = kernel(ex, ey, eyaw, evx, evy, b.x, b.y, b.yaw, b.vx, b.vy, self._k[i], near)
+            if d < best[i]:
+                best[i] = d
+            if ttc >= 0.0 and (best_ttc[i] is None or ttc < best_ttc[i]):
+                best_ttc[i] = ttc
+
+    def report(self, run: dict, actors: dict, world: Any) -> None:
+        """``min_distance`` (None if never measured) and ``min_ttc`` per actor."""
+        for a, d, ttc in zip(world.actors, self.best, self.best_ttc, strict=True):
+            actors[a.name]["min_distance"] = d if math.isfinite(d) else None
+            actors[a.name]["min_ttc"] = ttc
+
+
 class CollisionMonitor:
     """The ego's box overlaps an active actor's box: the run ends as ``collision``."""
 
@@ -524,8 +638,7 @@ def default_monitors(
     return [
         EgoRouteMonitor(world.ego.route, lane, road),
         PETMonitor(world),
-        DistanceMonitor(world),
-        TTCMonitor(world),
+        ProximityMonitor(world),
         CollisionMonitor(world),
         *([ActorCollisionMonitor(world)] if len(world.actors) > 1 else []),
         LeaveMapRule(world),

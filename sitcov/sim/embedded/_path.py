@@ -43,6 +43,14 @@ class Path:
         object.__setattr__(self, "ss", tuple(ss))
         object.__setattr__(self, "hs", tuple(hs))
 
+    def __hash__(self) -> int:
+        """The points' hash, computed once: paths key the per-route caches that every run's
+        setup looks up (hashing the point tuples costs ~5 us each time)."""
+        h = self.__dict__.get("_hash")
+        if h is None:
+            h = self.__dict__["_hash"] = hash((self.xs, self.ys))
+        return h
+
     @classmethod
     def from_points(cls, points: Sequence[tuple[float, float]]) -> Path:
         """A path through ``points``, dropping consecutive duplicates."""
@@ -60,9 +68,9 @@ class Path:
         """Total arc length [m]."""
         return self.ss[-1]
 
-    @property
+    @functools.cached_property
     def points(self) -> tuple[tuple[float, float], ...]:
-        """The (x, y) points [m]."""
+        """The (x, y) points [m] (made once: a run's setup reads them)."""
         return tuple(zip(self.xs, self.ys, strict=False))
 
     @functools.cached_property
@@ -124,8 +132,14 @@ class Path:
         fast = _track_kernel()
         pts: Any = (self.xs, self.ys, self.ss)
         if fast is not _track:  # compiled: the points as one array (one type check)
-            pts = np.array(pts, dtype=np.float64)
+            pts = self._track_array
         return functools.partial(fast, pts)
+
+    @functools.cached_property
+    def _track_array(self) -> np.ndarray:
+        """(xs, ys, ss) as one float array, made once per path (a map's routes are cached,
+        so runs share it; the kernel only reads it)."""
+        return np.array((self.xs, self.ys, self.ss), dtype=np.float64)
 
     def lateral_offset(self, x: float, y: float, hint: int = -1) -> float:
         """Signed distance of (x, y) from the path [m], positive to the left."""
