@@ -3,7 +3,8 @@
 numba is a dependency (until session 6 the optional ``fast`` extra): :func:`compiled` turns a
 plain-float function of the hot loop into machine code (a car's integrator and route
 tracking ``_dynamics.integrate_tracked``, the camera projection
-``perception._camera._project``, the box distance ``_collision.box_distance_flat``, the
+``perception._camera._project``, the PEM's projection, features and logit of one actor
+``perception._pem._pem_view``, the box distance ``_collision.box_distance_flat``, the
 route tracking ``_path._track``, the cars' steering ``_controllers._car_steer``, a timed
 car's law and steering ``_controllers._timed_car``, the proximity monitor's distance and
 TTC ``_monitors.proximity``, the reference stack's route following
@@ -15,8 +16,9 @@ an empty string), the Python function runs as it is. Either way a run gives the 
   and no fast-math (LLVM then neither reorders nor fuses floating-point operations);
 - ``sin``, ``cos``, ``tan``, ``atan``, ``atan2``, ``tanh`` and ``sqrt`` call the same C
   library functions CPython calls;
-- the projection's ``math.remainder`` (which numba lacks) stays in Python, outside the
-  compiled part;
+- the projection's view angle needs ``math.remainder``, which numba lacks:
+  ``perception._camera._view_angle`` writes out CPython's computation of it (tested bit for
+  bit, halfway cases included);
 - ``math.hypot`` is the exception: CPython (3.10+) computes a correctly rounded
   ``sqrt(x*x + y*y)`` with its own algorithm, numba calls the C library's ``hypot``,
   which is not always correctly rounded (about 2 in 1000 random pairs differ in the last
