@@ -351,22 +351,18 @@ class TTCMonitor:
         self.best: list[float | None] = [None] * len(world.actors)
 
     def update(self, world: Any) -> None:
-        """TTC of each active actor relative to the ego now."""
+        """TTC of each active actor relative to the ego now (:func:`proximity`'s TTC)."""
         ego = world.ego
         e = ego.body
-        cos, sin = math.cos, math.sin
-        ce, se = cos(e.yaw), sin(e.yaw)
-        evx, evy = e.vx * ce - e.vy * se, e.vx * se + e.vy * ce
+        ex, ey, eyaw, evx, evy = e.x, e.y, e.yaw, e.vx, e.vy
         best = self.best
         for i, a in enumerate(world.actors):
             if not a.active:
                 continue
             b = a.body
-            c, s = cos(b.yaw), sin(b.yaw)
-            rvx = (b.vx * c - b.vy * s) - evx
-            rvy = (b.vx * s + b.vy * c) - evy
-            ttc = time_to_collision(a.dx, a.dy, rvx, rvy, ego.disc + a.disc)
-            if ttc is not None and (best[i] is None or ttc < best[i]):
+            k = (0.0, 0.0, 0.0, 0.0, ego.disc + a.disc)
+            _, ttc = proximity(ex, ey, eyaw, evx, evy, b.x, b.y, b.yaw, b.vx, b.vy, k, False)
+            if ttc >= 0.0 and (best[i] is None or ttc < best[i]):
                 best[i] = ttc
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
