@@ -36,7 +36,7 @@ from sitcov.calibration._camera_runs import CameraRun, match
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 from sitcov.perception._camera import project_box
 from sitcov.perception._colors import PALETTE as COLOR_PALETTE
-from sitcov.perception._pem import PEMFeatures, PEMParams, PEMSensor
+from sitcov.perception._pem import COEFFICIENTS, PEMFeatures, PEMParams, PEMSensor
 from sitcov.perception._renderer import render_frame
 from sitcov.weather._conditions import WEATHER_ELEMENTS  # swept one at a time (CARLA units, 0..100)
 
@@ -198,27 +198,9 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
     return np.stack(cols, axis=1)
 
 
-_LINEAR = (
-    "bias",
-    "size_gain",
-    "size2_gain",
-    "side_size_gain",
-    "view_gain",
-    "view2_gain",
-    "facing_gain",
-    "facing2_gain",
-    "trunc_gain",
-    "fog_gain",
-    "illum_gain",
-    "rain_gain",
-    "aspect_gain",
-    "edge_gain",
-    "contrast_gain",
-    "detail_gain",
-    "chroma_gain",
-    "red_green_gain",
-    "yellow_blue_gain",
-)
+#: The coefficients the probit fit estimates: the logit's (``COEFFICIENTS``) but the size
+#: normalisation and clamps in pixels, which the fit keeps as given.
+_LINEAR = tuple(name for name in COEFFICIENTS if not name.endswith("_px"))
 #: Ridge penalty on the probit coefficients (not the intercept).
 _RIDGE = 1.0
 
