@@ -771,6 +771,13 @@ def bench_cmd(
     runs: int = typer.Option(200, "--runs", "-n", min=1, help="Number of runs."),
     seed: int = typer.Option(0, "--seed", help="Campaign seed (situations and run seeds)."),
     fault: Optional[str] = typer.Option(None, "--fault", help=_FAULT_HELP),  # noqa: UP045
+    rounds: int = typer.Option(
+        1,
+        "--rounds",
+        min=1,
+        help="Time the same runs this many times; report the median round (a shared "
+        "machine's speed drifts) and check every round gives the same outcomes.",
+    ),
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
 ) -> None:
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
@@ -778,13 +785,13 @@ def bench_cmd(
 
     from sitcov.campaign._bench import bench
 
-    result = bench(runs, seed, fault=fault)
+    result = bench(runs, seed, fault=fault, rounds=rounds)
     if json_out:
         console.print_json(json.dumps(result))
         return
     console.print(
         f"embedded backend, reference stack, PEM: {result['runs']} runs\n"
-        f"  runs/s (CPU, one core): {result['runs_per_s']:.1f}\n"
+        f"  runs/s (CPU, one core): {result['runs_per_s']:.1f}{_rounds_text(result)}\n"
         f"  ms/run: {result['ms_per_run']:.2f}\n"
         f"  mean sim steps/run: {result['mean_steps']:.1f}\n"
         f"  failures: {result['failures']}  end reasons: {result['end_reasons']}\n"
@@ -792,6 +799,14 @@ def bench_cmd(
         f"{result['warmup_cpu_s']:.2f} s CPU, numba {'on' if result['jit'] else 'off'})",
         highlight=False,
     )
+
+
+def _rounds_text(result: dict) -> str:
+    """`` (median of K rounds: min-max)`` when the bench timed several rounds."""
+    speeds = result["rounds_runs_per_s"]
+    if len(speeds) < 2:
+        return ""
+    return f" (median of {len(speeds)} rounds; {min(speeds):.1f}-{max(speeds):.1f})"
 
 
 # --- camera perception: models fetch, render, calibrate (owner: camera) --------------------

@@ -18,6 +18,7 @@ def bench(
     physics: str = "carla",
     judge: str = "default",
     warmup: int = 5,
+    rounds: int = 1,
     progress: Callable[[int], None] | None = None,
 ) -> dict[str, Any]:
     """Run ``runs`` random default-hyperspace situations with the reference stack.
@@ -30,9 +31,16 @@ def bench(
     (``warmup_cpu_s``): what a process pays once (lazy imports, the compiled kernels of
     ``_jit.py``, per-route caches) is not a per-run cost.
 
+    With ``rounds`` > 1 the same runs are timed that many times in this process: a
+    machine whose speed drifts (a shared host changes by up to 1.5x within minutes) is
+    better summarised by the median round than by one; ``runs_per_s`` is then that median
+    and ``rounds_runs_per_s`` every round's figure. Every round must give the same
+    outcomes (the same seeds give the same runs), else RuntimeError.
+
     Returns:
         ``{"runs", "runs_per_s", "ms_per_run", "mean_steps", "failures", "wall_s", "cpu_s",
-        "warmup_cpu_s", "jit", "end_reasons"}``.
+        "warmup_cpu_s", "jit", "end_reasons", "rounds", "rounds_runs_per_s"}`` (times of
+        the median round).
     """
     from sitcov._jit import enabled
     from sitcov.av import make_stack
@@ -51,28 +59,52 @@ def bench(
     for i, situation in enumerate(situations[:warmup]):
         backend.run(situation, stack, run_seed(seed, i))
     warm = time.process_time() - cpu0
-    steps = failures = 0
-    reasons: dict[str, int] = {}
-    wall0, cpu0 = time.perf_counter(), time.process_time()
-    for i, situation in enumerate(situations):
-        outcome = verdict(backend.run(situation, stack, run_seed(seed, i)))
-        steps += int(outcome.metrics.get("steps", 0))
-        failures += outcome.failed
-        reasons[outcome.end_reason] = reasons.get(outcome.end_reason, 0) + 1
-        if progress is not None:
-            progress(i + 1)
-    cpu = time.process_time() - cpu0
-    wall = time.perf_counter() - wall0
+    timed = []
+    for _ in range(max(1, rounds)):
+        timed.append(_timed_pass(backend, stack, verdict, situations, seed, progress))
+        if timed[-1]["outcomes"] != timed[0]["outcomes"]:
+            raise RuntimeError("sitcov bench: two rounds of the same runs gave other outcomes")
     stack.close()
+    by_speed = sorted(timed, key=lambda r: r["cpu_s"])
+    median = by_speed[len(by_speed) // 2]
+    cpu, outcomes = median["cpu_s"], median["outcomes"]
+    reasons: dict[str, int] = {}
+    for _, reason, _ in outcomes:
+        reasons[reason] = reasons.get(reason, 0) + 1
     return {
         "runs": runs,
         "runs_per_s": runs / cpu if cpu > 0 else float("inf"),
         "ms_per_run": 1000.0 * cpu / max(runs, 1),
-        "mean_steps": steps / max(runs, 1),
-        "failures": failures,
+        "mean_steps": sum(steps for _, _, steps in outcomes) / max(runs, 1),
+        "failures": sum(failed for failed, _, _ in outcomes),
         "cpu_s": cpu,
-        "wall_s": wall,
+        "wall_s": median["wall_s"],
         "warmup_cpu_s": warm,
         "jit": enabled(),
         "end_reasons": reasons,
+        "rounds": len(timed),
+        "rounds_runs_per_s": [runs / r["cpu_s"] if r["cpu_s"] > 0 else float("inf") for r in timed],
     }
+
+
+def _timed_pass(
+    backend: Any,
+    stack: Any,
+    verdict: Any,
+    situations: list[Any],
+    seed: int,
+    progress: Callable[[int], None] | None,
+) -> dict[str, Any]:
+    """One timed pass over ``situations``: CPU and wall seconds and each run's
+    (failed, end reason, steps)."""
+    outcomes = []
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    for i, situation in enumerate(situations):
+        outcome = verdict(backend.run(situation, stack, run_seed(seed, i)))
+        outcomes.append(
+            (bool(outcome.failed), outcome.end_reason, int(outcome.metrics.get("steps", 0)))
+        )
+        if progress is not None:
+            progress(i + 1)
+    cpu = time.process_time() - cpu0
+    return {"cpu_s": cpu, "wall_s": time.perf_counter() - wall0, "outcomes": outcomes}
