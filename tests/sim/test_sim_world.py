@@ -218,6 +218,16 @@ def test_the_pems_noise_is_the_run_generators_last_consumer(monkeypatch) -> None
             actor2={"kind": "pedestrian", "route": "XBL"},
             wind_intensity=60.0,
         ),
+        situation(  # every other behaviour: scripted cars and cyclists, kerb and hesitate
+            intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4"},
+            actor2={"kind": "pedestrian", "route": "XBR", "behaviour": "hesitate"},
+            actor3={"kind": "pedestrian", "route": "XLL", "behaviour": "kerb"},
+            actor4={"kind": "car", "route": "R-L", "behaviour": "stop-go"},
+            actor5={"kind": "cyclist", "route": "B-L", "behaviour": "cruise"},
+            actor6={"kind": "car", "route": "B-R", "behaviour": "stop"},
+            actor7={"kind": "cyclist", "route": "L-R", "behaviour": "timed"},
+            precipitation=60.0,
+        ),
     ]
     for s in scenes:
         for seed in range(4):
