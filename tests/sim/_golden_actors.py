@@ -33,14 +33,14 @@ import json
 from pathlib import Path
 from typing import Any
 
+from _golden_world import cases, make_stacks
+
 DATA = Path(__file__).parent / "data"
 GOLDEN = DATA / "golden_world_actors.json"
 PEM = DATA / "golden_world_pem.yaml"
 PEM_CLASSES = DATA / "golden_actors_pem_classes.yaml"
 MAPS = ("t-junction", "crossroads", "roundabout", "merge")
-#: Seeds per situation, profiles and stacks (fault or "blind").
-SEEDS = (0, 1)
-PROFILES = ("carla", "physical")
+#: Stacks (fault or "blind"); seeds per situation and profiles as in _golden_world.py.
 STACKS = (None, "f4", "blind")
 #: Weather elements set to 0 in the clear-weather situations (friction is kept as drawn).
 CLEAR = ("cloudiness", "precipitation", "precipitation_deposits", "wind_intensity")
@@ -141,33 +141,18 @@ def situations() -> list[dict[str, Any]]:
     return drawn + with_behaviours(drawn)
 
 
-def cases(stored: list[dict[str, Any]]):
-    """Yield (key, map, situation, stack, physics, seed) for every golden run."""
-    from sitcov._seeding import run_seed
-    from sitcov.hyperspace import Situation
-
-    for i, item in enumerate(stored):
-        situation = Situation(bins=item["bins"], values=item["values"])
-        for physics in PROFILES:
-            for stack in STACKS:
-                for seed in SEEDS:
-                    key = f"{i}/{physics}/{stack}/{seed}"
-                    yield key, item["map"], situation, stack, physics, run_seed(seed, i)
-
-
 def run_all(stored: list[dict[str, Any]], every: int = 1) -> dict[str, dict[str, Any]]:
     """Outcome dicts of every ``every``-th golden case, keyed as in the golden file."""
-    from sitcov.av import NoPerceptionStack, ReferenceStack
     from sitcov.perception import PEMSensor
     from sitcov.sim.embedded import EmbeddedBackend
 
     backends: dict[tuple[str, str], Any] = {}
-    stacks: dict[Any, Any] = {s: ReferenceStack(fault=s) for s in STACKS if s != "blind"}
-    stacks["blind"] = NoPerceptionStack()
+    stacks = make_stacks(STACKS)
     out = {}
-    for n, (key, map_name, situation, stack, physics, seed) in enumerate(cases(stored)):
+    for n, (key, item, situation, stack, physics, seed) in enumerate(cases(stored, STACKS)):
         if n % every:
             continue
+        map_name = item["map"]
         if (map_name, physics) not in backends:
             sensor = PEMSensor(params=str(PEM), classes=str(PEM_CLASSES))
             backends[map_name, physics] = EmbeddedBackend(

@@ -45,31 +45,38 @@ def situations() -> list[dict[str, Any]]:
     return out
 
 
-def cases(stored: list[dict[str, Any]]):
-    """Yield (key, situation, stack factory args, physics, seed) for every golden run."""
+def cases(stored: list[dict[str, Any]], stacks: tuple[Any, ...] = STACKS):
+    """Yield (key, stored item, situation, stack, physics, seed) for every golden run of
+    ``stored`` with each of ``stacks`` (both golden files enumerate their runs this way)."""
     from sitcov._seeding import run_seed
     from sitcov.hyperspace import Situation
 
     for i, item in enumerate(stored):
         situation = Situation(bins=item["bins"], values=item["values"])
         for physics in PROFILES:
-            for stack in STACKS:
+            for stack in stacks:
                 for seed in SEEDS:
                     key = f"{i}/{physics}/{stack}/{seed}"
-                    yield key, situation, stack, physics, run_seed(seed, i)
+                    yield key, item, situation, stack, physics, run_seed(seed, i)
+
+
+def make_stacks(names: tuple[Any, ...]) -> dict[Any, Any]:
+    """The golden stacks by name: a reference stack with that fault (None: none), or
+    ``"blind"``, the stack without perception."""
+    from sitcov.av import NoPerceptionStack, ReferenceStack
+
+    return {s: NoPerceptionStack() if s == "blind" else ReferenceStack(fault=s) for s in names}
 
 
 def run_all(stored: list[dict[str, Any]], every: int = 1) -> dict[str, dict[str, Any]]:
     """Outcome dicts of every ``every``-th golden case, keyed as in the golden file."""
-    from sitcov.av import NoPerceptionStack, ReferenceStack
     from sitcov.perception import PEMSensor
     from sitcov.sim.embedded import EmbeddedBackend
 
     backends = {p: EmbeddedBackend(physics=p, sensor=PEMSensor(params=str(PEM))) for p in PROFILES}
-    stacks = {s: ReferenceStack(fault=s) for s in STACKS if s != "blind"}
-    stacks["blind"] = NoPerceptionStack()
+    stacks = make_stacks(STACKS)
     out = {}
-    for n, (key, situation, stack, physics, seed) in enumerate(cases(stored)):
+    for n, (key, _, situation, stack, physics, seed) in enumerate(cases(stored)):
         if n % every:
             continue
         outcome = backends[physics].run(situation, stacks[stack], seed)
