@@ -47,16 +47,18 @@ def _features(rng: np.random.Generator) -> PEMFeatures:
     )
 
 
+def _scored(feats: PEMFeatures, true: PEMParams, rng: np.random.Generator) -> Sample:
+    """A clear-weather sample of ``feats`` scored by the PEM ``true`` with its noise,
+    reported from a score of 0.05 up."""
+    z = pem_logit(feats, true) + true.noise_sigma * rng.normal()
+    score = 1 / (1 + math.exp(-z))
+    score = score if score >= 0.05 else 0.0
+    return Sample("clear", 0.0, 10.0, 0.0, 0.0, feats.width_px, feats, score, None)
+
+
 def _synthetic(n: int, rng: np.random.Generator, true: PEMParams = TRUE) -> list[Sample]:
     """Samples drawn from the PEM's own model, reported from a score of 0.05 up."""
-    out = []
-    for _ in range(n):
-        feats = _features(rng)
-        z = pem_logit(feats, true) + true.noise_sigma * rng.normal()
-        score = 1 / (1 + math.exp(-z))
-        score = score if score >= 0.05 else 0.0
-        out.append(Sample("clear", 0.0, 10.0, 0.0, 0.0, feats.width_px, feats, score, None))
-    return out
+    return [_scored(_features(rng), true, rng) for _ in range(n)]
 
 
 def test_fit_recovers_the_parameters_of_synthetic_data() -> None:
@@ -99,10 +101,7 @@ def test_fit_finds_the_direction_of_the_colour_terms(sign: float) -> None:
     for smp in _synthetic(3000, rng, PEMParams(noise_sigma=0.5)):
         contrast, detail = colours[int(rng.integers(len(colours)))]
         feats = smp.features._replace(contrast=contrast, detail=detail)
-        z = pem_logit(feats, true) + true.noise_sigma * rng.normal()
-        score = 1 / (1 + math.exp(-z))
-        samples.append(Sample("clear", 0.0, 10.0, 0.0, 0.0, feats.width_px, feats,
-                              score if score >= 0.05 else 0.0, None))  # fmt: skip
+        samples.append(_scored(feats, true, rng))
     fit = fit_pem(samples)
     assert sign * fit.contrast_gain > 0.6 and sign * fit.detail_gain < -0.3
     assert fit.contrast_gain == pytest.approx(true.contrast_gain, abs=0.5)
@@ -130,10 +129,7 @@ def test_fit_finds_the_direction_of_the_hue_terms(sign: float) -> None:
             **dict(zip(("contrast", "detail", "chroma", "red_green", "yellow_blue"),
                        colours[names[int(rng.integers(len(names)))]], strict=True))
         )  # fmt: skip
-        z = pem_logit(feats, true) + true.noise_sigma * rng.normal()
-        score = 1 / (1 + math.exp(-z))
-        samples.append(Sample("clear", 0.0, 10.0, 0.0, 0.0, feats.width_px, feats,
-                              score if score >= 0.05 else 0.0, None))  # fmt: skip
+        samples.append(_scored(feats, true, rng))
     fit = fit_pem(samples)
     assert sign * fit.red_green_gain > 0.5 and sign * fit.yellow_blue_gain < -0.4
     base = PEMFeatures(40.0, 0.0, 0.0, width_px=60.0)
