@@ -16,12 +16,12 @@ user hit, as ``sitcov summary``).
 from __future__ import annotations
 
 import csv
-import json
 from collections.abc import Iterator
 from typing import IO, Any
 from xml.sax.saxutils import escape, quoteattr
 
 from sitcov.analysis._breakdown import HIT_UNSTORED, run_hit, run_roles
+from sitcov.campaign import _json
 from sitcov.campaign._facts import total_wall_time
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._sqlite import OUTCOME_COLUMNS
@@ -62,7 +62,7 @@ def _elements(store: Store, campaign: str | None) -> list[str]:
 
 
 def _cell(value: Any) -> Any:
-    return json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
+    return _json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
 
 
 def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Iterator[dict]]:
@@ -143,28 +143,29 @@ def export_json(store: Store, out: IO[str], campaign: str | None = None) -> int:
     """Write ``{"campaigns": [...], "runs": [...]}`` (full outcomes, no traces)."""
     infos = [store.campaign(campaign)] if campaign else store.campaigns()
     out.write('{"campaigns": ')
-    json.dump(
-        [
-            {
-                "name": c.name,
-                "config": c.config,
-                "sitcov_version": c.sitcov_version,
-                "created": c.created,
-                "generator": c.generator,
-                "tags": c.tags,
-                **campaign_setup(c),
-                "breakdowns": _breakdowns(store, c),
-            }
-            for c in infos
-        ],
-        out,
-        sort_keys=True,
+    out.write(
+        _json.dumps(
+            [
+                {
+                    "name": c.name,
+                    "config": c.config,
+                    "sitcov_version": c.sitcov_version,
+                    "created": c.created,
+                    "generator": c.generator,
+                    "tags": c.tags,
+                    **campaign_setup(c),
+                    "breakdowns": _breakdowns(store, c),
+                }
+                for c in infos
+            ],
+            sort_keys=True,
+        )
     )
     out.write(', "runs": [')
     n = 0
     for run in store.iter_runs(campaign):
         out.write(",\n" if n else "\n")
-        json.dump(run_to_json(run), out, sort_keys=True)
+        out.write(_json.dumps(run_to_json(run), sort_keys=True))
         n += 1
     out.write("\n]}\n")
     return n
@@ -246,7 +247,7 @@ def _testcase(run: RunRecord) -> str:
     if run.status == "pending":
         body = '      <skipped message="not run yet"/>\n'
     elif run.status == "fail" and outcome is not None:
-        detail = json.dumps(outcome.to_dict(), sort_keys=True)
+        detail = _json.dumps(outcome.to_dict(), sort_keys=True)
         body = (
             f"      <failure message={quoteattr(outcome.end_reason)} "
             f"type={quoteattr(outcome.kind)}>"
@@ -298,7 +299,7 @@ def export_parquet(store: Store, path: str, campaign: str | None = None) -> int:
 def _typed(value: Any, kind: Any) -> Any:
     if value is None or kind is not None:
         return value
-    return value if isinstance(value, str) else json.dumps(value)
+    return value if isinstance(value, str) else _json.dumps(value)
 
 
 def export(store: Store, fmt: str, out: IO[str] | str, campaign: str | None = None) -> int:
