@@ -16,6 +16,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
+from sitcov.campaign._judged import require_judged
 from sitcov.errors import ConfigError
 
 #: Table 2's columns: label -> fault passed to the AV stack (None = no fault).
@@ -224,9 +225,11 @@ def run_fault_experiment(
                 if progress:
                     for label in FAULT_LABELS:
                         progress(base.name.rsplit("/", 1)[0] + "/" + label, base.runs)
-        return fault_table(store, generators=generators)
-    for base in bases:
-        _run_chain(store, base, progress)
+    else:
+        for base in bases:
+            _run_chain(store, base, progress)
+    chains = [b.name.rsplit("/", 1)[0] for b in bases]
+    require_judged(store, [f"{c}/{label}" for c in chains for label in FAULT_LABELS], EXPERIMENT)
     return fault_table(store, generators=generators)
 
 
@@ -280,9 +283,9 @@ def fault_table(store: Any, generators: Sequence[str] | None = None) -> dict[str
                     base = nf.get(index)
                     if base is None or status == "pending" or base == "pending":
                         continue
-                    if status == "fail" and base != "fail":
+                    if status == "fail" and base == "pass":
                         newly[label] += 1
-                    elif status != "fail" and base == "fail":
+                    elif status == "pass" and base == "fail":
                         cured[label] += 1
         ci95 = {}
         for label, k in counts.items():

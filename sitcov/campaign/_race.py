@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
+from sitcov.campaign._judged import require_judged
 from sitcov.errors import ConfigError
 
 EXPERIMENT = "race"
@@ -115,6 +116,7 @@ def run_race(
             run_campaign(config, store)
             if progress:
                 progress(config.name, config.runs)
+    require_judged(store, [c.name for c in configs], EXPERIMENT)
     return race_result(store)
 
 
