@@ -215,7 +215,10 @@ def run_cmd(
         None, "--executor", help="serial | processes | ray (default: processes)."
     ),
     workers: Optional[int] = typer.Option(  # noqa: UP045
-        None, "--workers", help="Parallel workers (default: CPU count)."
+        None,
+        "--workers",
+        help="Parallel workers (default: CPU count; local processes: at most 4 per core; never "
+        "more than runs left).",
     ),
     ray_address: Optional[str] = typer.Option(None, "--ray-address", help="Ray cluster."),  # noqa: UP045
     run_timeout: Optional[float] = typer.Option(  # noqa: UP045
@@ -497,7 +500,7 @@ def experiment_faults_cmd(
     seeds: int = typer.Option(5, "--seeds", min=1, help="Number of seeds."),
     seed: int = typer.Option(0, "--seed", min=0, help="Base seed (seed index s uses seed+s)."),
     workers: Optional[int] = typer.Option(  # noqa: UP045
-        None, "--workers", min=1, help="Parallel processes (default: CPU count)."
+        None, "--workers", min=1, help="Parallel processes (default: CPU count; at most 4/core)."
     ),
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     as_json: bool = typer.Option(False, "--json", help="Print Table 2 as JSON."),
@@ -526,6 +529,9 @@ def experiment_faults_cmd(
         raise ConfigError(field="--executor", value=executor, expected="serial | processes | ray")
     split_runs(runs, seeds)  # a clear error before the database file is created
     from sitcov.campaign import load_config
+    from sitcov.campaign._config import check_workers
+
+    check_workers(workers, executor)
 
     checked = load_config(overrides={"physics": physics, "judge": judge})  # before the DB too
     progress_bar = Progress(console=err_console, transient=True, disable=as_json)
@@ -635,6 +641,25 @@ def experiment_agreement_cmd(
     )
 
 
+@experiment_app.command("agreement-pool")
+def experiment_agreement_pool_cmd(
+    files: list[Path] = typer.Argument(..., help="Rows files of `experiment agreement` runs."),
+    pairs: str = typer.Option("all", "--pairs", help="all, or a comma-separated subset."),
+    as_json: bool = typer.Option(False, "--json", help="Print the pooled result as JSON."),
+) -> None:
+    """Each pair's verdict agreement pooled over the rows files of several agreement runs."""
+    import json
+
+    from sitcov.campaign import _agreement as ag
+
+    pooled = ag.pool_rows_files(files, ag.parse_pairs(pairs))
+    if as_json:
+        print(json.dumps(pooled, sort_keys=True))
+        return
+    for line in ag.pool_lines(pooled):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
 # --- flakiness, runs needed, generator race (owner: race) -----------------------------------
 
 
@@ -653,7 +678,7 @@ def experiment_flakiness_cmd(
     judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     workers: Optional[int] = typer.Option(  # noqa: UP045
-        None, "--workers", min=1, help="Parallel workers (default: CPU count)."
+        None, "--workers", min=1, help="Parallel workers (default: CPU count; at most 4/core)."
     ),
     as_json: bool = typer.Option(False, "--json", help="Print the flakiness table as JSON."),
 ) -> None:
@@ -716,7 +741,9 @@ def experiment_race_cmd(
         3000, "--reference-runs", min=1, help="Random runs defining the failure regions."
     ),
     batch_size: int = typer.Option(30, "--batch-size", min=1, help="Runs between tells."),
-    workers: int = typer.Option(2, "--workers", min=1, help="Parallel campaign processes."),
+    workers: int = typer.Option(
+        2, "--workers", min=1, help="Parallel campaign processes (at most 4/core)."
+    ),
     av: str = typer.Option("reference", "--av", help="AV stack under test."),
     backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
@@ -736,11 +763,13 @@ def experiment_race_cmd(
     from rich.progress import Progress
 
     from sitcov.campaign import load_config
+    from sitcov.campaign._config import check_workers
     from sitcov.campaign._console import created_store
     from sitcov.campaign._race import race_configs, race_lines, run_race
     from sitcov.report._race_figure import race_figure
 
     checked = load_config(overrides={"physics": physics, "judge": judge})
+    check_workers(workers)
     settings = {"av": av, "backend": backend, "hyperspace": hyperspace or "t-junction",
                 "physics": checked.physics, "judge": checked.judge, "executor": "serial",
                 "workers": 1}  # fmt: skip

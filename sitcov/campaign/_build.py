@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from sitcov._plugins import import_path, load
@@ -176,6 +177,21 @@ def build_stack(config: CampaignConfig) -> AVStack:
     return make_stack(config.av, fault=config.fault, params=config.av_params)
 
 
+def check_hyperspace_values(backend: Any, hyperspace: Any, spec: str | None) -> None:
+    """The backend's check of the hyperspace's category values (routes, actor keys), its
+    error naming the hyperspace file (or built-in name) the values came from."""
+    try:
+        backend.check_hyperspace(hyperspace)
+    except ConfigError as exc:
+        if exc.file is not None or exc.field is None:
+            raise
+        where = spec or "t-junction"
+        file = where if Path(where).exists() else f"hyperspace {where!r}"
+        raise ConfigError(
+            file=file, field=exc.field, value=exc.value, expected=exc.expected
+        ) from None
+
+
 def check_parts(config: CampaignConfig) -> None:
     """Build every part ``config`` names once, then close it.
 
@@ -188,5 +204,9 @@ def check_parts(config: CampaignConfig) -> None:
     hyperspace = resolve_hyperspace(config.hyperspace)
     config = with_hyperspace_map(config, hyperspace)
     make_generator(config, hyperspace)
-    build_backend(config).close()
+    backend = build_backend(config)
+    try:
+        check_hyperspace_values(backend, hyperspace, config.hyperspace)
+    finally:
+        backend.close()
     build_stack(config).close()

@@ -139,6 +139,7 @@ def _chain_in_process(db: str, base_json: dict[str, Any]) -> str:
 
     base = CampaignConfig(**base_json)
     store = open_store(db)
+    store.mark_checked()  # the parent process checked the file before starting workers
     try:
         _run_chain(store, base, None)
     finally:
@@ -218,6 +219,7 @@ def run_fault_experiment(
     _check_parts(bases)
     if parallel:  # the workers open their own connections to the same file
         db = store.location
+        store.check()  # once here: the workers' own connections skip it
         with ProcessPoolExecutor(max_workers=min(workers, len(bases))) as pool:
             futures = [pool.submit(_chain_in_process, db, b.model_dump(mode="json")) for b in bases]
             for base, future in zip(bases, futures, strict=True):

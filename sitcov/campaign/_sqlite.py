@@ -197,6 +197,7 @@ class SQLiteStore(Store):
             raise StoreError(f"{self.location}: directory {str(self.path.parent)!r} does not exist")
         self._configs: dict[str, dict[str, Any]] = {}
         self._tokens: dict[str, str] = {}  # campaign -> token of the lock this store holds
+        self._checked = False  # see check()
         try:
             self._connect()
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:  # a damaged schema page
@@ -343,6 +344,30 @@ class SQLiteStore(Store):
                 "UPDATE campaigns SET config = ? WHERE name = ?", (_dumps(dict(config)), name)
             )
         self._configs.pop(name, None)
+
+    def check(self) -> None:
+        """``PRAGMA integrity_check`` (pages and indexes: ``quick_check`` misses a damaged
+        index that the summary's queries then read), then decode every campaign and every
+        run with its trace as the readers do; once per store object (a campaign writes
+        only after it: ``sitcov run`` on a damaged file leaves it byte-identical).
+
+        Cost: one pass over the file, about 5 CPU-s per 100,000 runs (83,360 runs: 3.9
+        CPU-s, ``SQLiteStore.check`` timed with ``time.process_time``)."""
+        if self._checked:
+            return
+        problems = [r[0] for r in self._db.execute("PRAGMA integrity_check").fetchall()]
+        if problems != ["ok"]:
+            detail = " ".join(" ".join(problems).split())[:160]
+            raise StoreError(f"{self.location}: damaged database (integrity check: {detail})")
+        self.campaigns()
+        cursor = self._db.execute(f"SELECT {_RUN_FIELDS}, trace FROM runs ORDER BY campaign, idx")
+        while rows := cursor.fetchmany(500):
+            for row in rows:
+                self._record(row[:-1], row[-1])
+        self._checked = True
+
+    def mark_checked(self) -> None:
+        self._checked = True
 
     # -- concurrent writers ------------------------------------------------------------------
     def lock_campaign(self, name: str, *, stale_after: float = _lock.STALE_AFTER) -> CampaignLock:

@@ -164,6 +164,31 @@ def parse_slot(name: str, value: Any) -> ActorPlan | None:
     )
 
 
+def check_value(map: JunctionMap, name: str, value: Any) -> None:  # noqa: A002
+    """One ``intsit`` or ``actorN`` value as a hyperspace bin gives it: it parses, and each
+    route it names exists on ``map`` for its kind (before any run, not in every run).
+
+    Raises:
+        ConfigError: with the field inside the value (``intsit.ov``, ``actor2.behavior``).
+    """
+    if name == "intsit":
+        intsit = parse_intsit(value)
+        routes = (("ego", "car", intsit["ego"]), ("ov", intsit["kind"], intsit["ov"]))
+    else:
+        plan = parse_slot(name, value)
+        routes = () if plan is None else (("route", plan.kind, plan.route),)
+    for key, kind, route in routes:
+        try:
+            actor_route(map, kind, route)
+        except ConfigError as exc:
+            raise ConfigError(field=f"{name}.{key}", value=route, expected=exc.expected) from None
+
+
+def is_scene_element(name: str) -> bool:
+    """Whether an element's values say who is on the map (``intsit``, ``actorN``)."""
+    return name == "intsit" or _SLOT.match(name) is not None
+
+
 def parse_scene(values: Mapping[str, Any]) -> ScenePlan:
     """The :class:`ScenePlan` of a situation's values (raises ConfigError on bad values)."""
     intsit = parse_intsit(values.get("intsit"))
