@@ -42,6 +42,22 @@ JUDGE_OPT = typer.Option(
 )
 
 
+def _warm_up(config: object, quiet: bool = False) -> None:
+    """Compile or load numba's kernels before a campaign, saying so (first use: 10-20 s)."""
+    from sitcov.campaign._build import warm_up
+    from sitcov.campaign._console import StageBar
+
+    with StageBar(err_console, "preparing", disable=quiet) as bar:
+        bar.stage("the simulation kernels (numba: compiled on first use, then cached)", 0, None)
+        took = warm_up(config)
+    if took > 3.0 and not quiet:
+        err_console.print(
+            f"compiled the simulation kernels in {took:.0f} s (numba); later runs load them "
+            "from its cache",
+            highlight=False,
+        )
+
+
 # --- hyperspace & generation (owner: foundation) -------------------------------------------
 
 
@@ -306,6 +322,7 @@ def run_cmd(
     )
     cfg = load_config(config, overrides)
     check_parts(cfg)  # a bad part fails before the database file is created
+    _warm_up(cfg)
     store = open_store(db)
     try:
         with ProgressView(err_console) as view:
@@ -397,12 +414,14 @@ def explain_cmd(
 ) -> None:
     """Which elements and pairs change the failure rate, and rules for where it fails."""
     from sitcov.analysis import explain, explain_lines
-    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._console import StageBar, existing_store
     from sitcov.campaign._summary import FINISHED, campaign_hyperspace
 
-    with existing_store(db) as store:
+    with existing_store(db) as store, StageBar(err_console, "explain", disable=as_json) as bar:
         hs = campaign_hyperspace(store, campaign)
-        result = explain(hs, store.runs(campaign, FINISHED), seed=seed, bootstrap=bootstrap)
+        bar.stage("reading runs", 0, None)
+        runs = store.runs(campaign, FINISHED)
+        result = explain(hs, runs, seed=seed, bootstrap=bootstrap, progress=bar.stage)
     result["campaign"] = campaign
     if as_json:
         import json
@@ -440,7 +459,7 @@ def shrink_cmd(
 ) -> None:
     """Re-run a failing run with elements moved to benign bins: the necessary ones."""
     from sitcov.campaign._config import run_overrides
-    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._console import StageBar, existing_store
     from sitcov.campaign._replay import parse_run_id
     from sitcov.campaign._shrink import shrink_lines, shrink_run
 
@@ -448,10 +467,12 @@ def shrink_cmd(
                               av_step_timeout=av_step_timeout, av=av, fault=fault,
                               backend=backend, physics=physics, judge=judge)  # fmt: skip
     kept = [k.strip() for k in keep.split(",") if k.strip()] if keep is not None else None
-    with existing_store(db) as store:
+    with existing_store(db) as store, StageBar(err_console, "shrink", disable=as_json) as bar:
         campaign, index = parse_run_id(store, run)
+        bar.stage("simulated runs", 0, None)
         result = shrink_run(store, campaign, index, overrides=overrides, repeats=repeats,
-                            min_rate=min_rate, confirm=confirm, keep=kept)  # fmt: skip
+                            min_rate=min_rate, confirm=confirm, keep=kept,
+                            progress=bar.advance)  # fmt: skip
     if as_json:
         import json
 
@@ -534,6 +555,9 @@ def experiment_faults_cmd(
     check_workers(workers, executor)
 
     checked = load_config(overrides={"physics": physics, "judge": judge})  # before the DB too
+    _warm_up(checked.model_copy(update={"backend": backend, "av": av,
+                                        "hyperspace": hyperspace or "t-junction"}),
+             quiet=as_json)  # fmt: skip
     progress_bar = Progress(console=err_console, transient=True, disable=as_json)
     with created_store(db) as store, progress_bar as bar:
         task = bar.add_task("fault experiment", total=4 * runs * len(names))
@@ -687,7 +711,7 @@ def experiment_flakiness_cmd(
 
     from sitcov.campaign import load_config
     from sitcov.campaign._build import check_parts
-    from sitcov.campaign._console import created_store
+    from sitcov.campaign._console import StageBar, created_store
     from sitcov.campaign._flaky import base_config, flakiness_lines, run_flakiness_experiment
 
     checked = load_config(overrides={"physics": physics, "judge": judge, "executor": executor,
@@ -698,8 +722,13 @@ def experiment_flakiness_cmd(
                 "executor": checked.executor, "workers": checked.workers}  # fmt: skip
     base = base_config(name, settings)
     check_parts(base)
-    with created_store(db) as store:
-        table = run_flakiness_experiment(store, base, repeats=repeats)
+    _warm_up(base, quiet=as_json)
+    bar = StageBar(err_console, "flakiness", disable=as_json)
+    with created_store(db) as store, bar:
+        bar.stage("runs", 0, situations * repeats)
+        table = run_flakiness_experiment(
+            store, base, repeats=repeats, progress=lambda _name, n: bar.advance(n)
+        )
     if as_json:
         print(json.dumps(table, sort_keys=True))
         return
@@ -776,6 +805,7 @@ def experiment_race_cmd(
     names = [g.strip() for g in generators.split(",") if g.strip()]
     configs = race_configs(names, runs=runs, seeds=seeds, seed=seed, batch_size=batch_size,
                            reference_runs=reference_runs, settings=settings)  # fmt: skip
+    _warm_up(configs[0], quiet=as_json)
     bar = Progress(console=err_console, transient=True, disable=as_json)
     with created_store(db) as store, bar:
         task = bar.add_task("race", total=sum(c.runs for c in configs))
@@ -979,7 +1009,11 @@ def calibrate_cmd(
     if samples_out is not None:
         write_recording(samples_out, recording)
         err_console.print(f"wrote {samples_out}")
-    params, summary = cal.fit_recording(recording, cv_folds=cv_folds)
+    from sitcov.campaign._console import StageBar
+
+    with StageBar(err_console, "calibrate") as bar:
+        bar.stage("fitting the PEM to the recording", 0, None)
+        params, summary = cal.fit_recording(recording, cv_folds=cv_folds)
     if cv_folds is not None:
         command += f" --cv-folds {cv_folds}"
     if out is not None:

@@ -210,3 +210,38 @@ def check_parts(config: CampaignConfig) -> None:
     finally:
         backend.close()
     build_stack(config).close()
+
+
+def warm_up(config: CampaignConfig) -> float:
+    """Run one situation of ``config`` in this process and throw the outcome away, so that
+    numba's kernels are compiled (first use after an install: 10-20 s) or loaded from its
+    disk cache before a campaign starts: the caller can say so while it happens, and the
+    worker processes then load the cached kernels instead of each compiling them.
+
+    Only the embedded backend with PEM perception is warmed (other backends have no
+    kernels to compile, camera mode would load the detector twice). Nothing is stored and
+    no campaign state is touched. Returns the seconds it took (0.0 when skipped).
+    """
+    import time
+
+    from sitcov._jit import enabled
+    from sitcov._seeding import ask_rng, run_seed
+    from sitcov.generation import make_generator as _make
+
+    if not enabled() or config.backend != "embedded":
+        return 0.0
+    if config.backend_options.get("perception", "pem") != "pem":
+        return 0.0
+    start = time.perf_counter()
+    hyperspace = resolve_hyperspace(config.hyperspace)
+    config = with_hyperspace_map(config, hyperspace)
+    situation = _make("random", hyperspace).ask(ask_rng(config.seed, 0))
+    backend, stack = build_backend(config), build_stack(config)
+    try:
+        backend.run(situation, stack, run_seed(config.seed, 0))
+    except Exception:  # noqa: BLE001 - a run's own error is the campaign's to store
+        pass
+    finally:
+        stack.close()
+        backend.close()
+    return time.perf_counter() - start

@@ -187,3 +187,17 @@ def test_a_bin_that_never_fails_gets_the_penalised_finite_estimate():
     p0, p1 = 1 / (1 + math.exp(-a)), 1 / (1 + math.exp(-(a + b)))
     assert n * (p0 + p1) == pytest.approx(ref.sum(), rel=1e-4)
     assert -9.0 < b < -4.0 and n * p1 == pytest.approx(-0.01 * b, rel=1e-3)
+
+
+def test_explain_reports_its_progress_stage_by_stage():
+    """``sitcov explain`` shows a bar (issue 26: 90-134 s without output): every stage is
+    announced, the bootstrap counts each replicate up to its total, and the progress
+    callback changes nothing in the result."""
+    runs = synthetic_runs(400, lambda a, b, c: -1.0 + 1.5 * (a == 2), seed=5)
+    seen: list[tuple[str, int, int]] = []
+    told = explain(HS, runs, seed=1, bootstrap=19, progress=lambda *t: seen.append(t))
+    assert told == explain(HS, runs, seed=1, bootstrap=19)
+    stages = list(dict.fromkeys(s for s, _, _ in seen))
+    assert stages == ["element tests", "pair tests (bootstrap)", "failure regions"]
+    boot = [(d, t) for s, d, t in seen if s == "pair tests (bootstrap)"]
+    assert boot == [(i, 19) for i in range(20)]
