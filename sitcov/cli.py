@@ -50,7 +50,7 @@ def _warm_up(config: object, quiet: bool = False) -> None:
     with StageBar(err_console, "preparing", disable=quiet) as bar:
         bar.stage("the simulation kernels (numba: compiled on first use, then cached)", 0, None)
         took = warm_up(config)
-    if took > 3.0 and not quiet:
+    if took > 3.0 and not quiet and err_console.is_terminal:  # logs and pipes: no extra line
         err_console.print(
             f"compiled the simulation kernels in {took:.0f} s (numba); later runs load them "
             "from its cache",
