@@ -233,7 +233,7 @@ class SQLiteStore(Store):
                 self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=NORMAL")
             self._db.execute("PRAGMA foreign_keys=ON")
-            self._migrate()
+            self._migrate(read_only)
         except BaseException:
             self._db.close()
             raise
@@ -252,9 +252,14 @@ class SQLiteStore(Store):
         row = self._db.execute("SELECT max(version) FROM schema_version").fetchone()
         return int(row[0] or 0)
 
-    def _migrate(self) -> None:
-        if self.schema_version() == SCHEMA_VERSION:
+    def _migrate(self, read_only: bool = False) -> None:
+        version = self.schema_version()
+        if version == SCHEMA_VERSION:
             return  # nothing to write: readers never take the write lock
+        if read_only and 0 < version < SCHEMA_VERSION and all(
+            callable(step) for step in MIGRATIONS[version:]
+        ):
+            return  # only data repairs are missing: a read-only file is read as it is
         self._db.execute("BEGIN IMMEDIATE")
         try:
             version = self.schema_version()

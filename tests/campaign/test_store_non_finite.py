@@ -240,3 +240,17 @@ def test_json_export_of_non_finite_values_is_strict_json(tmp_path: Path) -> None
     export(store, "json", out)
     data = json.loads(out.getvalue(), parse_constant=lambda token: pytest.fail(token))
     assert data["runs"][0]["outcome"]["metrics"]["ego_gap_at_switch"] == "Infinity"
+
+
+def test_a_read_only_old_file_is_read_without_repair(tmp_path: Path) -> None:
+    """A version-3 file that cannot be written is read as it is (the repair is data only):
+    every run decodes, bare tokens included; it is repaired when next opened writable."""
+    from test_reliability_store import read_only_copy
+
+    source = tmp_path / "old.db"
+    _old_file(source)
+    with read_only_copy(source, tmp_path / "ro") as path:
+        store = open_store(path)
+        assert store.schema_version() == 3
+        assert store.get_run("c", 0).outcome.metrics["ego_gap_at_switch"] == math.inf
+        store.close()
