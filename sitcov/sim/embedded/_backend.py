@@ -42,8 +42,7 @@ from sitcov.sim.embedded._monitors import (  # noqa: F401 - constants re-exporte
 from sitcov.sim.embedded._scene import (  # noqa: F401
     DEFAULT_INTSIT,
     build_actors,
-    check_value,
-    is_scene_element,
+    check_scene_values,
     parse_scene,
 )
 from sitcov.sim.embedded._world import Wind, World
@@ -211,22 +210,7 @@ class EmbeddedBackend(Backend):
     def check_hyperspace(self, hyperspace: Any) -> None:
         """Every ``intsit`` and ``actorN`` bin parses and names routes of this map (a key
         typo such as ``behavior:`` or an unknown route is refused here, not in each run)."""
-        for element in hyperspace.elements:
-            if not is_scene_element(element.name):
-                continue
-            for i, bin_ in enumerate(element.bins):
-                if bin_.range is not None:
-                    continue
-                try:
-                    check_value(self.map, element.name, bin_.value)
-                except ConfigError as exc:
-                    inner = (exc.field or element.name).partition(".")[2]
-                    field = f"{element.name}.bins[{i}] ({bin_.label}).value"
-                    raise ConfigError(
-                        field=f"{field}.{inner}" if inner else field,
-                        value=exc.value,
-                        expected=exc.expected,
-                    ) from None
+        check_scene_values(self.map, hyperspace)
 
     # --- helpers ----------------------------------------------------------------------------
 
