@@ -256,8 +256,10 @@ class SQLiteStore(Store):
         version = self.schema_version()
         if version == SCHEMA_VERSION:
             return  # nothing to write: readers never take the write lock
-        if read_only and 0 < version < SCHEMA_VERSION and all(
-            callable(step) for step in MIGRATIONS[version:]
+        if (
+            read_only
+            and 0 < version < SCHEMA_VERSION
+            and all(callable(step) for step in MIGRATIONS[version:])
         ):
             return  # only data repairs are missing: a read-only file is read as it is
         self._db.execute("BEGIN IMMEDIATE")
