@@ -489,6 +489,28 @@ def report_cmd(
     console.print(f"report written to {index}")
 
 
+@app.command("evidence")
+def evidence_cmd(
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    out: Path = typer.Option(..., "--out", help="Folder for the evidence (created)."),
+    campaign: Optional[str] = typer.Option(None, "--campaign", help="The campaign."),  # noqa: UP045
+    odd: Optional[Path] = typer.Option(None, "--odd", help="ODD YAML file (default: all)."),  # noqa: UP045
+    criterion: str = typer.Option(
+        "rate<0.01@0.95", "--criterion", help="Acceptance criterion rate<TARGET[@CONFIDENCE]."
+    ),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the held-out split."),
+    no_report: bool = typer.Option(False, "--no-report", help="Skip the HTML report."),
+) -> None:
+    """Write safety evidence: ODD coverage, test-case records, OpenLABEL tags, triggering
+    conditions, residual risk, the report and a manifest of hashes (docs/evidence.md)."""
+    from sitcov.evidence import build_evidence, evidence_lines
+
+    summary = build_evidence(db, out, campaign=campaign, odd=odd, criterion=criterion,
+                             seed=seed, report=not no_report)  # fmt: skip
+    for line in evidence_lines(summary):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
 @experiment_app.command("faults")
 def experiment_faults_cmd(
     db: Path = typer.Option(Path("faults.db"), "--db", help="Database (created or resumed)."),

@@ -53,6 +53,7 @@ PACKAGES = (
     "sim.carla",
     "weather",
     "report",
+    "evidence",
 )
 
 
