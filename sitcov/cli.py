@@ -881,6 +881,21 @@ def render_cmd(
     )
 
 
+@app.command("animate")
+def animate_cmd(
+    run: str = typer.Argument(..., help="CAMPAIGN:INDEX of a stored run (INDEX if one campaign)."),
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    out: Path = typer.Option(Path("run.gif"), "--out", help="FILE.gif | FILE.html | FILE.mp4."),
+    fps: int = typer.Option(10, "--fps", min=1, max=60, help="Frames per second."),
+) -> None:
+    """Animate a stored run from its trace (top-down, every actor, the ego's speed, the
+    distance and TTC to the road user it meets, the moment of failure)."""
+    from sitcov.report import animate_run
+
+    path = animate_run(db, run, out, fps=fps)
+    console.print(f"animation written to {path}", highlight=False, soft_wrap=True)
+
+
 @app.command("calibrate")
 def calibrate_cmd(
     out: Optional[Path] = typer.Option(  # noqa: UP045
