@@ -706,19 +706,32 @@ def experiment_flakiness_cmd(
 
 @app.command("runs-needed")
 def runs_needed_cmd(
-    margin: float = typer.Option(0.05, "--margin", help="Wanted half-width of the interval."),
+    margin: float = typer.Option(0.05, "--margin", help="Wanted reach of the interval."),
     rate: Optional[float] = typer.Option(  # noqa: UP045
         None, "--rate", help="Expected failure rate (default: 0.5, the worst case)."
     ),
+    below: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--below", help="Instead: runs, none failing, to show the rate is below this."
+    ),
     confidence: float = typer.Option(0.95, "--confidence", help="Confidence level."),
 ) -> None:
-    """Runs per bin to bound its failure rate to +-margin (Wilson interval)."""
-    from sitcov.analysis._flaky import runs_needed
+    """Runs per bin to bound its failure rate to +-margin (Wilson), or, with --below X, to
+    show a rate below X with no failure (exact binomial)."""
+    from sitcov.analysis._flaky import runs_needed, zero_failure_runs
 
+    if below is not None:
+        n = zero_failure_runs(below, confidence)
+        console.print(
+            f"{n} runs without a failure show a failure rate below {below:g} at "
+            f"{100 * confidence:g}% confidence (exact binomial; one failure needs more)",
+            highlight=False,
+        )
+        return
     n = runs_needed(margin, rate, confidence)
     what = "any failure rate" if rate is None else f"a failure rate near {rate:g}"
     console.print(
-        f"{n} runs per bin bound {what} to +-{margin:g} at {100 * confidence:g}% (Wilson)",
+        f"{n} runs per bin bound {what} to within {margin:g} on either side at "
+        f"{100 * confidence:g}% (Wilson)",
         highlight=False,
     )
 
@@ -901,6 +914,21 @@ def render_cmd(
         highlight=False,
         soft_wrap=True,
     )
+
+
+@app.command("animate")
+def animate_cmd(
+    run: str = typer.Argument(..., help="CAMPAIGN:INDEX of a stored run (INDEX if one campaign)."),
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    out: Path = typer.Option(Path("run.gif"), "--out", help="FILE.gif | FILE.html | FILE.mp4."),
+    fps: int = typer.Option(10, "--fps", min=1, max=60, help="Frames per second."),
+) -> None:
+    """Animate a stored run from its trace (top-down, every actor, the ego's speed, the
+    distance and TTC to the road user it meets, the moment of failure)."""
+    from sitcov.report import animate_run
+
+    path = animate_run(db, run, out, fps=fps)
+    console.print(f"animation written to {path}", highlight=False, soft_wrap=True)
 
 
 @app.command("calibrate")
