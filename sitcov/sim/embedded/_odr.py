@@ -132,3 +132,29 @@ def road_network(jmap: JunctionMap) -> tuple[RoadNetwork, OdrIds]:
         meta={"sitcov_map": jmap.name, "sitcov_layout": jmap.LAYOUT},
     )
     return network, OdrIds(legs, movements)
+
+
+def hero_route(
+    jmap: JunctionMap, ids: OdrIds, move: str, start: tuple[float, float]
+) -> tuple[tuple[int, int, float], ...]:
+    """Lane waypoints (road id, lane id, s [m]) of movement ``move`` in the exported
+    network, from ``start`` (the ego's spawn, on leg X's inbound lane): the spawn, the middle
+    of the movement's connecting road, and 5 m into leg Y's outbound lane."""
+    a, _, b = move.partition("-")
+    network, _ = road_network(jmap)
+    roads = {road.id: road for road in network.roads}
+    leg = roads[ids.legs[a]]
+    (x0, y0), (x1, y1) = leg.points[0], leg.points[-1]
+    length = math.hypot(x1 - x0, y1 - y0)
+    s = ((start[0] - x0) * (x1 - x0) + (start[1] - y0) * (y1 - y0)) / length
+    connector = roads[ids.movements[move]]
+    half = 0.5 * sum(
+        math.dist(p, q) for p, q in zip(connector.points, connector.points[1:], strict=False)
+    )
+    exit_leg = roads[ids.legs[b]]
+    exit_len = math.dist(exit_leg.points[0], exit_leg.points[-1])
+    return (
+        (leg.id, 1, min(max(s, 0.0), length)),
+        (connector.id, -1, half),
+        (exit_leg.id, -1, min(5.0, exit_len)),
+    )
