@@ -54,6 +54,7 @@ class Played:
     expected_actor: str
     expected_time: float | None
     params: dict[str, str] = field(default_factory=dict)
+    kinds: dict[str, str] = field(default_factory=dict)
 
     @property
     def hero_hit(self) -> tuple[str, float] | None:
@@ -86,6 +87,19 @@ def parameters(path: str | Path) -> dict[str, str]:
     if decls is None:
         return {}
     return {d.get("name", ""): d.get("value", "") for d in decls}
+
+
+def road_users(path: str | Path) -> dict[str, str]:
+    """Entity name -> sitcov kind (``car``, ``cyclist``, ``pedestrian``) of a scenario file's
+    road users other than the hero (``sitcov_kind`` properties)."""
+    root = ET.parse(path).getroot()
+    out: dict[str, str] = {}
+    for obj in root.iter("ScenarioObject"):
+        name = obj.get("name", "")
+        for prop in obj.iter("Property"):
+            if prop.get("name") == "sitcov_kind" and name != "hero":
+                out[name] = prop.get("value", "")
+    return out
 
 
 def play(path: str | Path, esmini: Path | None = None, *, timestep: float = TIMESTEP) -> Played:
@@ -125,7 +139,9 @@ def play(path: str | Path, esmini: Path | None = None, *, timestep: float = TIME
     )
     actor = params.get("sitcov_collision_actor", "")
     t = float(params.get("sitcov_collision_time", "-1") or -1)
-    return Played(path, loaded, problems, collisions, actor, t if t >= 0 else None, params)
+    return Played(
+        path, loaded, problems, collisions, actor, t if t >= 0 else None, params, road_users(path)
+    )
 
 
 @dataclass(frozen=True)

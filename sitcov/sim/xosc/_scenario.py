@@ -23,8 +23,10 @@ What the file holds, and why:
   controller: replace the ``hero`` maneuver group to let your stack drive.
 - ``ParameterDeclarations``: situation id, bins, run seed, campaign and index, fault,
   stored verdict (status, failure kind, end reason, which road user was hit and when).
-- A stop trigger: the hero collides with any road user, or the stored run's end plus
-  :data:`END_MARGIN`.
+- A road user that left the world at the end of its route in sitcov is deleted then
+  (``DeleteEntityAction``), so it does not drive on in the engine.
+- A stop trigger: the hero collides with any road user, or the stored run's end (plus
+  :data:`END_MARGIN` after a stored collision, which an engine may see a step later).
 """
 
 from __future__ import annotations
@@ -275,7 +277,7 @@ def run_scenario(
     init = xosc.Init()
     if environment is not None:
         init.add_global_action(xosc.EnvironmentAction(environment))
-    groups: list[tuple[str, Any]] = []
+    groups: list[tuple[str, list[Any]]] = []
     movers = [("hero", trace.ego)]
     for name, info in meta.get("actors", {}).items():
         rows = trace.actors.get(name) or []
@@ -306,12 +308,30 @@ def run_scenario(
         event = xosc.Event(f"{name}_as_stored", xosc.Priority.override)
         event.add_action(f"{name}_trajectory", _trajectory_action(xosc, name, rows, place))
         event.add_trigger(_start(xosc))
-        groups.append((name, event))
+        events = [event]
+        dt = float(meta.get("dt", 0.05))
+        if name != "hero" and rows[-1][0] < facts.sim_time - 0.5 * dt:
+            # it left the world at the end of its route (sitcov's LeaveMapRule)
+            leave = xosc.Event(f"{name}_leaves", xosc.Priority.parallel)
+            leave.add_action(f"{name}_delete", xosc.DeleteEntityAction(name))
+            leave.add_trigger(
+                xosc.ValueTrigger(
+                    f"{name}_route_end",
+                    0.0,
+                    xosc.ConditionEdge.rising,
+                    xosc.SimulationTimeCondition(round(rows[-1][0], 3), xosc.Rule.greaterThan),
+                )  # fmt: skip
+            )
+            events.append(leave)
+        groups.append((name, events))
     others = [name for name, _ in movers[1:]]
-    storyboard = xosc.StoryBoard(init, _stop_trigger(xosc, others, facts.sim_time + END_MARGIN))
-    for name, event in groups:
+    # past a collision esmini may find it a step later; any other run ends where it ended
+    end = facts.sim_time + (END_MARGIN if facts.end_reason == "collision" else 0.0)
+    storyboard = xosc.StoryBoard(init, _stop_trigger(xosc, others, end))
+    for name, events in groups:
         maneuver = xosc.Maneuver(f"{name}_maneuver")
-        maneuver.add_event(event)
+        for event in events:
+            maneuver.add_event(event)
         group = xosc.ManeuverGroup(f"{name}_group")
         group.add_actor(name)
         group.add_maneuver(maneuver)
