@@ -13,7 +13,7 @@ from sitcov.av import make_stack
 from sitcov.hyperspace import Situation
 from sitcov.sim import Trace
 from sitcov.sim.embedded import EmbeddedBackend
-from sitcov.sim.xosc import RunFacts, facts_of, run_scenario, simplify
+from sitcov.sim.xosc import RunFacts, environment, facts_of, run_scenario, simplify
 from sitcov.sim.xosc._scenario import TOLERANCE
 
 
@@ -144,9 +144,12 @@ def test_scenario_is_valid_openscenario_1_2(tmp_path):
         {"kind": "pedestrian", "route": "XBL", "behaviour": "hesitate"},
     )
     path = tmp_path / "s.xosc"
-    run_scenario(
-        sit, outcome.trace, _facts(outcome), road_file="x.xodr", map_name="crossroads"
-    ).write_xml(str(path))
+    env = environment({"cloudiness": 50.0, "precipitation": 30.0, "fog_density": 40.0})
+    scenario = run_scenario(
+        sit, outcome.trace, _facts(outcome), road_file="x.xodr", map_name="crossroads",
+        environment=env,
+    )  # fmt: skip
+    scenario.write_xml(str(path))
     assert list(schema.iter_errors(str(path))) == []
 
 

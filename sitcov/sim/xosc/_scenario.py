@@ -372,7 +372,6 @@ def environment(values: Mapping[str, Any]) -> Any:
     visibility = conditions_from_values(values).visibility
     weather = xosc.Weather(
         cover,
-        sun=xosc.Sun(intensity=100000.0, azimuth=0.0, elevation=math.radians(45.0)),
         fog=xosc.Fog(visual_range=int(min(100000.0, visibility))),
         precipitation=xosc.Precipitation(
             xosc.PrecipitationType.rain if rain > 0 else xosc.PrecipitationType.dry,
