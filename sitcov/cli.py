@@ -1060,6 +1060,12 @@ def export_xosc_cmd(
         help="Play on this OpenDRIVE file instead of the map's own export (CARLA's Town03 "
         "for t-junction runs).",
     ),
+    distribution: bool = typer.Option(
+        False,
+        "--distribution",
+        help="Also write the runs as one ParameterValueDistribution (campaign_distribution"
+        ".xosc over campaign_template.xosc and catalogs/; esmini --param_dist).",
+    ),
 ) -> None:
     """Write OpenSCENARIO 1.2 files (one per situation) plus their OpenDRIVE road, for
     esmini, ScenarioRunner and other engines (docs/export-xosc.md)."""
@@ -1086,6 +1092,12 @@ def export_xosc_cmd(
     for path in written:
         console.print(str(path), highlight=False, soft_wrap=True)
     err_console.print(f"{len(written)} OpenSCENARIO file(s) written to {out}")
+    if distribution:
+        from sitcov.sim.xosc import write_distribution
+
+        template, dist = write_distribution(written, out, campaign or "campaign")
+        console.print(str(dist), highlight=False, soft_wrap=True)
+        err_console.print(f"distribution of {len(written)} runs: {dist} (template {template})")
 
 
 @app.command("play-xosc")
@@ -1093,14 +1105,22 @@ def play_xosc_cmd(
     paths: list[Path] = typer.Argument(..., help="Scenario files or folders of them."),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ) -> None:
-    """Play exported scenarios in esmini and compare its collisions with sitcov's verdict
-    (same road user hit, within 0.5 s); esmini from SITCOV_ESMINI or PATH."""
+    """Play exported scenarios (and every run of a *_distribution.xosc) in esmini and compare
+    its collisions with sitcov's verdict (same road user hit, within 0.5 s); esmini from
+    SITCOV_ESMINI or PATH."""
     import json
 
-    from sitcov.sim.xosc import play, summarise
+    from sitcov.sim.xosc import play, play_distribution, summarise
 
-    files = [f for p in paths for f in (sorted(p.glob("*.xosc")) if p.is_dir() else [p])]
-    summary = summarise(play(f) for f in files)
+    def expand(path: Path) -> list[Path]:
+        if not path.is_dir():
+            return [path]
+        return [f for f in sorted(path.glob("*.xosc")) if not f.stem.endswith("_template")]
+
+    played = []
+    for f in (f for p in paths for f in expand(p)):
+        played += play_distribution(f) if f.stem.endswith("_distribution") else [play(f)]
+    summary = summarise(played)
     if as_json:
         console.print(json.dumps(summary.to_dict()), highlight=False, soft_wrap=True)
         return

@@ -1,7 +1,16 @@
 """OpenSCENARIO out: scenarios that play in a real engine, and playing them in esmini."""
 
+from sitcov.sim.xosc._distribution import write_distribution
 from sitcov.sim.xosc._esmini import ENV, esmini_tool, find_esmini, schema_dir
-from sitcov.sim.xosc._play import Played, PlaySummary, parameters, play, summarise
+from sitcov.sim.xosc._play import (
+    Played,
+    PlaySummary,
+    distribution_sets,
+    parameters,
+    play,
+    play_distribution,
+    summarise,
+)
 from sitcov.sim.xosc._scenario import (
     HeroRoute,
     RunFacts,
@@ -15,7 +24,10 @@ from sitcov.sim.xosc._scenario import (
 __all__ = [
     "PlaySummary",
     "Played",
+    "distribution_sets",
     "parameters",
+    "play_distribution",
+    "write_distribution",
     "play",
     "summarise",
     "ENV",

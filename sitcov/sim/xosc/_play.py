@@ -105,8 +105,43 @@ def road_users(path: str | Path) -> dict[str, str]:
     return out
 
 
-def play(path: str | Path, esmini: Path | None = None, *, timestep: float = TIMESTEP) -> Played:
-    """Run one scenario in esmini (headless, fixed step, collision detection on).
+def distribution_sets(path: str | Path) -> list[dict[str, str]]:
+    """The parameter values of each run of a ``ParameterValueDistribution`` file (its
+    ``ValueSetDistribution``), in permutation order."""
+    root = ET.parse(path).getroot()
+    return [
+        {a.get("parameterRef", ""): a.get("value", "") for a in value_set}
+        for value_set in root.iter("ParameterValueSet")
+    ]
+
+
+def distribution_template(path: str | Path) -> Path:
+    """The template scenario a distribution file names (relative to the file)."""
+    node = ET.parse(path).getroot().find("ParameterValueDistribution/ScenarioFile")
+    if node is None:
+        raise ConfigError(file=str(path), field="ScenarioFile", expected="a distribution file")
+    return Path(path).parent / node.get("filepath", "")
+
+
+def play_distribution(path: str | Path, esmini: Path | None = None) -> list[Played]:
+    """Play every permutation of a distribution file (:func:`play` of its template)."""
+    template = distribution_template(path)
+    return [
+        play(template, esmini, distribution=Path(path), permutation=i)
+        for i in range(len(distribution_sets(path)))
+    ]
+
+
+def play(
+    path: str | Path,
+    esmini: Path | None = None,
+    *,
+    timestep: float = TIMESTEP,
+    distribution: Path | None = None,
+    permutation: int = 0,
+) -> Played:
+    """Run one scenario in esmini (headless, fixed step, collision detection on); with
+    ``distribution``, the template ``path`` with that file's run ``permutation``.
 
     Raises:
         ConfigError: esmini cannot be found.
@@ -119,6 +154,11 @@ def play(path: str | Path, esmini: Path | None = None, *, timestep: float = TIME
         )  # fmt: skip
     path = Path(path)
     params = parameters(path)
+    extra: list[str] = []
+    if distribution is not None:
+        params.update(distribution_sets(distribution)[permutation])
+        dist = str(Path(distribution).resolve())
+        extra = ["--param_dist", dist, "--param_permutation", str(permutation)]
     with tempfile.TemporaryDirectory(prefix="sitcov-esmini-") as tmp:
         log = Path(tmp) / "log.txt"
         try:
@@ -126,11 +166,13 @@ def play(path: str | Path, esmini: Path | None = None, *, timestep: float = TIME
                 [
                     str(esmini), "--headless", "--osc", str(path.resolve()),
                     "--fixed_timestep", f"{timestep:g}", "--collision",
-                    "--logfile_path", str(log), "--disable_stdout",
+                    "--logfile_path", str(log), "--disable_stdout", *extra,
                 ],
                 cwd=tmp, capture_output=True, text=True, timeout=WALL_TIMEOUT, check=False,
             )  # fmt: skip
-            text = log.read_text(errors="replace") if log.exists() else proc.stdout
+            # with --param_dist esmini names the log log_<i+1>_of_<n>.txt
+            logs = sorted(Path(tmp).glob("log*.txt"))
+            text = logs[0].read_text(errors="replace") if logs else proc.stdout
             ok = proc.returncode == 0
         except subprocess.TimeoutExpired:
             text, ok = "", False
@@ -144,9 +186,9 @@ def play(path: str | Path, esmini: Path | None = None, *, timestep: float = TIME
     )
     actor = params.get("sitcov_collision_actor", "")
     t = float(params.get("sitcov_collision_time", "-1") or -1)
-    return Played(
-        path, loaded, problems, collisions, actor, t if t >= 0 else None, params, road_users(path)
-    )
+    kinds = road_users(path) if distribution is None else {}
+    shown = path if distribution is None else Path(f"{Path(distribution).name}#{permutation}")
+    return Played(shown, loaded, problems, collisions, actor, t if t >= 0 else None, params, kinds)
 
 
 @dataclass(frozen=True)
