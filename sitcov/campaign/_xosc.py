@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -100,6 +100,7 @@ def _write(
             expected=f"a run that simulates (it ended as {outcome.status}: {outcome.message})",
         )  # fmt: skip
     stored = run.outcome if run.outcome is not None else outcome
+    same = (stored.status, stored.collision_time) == (outcome.status, outcome.collision_time)
     route = None
     intsit = run.situation.values.get("intsit")
     if ids is not None and isinstance(intsit, Mapping) and intsit.get("ego") in ids.movements:
@@ -108,7 +109,7 @@ def _write(
     scenario = run_scenario(
         run.situation,
         outcome.trace,
-        facts_of(run, stored),
+        replace(facts_of(run, stored), reproduced=same),
         road_file=road_file,
         map_name=jmap.name,
         place=place,
@@ -128,7 +129,8 @@ def export_runs(
     status: str | Sequence[str] | None = "fail",
     road: str | Path | None = None,
 ) -> list[Path]:
-    """Write one ``<situation id>.xosc`` per stored run of ``status`` (a situation once).
+    """Write one ``<situation id>.xosc`` per stored run of ``status`` (a situation once;
+    ``None``: every run that finished, passed or failed).
 
     Raises:
         ConfigError: no such database, a run of another backend, or ``road`` for a map
@@ -142,7 +144,8 @@ def export_runs(
     try:
         if campaign is not None:
             store.campaign(campaign)  # a clear error naming the known campaigns
-        runs = store.runs(campaign=campaign, status=status)
+        # runs that errored or are pending have nothing to replay
+        runs = store.runs(campaign=campaign, status=status or ("pass", "fail"))
     finally:
         store.close()
     return _export(runs, out, _Road(None if road is None else Path(road)))

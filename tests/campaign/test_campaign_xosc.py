@@ -48,6 +48,7 @@ def test_export_writes_the_map_road_and_the_stored_verdict(tmp_path):
         assert params["sitcov_status"] == run.outcome.status
         assert int(params["sitcov_seed"]) == run.seed
         assert params["sitcov_map"] == "crossroads"
+        assert params["sitcov_reproduced"] == "true"  # the replay ended as stored
         hit = run.outcome.metrics.get("collision_actor") or ("ov" if run.outcome.collision else "")
         assert params["sitcov_collision_actor"] == hit
 

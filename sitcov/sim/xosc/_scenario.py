@@ -74,6 +74,8 @@ class RunFacts:
         collision_actor: the road user the ego hit (``ov``, ``actor2``...) or "".
         collision_time: when [s] (-1 without a collision).
         sim_time: the run's simulated duration [s].
+        reproduced: the re-simulation that gave the trajectories ended as stored (status
+            and collision time); written as ``sitcov_reproduced``.
     """
 
     campaign: str
@@ -86,6 +88,7 @@ class RunFacts:
     collision_actor: str
     collision_time: float
     sim_time: float
+    reproduced: bool = True
 
 
 @dataclass(frozen=True)
@@ -210,6 +213,7 @@ def _parameters(xosc: Any, situation: Any, facts: RunFacts, map_name: str) -> An
         ("sitcov_collision_actor", string, facts.collision_actor),
         ("sitcov_collision_time", double, round(facts.collision_time, 4)),
         ("sitcov_sim_time", double, round(facts.sim_time, 4)),
+        ("sitcov_reproduced", xosc.ParameterType.boolean, str(facts.reproduced).lower()),
     ]
     entries += [(f"bin_{k}", string, str(v)) for k, v in sorted(situation.bins.items())]
     for name, kind, value in entries:
