@@ -10,7 +10,12 @@ export-xosc``, then :func:`sitcov.sim.xosc.play` on every file):
   the second road user's behaviours): ``--runs`` runs of the reference stack, EVERY run
   exported (passes and failures, so "no collision" must agree too);
 - the default campaign (the paper's hyperspace on the t-junction, reference stack):
-  ``--default-runs`` runs, its FAILING runs exported.
+  ``--default-runs`` runs, its FAILING runs exported;
+- every behaviour of a second road user (pedestrian ``cross``/``kerb``/``hesitate``, car
+  ``timed``/``cruise``/``stop``/``stop-go``, cyclist ``timed``/``stop``/``stop-go``) beside
+  three ego movements with a conflicting car, on the crossroads and the t-junction, with
+  the reference stack and with the blind ``no-perception`` stack (so that collisions
+  happen): every situation run once and exported (``export_situations``).
 
 Printed per set and in total: files, files that loaded with no rejected route or error
 (clean), and files whose esmini collision agrees with sitcov's stored verdict (same road
@@ -56,6 +61,49 @@ def _set(name: str, work: Path, run_args: list[str], status: str) -> dict:
     return summary
 
 
+#: (kind, route, behaviour) of the second road user in the behaviours set, per map.
+BEHAVIOURS = {
+    "crossroads": [("pedestrian", "XBL", b) for b in ("cross", "kerb", "hesitate")]
+    + [("car", "R-L", b) for b in ("timed", "cruise", "stop", "stop-go")]
+    + [("cyclist", "L-R", b) for b in ("timed", "stop", "stop-go")],
+    "t-junction": [("pedestrian", "XBL", b) for b in ("cross", "kerb", "hesitate")]
+    + [("car", "R-L", b) for b in ("timed", "cruise", "stop", "stop-go")]
+    + [("cyclist", "L-R", b) for b in ("timed", "stop", "stop-go")],
+}
+#: (ego, conflicting car) movements of the behaviours set.
+EGOS = {
+    "crossroads": [("B-T", "L-R"), ("B-L", "R-B"), ("L-R", "T-B")],
+    "t-junction": [("B-L", "L-R"), ("B-R", "R-L"), ("L-R", "B-L")],
+}
+
+
+def _behaviours(work: Path) -> dict:
+    from sitcov.campaign._xosc import export_situations
+    from sitcov.hyperspace import Situation
+    from sitcov.sim.xosc import play, summarise
+
+    played = []
+    for name, users in BEHAVIOURS.items():
+        sits = []
+        for ego, ov in EGOS[name]:
+            for kind, route, behaviour in users:
+                values = {
+                    "friction": 0.8,
+                    "intsit": {"ego": ego, "ov": ov, "conflict": "k", "kind": "car"},
+                    "actor2": {"kind": kind, "route": route, "behaviour": behaviour},
+                }
+                bins = {"friction": "0.8", "intsit": f"{ego}/car:{ov}",
+                        "actor2": f"{kind}:{route}:{behaviour}"}  # fmt: skip
+                sits.append(Situation(bins, values))
+        for av in ("reference", "no-perception"):
+            out = work / f"behaviours-{name}-{av}"
+            written = export_situations(sits, out, map=name, av=av)
+            played += [play(f) for f in written]
+    summary = summarise(played).to_dict()
+    print(f"{'behaviours':>14}: {json.dumps(summary)}", flush=True)
+    return summary
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=100)
@@ -75,6 +123,7 @@ def main() -> None:
     sets["default-failing"] = _set(
         "default", work, ["--runs", str(args.default_runs), "--seed", str(args.seed)], "fail"
     )
+    sets["behaviours"] = _behaviours(work)
     total = {
         key: sum(s[key] for s in sets.values())
         for key in ("files", "clean", "agree", "expected_collisions")

@@ -180,15 +180,17 @@ def export_situations(
     map: str = "t-junction",  # noqa: A002 - the CLI's option name
     seed: int = 0,
     road: str | Path | None = None,
+    av: str = "reference",
 ) -> list[Path]:
-    """Run each situation once (default campaign config on ``map``, ``seed``) and export it.
+    """Run each situation once (default campaign config on ``map``, ``seed``, stack ``av``)
+    and export it.
 
     Raises:
         ConfigError: a bad map or road (see :func:`export_runs`).
     """
     from sitcov.campaign._records import RunRecord
 
-    config = CampaignConfig(name="export", backend_options={"map": map}, workers=1)
+    config = CampaignConfig(name="export", backend_options={"map": map}, av=av, workers=1)
     stored = config.model_dump()
     runs = [
         RunRecord("export", i, s, seed, "pending", config=stored) for i, s in enumerate(situations)
