@@ -137,3 +137,34 @@ def test_campaign_as_a_parameter_value_distribution_plays_every_run(tmp_path):
     summary = summarise(play_distribution(dist, esmini))
     assert summary.files == len(written)
     assert summary.clean == summary.files and summary.agree == summary.files, summary
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("av", ["reference", "no-perception"])
+def test_every_behaviour_plays_in_esmini_as_in_sitcov(tmp_path, av):
+    """A second road user with each behaviour (pedestrian cross/kerb/hesitate, car
+    timed/cruise/stop/stop-go, cyclist timed/stop/stop-go) beside a conflicting car."""
+    from sitcov.campaign._xosc import export_situations
+    from sitcov.hyperspace import Situation
+
+    need_module("scenariogeneration", "xosc")
+    esmini = need_esmini()
+    users = [("pedestrian", "XBL", b) for b in ("cross", "kerb", "hesitate")]
+    users += [("car", "R-L", b) for b in ("timed", "cruise", "stop", "stop-go")]
+    users += [("cyclist", "L-R", b) for b in ("timed", "stop", "stop-go")]
+    sits = [
+        Situation(
+            {"intsit": "B-T/car:L-R", "actor2": f"{kind}:{route}:{behaviour}"},
+            {
+                "intsit": {"ego": "B-T", "ov": "L-R", "conflict": "k", "kind": "car"},
+                "actor2": {"kind": kind, "route": route, "behaviour": behaviour},
+            },
+        )
+        for kind, route, behaviour in users
+    ]
+    written = export_situations(sits, tmp_path, map="crossroads", av=av)
+    assert len(written) == len(users)
+    summary = summarise(play(p, esmini) for p in written)
+    assert summary.clean == summary.files and summary.agree == summary.files, summary
+    if av == "no-perception":
+        assert summary.expected_collisions > 0
