@@ -1092,7 +1092,7 @@ def export_xosc_cmd(
     for path in written:
         console.print(str(path), highlight=False, soft_wrap=True)
     err_console.print(f"{len(written)} OpenSCENARIO file(s) written to {out}")
-    if distribution:
+    if distribution and written:
         from sitcov.sim.xosc import write_distribution
 
         template, dist = write_distribution(written, out, campaign or "campaign")

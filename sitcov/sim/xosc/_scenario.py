@@ -181,6 +181,8 @@ def _entity(xosc: Any, kind: str, length: float, width: float, height: float, na
             kind, category, box, front, rear, max(spec.v_max, 1.0), spec.a_max, spec.b_max,
             mass=80.0 if kind == "cyclist" else 1500.0,
         )  # fmt: skip
+    # ScenarioRunner's roles: the hero is the ego vehicle its agent drives
+    entity.add_property("type", "ego_vehicle" if name == "ego" else "simulation")
     entity.add_property("sitcov_kind", kind)
     entity.add_property("sitcov_name", name)
     return entity
