@@ -1,18 +1,19 @@
 """The road layer (below ``sim/``): OpenDRIVE road networks as plain geometry.
 
-Imports nothing from ``sitcov.sim`` or above; the maps of ``sim/`` describe themselves with
-these types (``sitcov.sim.embedded._odr``).
+Imports nothing from ``sitcov.sim`` or above. The writer's input types end in ``Spec``
+(``RoadSpec``, ``LaneSpec`` ...): the maps of ``sim/`` describe themselves with them
+(``sitcov.sim.embedded._odr``) and ``write_xodr`` writes the ``.xodr``.
 """
 
 from sitcov.roads._writer import (
-    Connection,
-    Crosswalk,
-    Junction,
-    Lane,
-    Link,
+    ConnectionSpec,
+    CrosswalkSpec,
+    JunctionSpec,
+    LaneSpec,
+    LinkSpec,
+    NetworkSpec,
     Piece,
-    Road,
-    RoadNetwork,
+    RoadSpec,
     arc_spline,
     piece_end,
     write_xodr,
@@ -20,14 +21,14 @@ from sitcov.roads._writer import (
 )
 
 __all__ = [
-    "Connection",
-    "Crosswalk",
-    "Junction",
-    "Lane",
-    "Link",
+    "ConnectionSpec",
+    "CrosswalkSpec",
+    "JunctionSpec",
+    "LaneSpec",
+    "LinkSpec",
+    "NetworkSpec",
     "Piece",
-    "Road",
-    "RoadNetwork",
+    "RoadSpec",
     "arc_spline",
     "piece_end",
     "write_xodr",

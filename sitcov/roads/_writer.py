@@ -26,7 +26,7 @@ STRAIGHT = 1e-9
 
 
 @dataclass(frozen=True)
-class Link:
+class LinkSpec:
     """A road's predecessor or successor: another road (``contact``: ``start`` | ``end``)
     or a junction (``element="junction"``, no contact point)."""
 
@@ -36,7 +36,7 @@ class Link:
 
 
 @dataclass(frozen=True)
-class Lane:
+class LaneSpec:
     """One lane of a road's single lane section.
 
     Attributes:
@@ -55,7 +55,7 @@ class Lane:
 
 
 @dataclass(frozen=True)
-class Crosswalk:
+class CrosswalkSpec:
     """A pedestrian crossing on a road: a ``crosswalk`` object.
 
     Attributes:
@@ -70,7 +70,7 @@ class Crosswalk:
 
 
 @dataclass(frozen=True)
-class Road:
+class RoadSpec:
     """A road: a reference polyline and its lanes.
 
     Attributes:
@@ -89,18 +89,18 @@ class Road:
 
     id: int
     points: tuple[tuple[float, float], ...]
-    lanes: tuple[Lane, ...]
+    lanes: tuple[LaneSpec, ...]
     heading: float | None = None
     lane_offset: float = 0.0
     junction: int = -1
-    predecessor: Link | None = None
-    successor: Link | None = None
-    crosswalks: tuple[Crosswalk, ...] = ()
+    predecessor: LinkSpec | None = None
+    successor: LinkSpec | None = None
+    crosswalks: tuple[CrosswalkSpec, ...] = ()
     name: str = ""
 
 
 @dataclass(frozen=True)
-class Connection:
+class ConnectionSpec:
     """A junction connection: lanes of ``incoming`` continue on ``connecting``.
 
     Attributes:
@@ -117,21 +117,21 @@ class Connection:
 
 
 @dataclass(frozen=True)
-class Junction:
+class JunctionSpec:
     """A junction and its connections."""
 
     id: int
     name: str
-    connections: tuple[Connection, ...]
+    connections: tuple[ConnectionSpec, ...]
 
 
 @dataclass(frozen=True)
-class RoadNetwork:
+class NetworkSpec:
     """Everything an ``.xodr`` file holds."""
 
     name: str
-    roads: tuple[Road, ...]
-    junctions: tuple[Junction, ...] = ()
+    roads: tuple[RoadSpec, ...]
+    junctions: tuple[JunctionSpec, ...] = ()
     meta: dict[str, str] = field(default_factory=dict)
 
 
@@ -216,14 +216,14 @@ def _f(value: float) -> str:
     return "0" if text == "-0" else text
 
 
-def _link_xml(tag: str, link: Link | None) -> str:
+def _link_xml(tag: str, link: LinkSpec | None) -> str:
     if link is None:
         return ""
     contact = f' contactPoint="{link.contact}"' if link.contact else ""
     return f'<{tag} elementType="{link.element}" elementId="{link.id}"{contact}/>'
 
 
-def _lane_xml(lane: Lane) -> list[str]:
+def _lane_xml(lane: LaneSpec) -> list[str]:
     links = ""
     if lane.predecessor is not None:
         links += f'<predecessor id="{lane.predecessor}"/>'
@@ -240,7 +240,7 @@ def _lane_xml(lane: Lane) -> list[str]:
     ]
 
 
-def _road_xml(road: Road) -> list[str]:
+def _road_xml(road: RoadSpec) -> list[str]:
     pieces = arc_spline(road.points, road.heading)
     length = sum(p.length for p in pieces)
     out = [
@@ -302,7 +302,7 @@ def _road_xml(road: Road) -> list[str]:
     return out
 
 
-def _junction_xml(junction: Junction) -> list[str]:
+def _junction_xml(junction: JunctionSpec) -> list[str]:
     out = [f'  <junction name={quoteattr(junction.name)} id="{junction.id}">']
     for c in junction.connections:
         out.append(
@@ -316,7 +316,7 @@ def _junction_xml(junction: Junction) -> list[str]:
     return out
 
 
-def xodr_text(network: RoadNetwork) -> str:
+def xodr_text(network: NetworkSpec) -> str:
     """The OpenDRIVE 1.4 document of ``network`` (deterministic: same network, same text)."""
     xs = [x for road in network.roads for x, _ in road.points]
     ys = [y for road in network.roads for _, y in road.points]
@@ -339,7 +339,7 @@ def xodr_text(network: RoadNetwork) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_xodr(network: RoadNetwork, path: str | Path) -> Path:
+def write_xodr(network: NetworkSpec, path: str | Path) -> Path:
     """Write ``network`` as an OpenDRIVE file; the path written."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)

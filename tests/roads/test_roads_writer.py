@@ -7,7 +7,7 @@ import math
 import numpy as np
 from layering import SITCOV, imported_names
 
-from sitcov.roads import Lane, Road, RoadNetwork, arc_spline, piece_end, xodr_text
+from sitcov.roads import LaneSpec, NetworkSpec, RoadSpec, arc_spline, piece_end, xodr_text
 
 
 def _raw_ends(points, heading=None):
@@ -48,13 +48,13 @@ def test_arc_spline_is_tangent_continuous_and_hits_every_point(rng):
 
 
 def test_document_lists_roads_lanes_and_offsets():
-    road = Road(7, ((0.0, 0.0), (10.0, 0.0)), (Lane(-1, 3.5), Lane(2, 2.0, "sidewalk")),
+    road = RoadSpec(7, ((0.0, 0.0), (10.0, 0.0)), (LaneSpec(-1, 3.5), LaneSpec(2, 2.0, "sidewalk")),
                 lane_offset=1.75)  # fmt: skip
-    text = xodr_text(RoadNetwork("n", (road,)))
+    text = xodr_text(NetworkSpec("n", (road,)))
     assert '<road name="7" length="10" id="7" junction="-1">' in text
     assert '<laneOffset s="0" a="1.75"' in text
     assert 'lane id="2" type="sidewalk"' in text and 'lane id="-1" type="driving"' in text
-    assert xodr_text(RoadNetwork("n", (road,))) == text  # deterministic
+    assert xodr_text(NetworkSpec("n", (road,))) == text  # deterministic
 
 
 def test_road_layer_imports_nothing_from_above():

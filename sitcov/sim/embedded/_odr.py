@@ -18,7 +18,15 @@ import functools
 import math
 from dataclasses import dataclass
 
-from sitcov.roads import Connection, Crosswalk, Junction, Lane, Link, Road, RoadNetwork
+from sitcov.roads import (
+    ConnectionSpec,
+    CrosswalkSpec,
+    JunctionSpec,
+    LaneSpec,
+    LinkSpec,
+    NetworkSpec,
+    RoadSpec,
+)
 from sitcov.sim.embedded._map import JunctionMap
 
 #: The junction's id; leg roads are 1..n, connecting roads JUNCTION_ID + 1...
@@ -43,42 +51,42 @@ def _mid(a: tuple[float, float], b: tuple[float, float]) -> tuple[float, float]:
     return (0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]))
 
 
-def _leg_road(jmap: JunctionMap, name: str, road_id: int, sidewalks: bool) -> Road:
+def _leg_road(jmap: JunctionMap, name: str, road_id: int, sidewalks: bool) -> RoadSpec:
     """Leg ``name``'s road: straight, from the mouth outwards."""
     w = jmap.lane_width
     lane_in = jmap.lane(f"{name}.in") if f"{name}.in" in jmap.graph else None
     lane_out = jmap.lane(f"{name}.out") if f"{name}.out" in jmap.graph else None
-    lanes: list[Lane] = []
+    lanes: list[LaneSpec] = []
     if lane_in is not None and lane_out is not None:
         points = (
             _mid(lane_out.points[0], lane_in.points[-1]),
             _mid(lane_out.points[-1], lane_in.points[0]),
         )
         offset = 0.0
-        lanes += [Lane(1, w), Lane(-1, w)]
+        lanes += [LaneSpec(1, w), LaneSpec(-1, w)]
         if sidewalks:
-            lanes += [Lane(2, jmap.sidewalk_width, "sidewalk")]
-            lanes += [Lane(-2, jmap.sidewalk_width, "sidewalk")]
+            lanes += [LaneSpec(2, jmap.sidewalk_width, "sidewalk")]
+            lanes += [LaneSpec(-2, jmap.sidewalk_width, "sidewalk")]
     elif lane_out is not None:
         points, offset = (lane_out.points[0], lane_out.points[-1]), 0.5 * w
-        lanes.append(Lane(-1, w))
+        lanes.append(LaneSpec(-1, w))
     elif lane_in is not None:
         points, offset = (lane_in.points[-1], lane_in.points[0]), -0.5 * w
-        lanes.append(Lane(1, w))
+        lanes.append(LaneSpec(1, w))
     else:  # pragma: no cover - every leg of a valid map has a lane
         raise ValueError(f"leg {name} has no lane")
-    crosswalks: tuple[Crosswalk, ...] = ()
+    crosswalks: tuple[CrosswalkSpec, ...] = ()
     leg = jmap.legs[name]
     if leg.crosswalk is not None:
         # s from the road's start (the mouth); the crossing spans both lanes
         s = leg.crosswalk.offset + 0.5 * leg.crosswalk.width
-        crosswalks = (Crosswalk(s, 0.0, leg.crosswalk.width, 2.0 * w),)
-    return Road(
+        crosswalks = (CrosswalkSpec(s, 0.0, leg.crosswalk.width, 2.0 * w),)
+    return RoadSpec(
         road_id,
         tuple(points),
         tuple(lanes),
         lane_offset=offset,
-        predecessor=Link("junction", JUNCTION_ID),
+        predecessor=LinkSpec("junction", JUNCTION_ID),
         crosswalks=crosswalks,
         name=f"leg {name}",
     )
@@ -99,36 +107,36 @@ def _movement_points(jmap: JunctionMap, move: str) -> tuple[list[tuple[float, fl
 
 
 @functools.lru_cache(maxsize=16)
-def road_network(jmap: JunctionMap) -> tuple[RoadNetwork, OdrIds]:
+def road_network(jmap: JunctionMap) -> tuple[NetworkSpec, OdrIds]:
     """The OpenDRIVE network of ``jmap`` and where its legs and movements are in it."""
     sidewalks = bool(jmap.render_geometry()["sidewalks"])
     legs = {name: i + 1 for i, name in enumerate(jmap.legs)}
     roads = [_leg_road(jmap, name, legs[name], sidewalks) for name in jmap.legs]
     movements: dict[str, int] = {}
-    connections: list[Connection] = []
+    connections: list[ConnectionSpec] = []
     for k, move in enumerate(jmap.movements):
         a, _, b = move.partition("-")
         road_id = JUNCTION_ID + 1 + k
         movements[move] = road_id
         points, heading = _movement_points(jmap, move)
         roads.append(
-            Road(
+            RoadSpec(
                 road_id,
                 tuple(points),
-                (Lane(-1, jmap.lane_width, predecessor=1, successor=-1),),
+                (LaneSpec(-1, jmap.lane_width, predecessor=1, successor=-1),),
                 heading=heading,
                 lane_offset=0.5 * jmap.lane_width,
                 junction=JUNCTION_ID,
-                predecessor=Link("road", legs[a], "start"),
-                successor=Link("road", legs[b], "start"),
+                predecessor=LinkSpec("road", legs[a], "start"),
+                successor=LinkSpec("road", legs[b], "start"),
                 name=f"movement {move}",
             )
         )
-        connections.append(Connection(k, legs[a], road_id, "start", ((1, -1),)))
-    network = RoadNetwork(
+        connections.append(ConnectionSpec(k, legs[a], road_id, "start", ((1, -1),)))
+    network = NetworkSpec(
         jmap.name,
         tuple(roads),
-        (Junction(JUNCTION_ID, jmap.name, tuple(connections)),),
+        (JunctionSpec(JUNCTION_ID, jmap.name, tuple(connections)),),
         meta={"sitcov_map": jmap.name, "sitcov_layout": jmap.LAYOUT},
     )
     return network, OdrIds(legs, movements)
