@@ -92,3 +92,32 @@ def test_esmini_samples_the_lanes_where_sitcov_has_them(name, tmp_path):
                 checked += 1
     assert checked >= len(jmap.legs)
     assert worst < 0.01, f"{name}: a lane centre is {worst:.4f} m from sitcov's"
+
+
+@pytest.mark.parametrize("name", ["crossroads", "roundabout", "merge"])
+def test_movement_chains_put_every_lane_where_sitcov_has_it(name, tmp_path):
+    """The network for maps with lanes per movement (an imported junction), built here
+    from a shipped map: each movement's inbound, connecting and outbound lane."""
+    from sitcov.sim.embedded._odr import _movement_chains
+
+    odrplot = need_esmini("odrplot")
+    jmap = load_map(name)
+    network, ids = _movement_chains(jmap)
+    assert ids.legs == {} and set(ids.movements) == set(jmap.movements)
+    path = write_xodr(network, tmp_path / f"{name}.xodr")
+    csv = tmp_path / "lanes.csv"
+    subprocess.run([str(odrplot), str(path), str(csv), "0.5"], check=True, capture_output=True)
+    centres = _odrplot_centres(csv.read_text())
+    worst = 0.0
+    for move in jmap.movements:
+        a, _, b = move.partition("-")
+        seq = jmap.lane_sequence(a, b)
+        inner = [p for lane in seq[1:-1] for p in jmap.lane(lane).points]
+        pairs = [
+            (ids.entry[move], jmap.lane(seq[0]).points),
+            (ids.exit[move], jmap.lane(seq[-1]).points),
+        ]
+        pairs.append(((ids.movements[move], -1), inner))
+        for key, points in pairs:
+            worst = max(worst, float(_distance(centres[key], points).max()))
+    assert worst < 0.01, f"{name}: a lane centre is {worst:.4f} m from sitcov's"
