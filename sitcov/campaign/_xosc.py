@@ -49,6 +49,12 @@ class _Road:
             if not path.exists():
                 write_xodr(network, path)
             return path.name, identity, ids
+        if not self.file.is_file():
+            raise ConfigError(field="--road", value=str(self.file), expected="an .xodr file")
+        rel = os.path.relpath(self.file.resolve(), out.resolve())
+        frame = getattr(jmap, "frame", None)
+        if isinstance(frame, dict) and "origin" in frame:
+            return rel, imported_placement(frame), None
         from sitcov.sim.carla._actors import Frame
         from sitcov.sim.carla._mapfile import load_carla_map
 
@@ -58,13 +64,26 @@ class _Road:
                 field="--road",
                 value=str(self.file),
                 expected=f"a campaign on map {spec.embedded_map!r} (the junction Town03's map "
-                f"file places on the road file); this one ran on {jmap.name!r}: drop --road "
-                "to export it with its own OpenDRIVE file",
+                f"file places on the road file) or on a map imported from the file; this one "
+                f"ran on {jmap.name!r}: drop --road to export it with its own OpenDRIVE file",
             )
-        if not self.file.is_file():
-            raise ConfigError(field="--road", value=str(self.file), expected="an .xodr file")
-        rel = os.path.relpath(self.file.resolve(), out.resolve())
         return rel, Frame.of(spec).to_sitcov, None
+
+
+def imported_placement(frame: Mapping[str, Any]) -> Any:
+    """Map frame -> the OpenDRIVE file's frame of a map imported from that file: its
+    ``lanes.frame`` says the map's origin in the file (``origin`` [m]) and how far the file
+    was turned to put leg B south (``rotation_deg``), map = R(rotation) (file - origin)."""
+    import math
+
+    x0, y0 = (float(v) for v in frame["origin"])
+    rot = math.radians(float(frame.get("rotation_deg", 0.0)))
+    c, s = math.cos(rot), math.sin(rot)
+
+    def place(x: float, y: float, h: float) -> tuple[float, float, float]:
+        return x0 + c * x + s * y, y0 - s * x + c * y, h - rot
+
+    return place
 
 
 def _embedded_map(sim: Any, where: str) -> Any:
