@@ -168,3 +168,20 @@ def test_every_behaviour_plays_in_esmini_as_in_sitcov(tmp_path, av):
     assert summary.clean == summary.files and summary.agree == summary.files, summary
     if av == "no-perception":
         assert summary.expected_collisions > 0
+
+
+def test_imported_placement_inverts_the_import_frame(rng):
+    """An imported map's frame: map = R(rotation) (file - origin); the placement undoes it
+    (positions and headings)."""
+    import math
+
+    from sitcov.campaign._xosc import imported_placement
+
+    origin, rot = (-80.03, 138.24), math.radians(-0.156 + 37.0)
+    place = imported_placement({"origin": list(origin), "rotation_deg": math.degrees(rot)})
+    for _ in range(20):
+        x, y, h = (float(v) for v in rng.uniform(-200, 200, 3))
+        dx, dy = x - origin[0], y - origin[1]
+        mx, my = math.cos(rot) * dx - math.sin(rot) * dy, math.sin(rot) * dx + math.cos(rot) * dy
+        px, py, ph = place(mx, my, h + rot)
+        assert (px, py) == pytest.approx((x, y), abs=1e-9) and ph == pytest.approx(h)
