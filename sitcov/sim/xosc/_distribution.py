@@ -139,7 +139,14 @@ def write_distribution(
     _write_catalog(out, catalog_name, items, keys)
     template = out / f"{name}_template.xosc"
     sets = [_assignments(r, key, slots, catalog_name) for r, key in zip(items, keys, strict=True)]
-    _template(items[0], sets[0], slots, roads.pop(), catalog_name).write(
+    # every set assigns every parameter the template declares (runs may differ in bins)
+    declared: dict[str, tuple[str, str]] = {}
+    for s in sets:
+        for k, (kind, value) in s.items():
+            declared.setdefault(k, (kind, value))
+    blank = {k: (kind, "" if kind == "string" else value) for k, (kind, value) in declared.items()}
+    sets = [{k: s.get(k, blank[k]) for k in declared} for s in sets]
+    _template(sets[0], slots, roads.pop(), catalog_name).write(
         template, encoding="utf-8", xml_declaration=True
     )
     dist = out / f"{name}_distribution.xosc"
@@ -288,7 +295,7 @@ def _assignments(run: _Run, key: str, slots: list[str], catalog: str) -> dict[st
 
 
 def _template(
-    first: _Run, values: dict[str, tuple[str, str]], slots: list[str], road: str, catalog: str
+    values: dict[str, tuple[str, str]], slots: list[str], road: str, catalog: str
 ) -> ET.ElementTree:
     root = _el(
         "OpenSCENARIO",
@@ -431,5 +438,4 @@ def _template(
     stop = _trigger("StopTrigger", *collisions, _time_after("stored_run_ended", "$end_time"))
     root.append(_el("Storyboard", {}, _el("Init", {}, actions), *stories, stop))
     ET.indent(root)
-    del first
     return ET.ElementTree(root)
