@@ -49,17 +49,13 @@ class _Road:
             if not path.exists():
                 write_xodr(network, path)
             return path.name, identity, ids
-        if not self.file.is_file():
-            raise ConfigError(field="--road", value=str(self.file), expected="an .xodr file")
-        rel = os.path.relpath(self.file.resolve(), out.resolve())
-        frame = getattr(jmap, "frame", None)
-        if isinstance(frame, dict) and "origin" in frame:
-            return rel, imported_placement(frame), None
         from sitcov.sim.carla._actors import Frame
         from sitcov.sim.carla._mapfile import load_carla_map
 
+        frame = getattr(jmap, "frame", None)
+        imported = isinstance(frame, dict) and "origin" in frame
         spec = load_carla_map("Town03")
-        if jmap.name != spec.embedded_map:
+        if not imported and jmap.name != spec.embedded_map:
             raise ConfigError(
                 field="--road",
                 value=str(self.file),
@@ -67,6 +63,11 @@ class _Road:
                 f"file places on the road file) or on a map imported from the file; this one "
                 f"ran on {jmap.name!r}: drop --road to export it with its own OpenDRIVE file",
             )
+        if not self.file.is_file():
+            raise ConfigError(field="--road", value=str(self.file), expected="an .xodr file")
+        rel = os.path.relpath(self.file.resolve(), out.resolve())
+        if imported:
+            return rel, imported_placement(frame), None
         return rel, Frame.of(spec).to_sitcov, None
 
 
