@@ -253,3 +253,18 @@ def test_hero_route_drives_sitcovs_lanes_in_esmini(tmp_path, name):
         q = route[None, :-1] + np.clip(t, 0, 1)[..., None] * seg[None]
         off = np.sqrt(((along[:, None] - q) ** 2).sum(-1)).min(axis=1)
         assert off.max() < 0.05, f"{name} {move}: esmini's hero is {off.max():.2f} m off"
+
+
+def test_the_fault_and_seed_are_in_the_file(tmp_path):
+    """An f1 campaign's export says f1 (the old export of an f1 run was byte-identical to
+    the fault-free one)."""
+    need_module("scenariogeneration", "xosc")
+    db = tmp_path / "f.db"
+    main(["run", "--db", str(db), "--runs", "3", "--executor", "serial", "--fault", "f1"])
+    written = export_runs(db, tmp_path / "x", status=None)
+    runs = _stored(db)
+    assert written
+    for path in written:
+        params = parameters(path)
+        assert params["sitcov_fault"] == "f1"
+        assert int(params["sitcov_seed"]) == runs[path.stem].seed
