@@ -1100,6 +1100,26 @@ def export_xosc_cmd(
         err_console.print(f"distribution of {len(written)} runs: {dist} (template {template})")
 
 
+@app.command("export-xodr")
+def export_xodr_cmd(
+    map_name: str = typer.Option("t-junction", "--map", help="Embedded map (name or YAML)."),
+    out: Path = typer.Option(..., "--out", help="OpenDRIVE file to write (.xodr)."),
+) -> None:
+    """Write an embedded map as OpenDRIVE 1.4 (roads, lanes, junction, sidewalks,
+    crosswalks), the road export-xosc's scenarios play on (docs/export-xosc.md)."""
+    from sitcov.roads import write_xodr
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._odr import road_network
+
+    network, ids = road_network(load_map(map_name))
+    write_xodr(network, out)
+    console.print(
+        f"wrote {out}: {len(network.roads)} roads, {len(ids.movements)} movements",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
 @app.command("play-xosc")
 def play_xosc_cmd(
     paths: list[Path] = typer.Argument(..., help="Scenario files or folders of them."),

@@ -121,3 +121,13 @@ def test_movement_chains_put_every_lane_where_sitcov_has_it(name, tmp_path):
         for key, points in pairs:
             worst = max(worst, float(_distance(centres[key], points).max()))
     assert worst < 0.01, f"{name}: a lane centre is {worst:.4f} m from sitcov's"
+
+
+def test_cli_export_xodr_writes_what_export_xosc_plays_on(tmp_path, capsys):
+    from sitcov.cli import main
+    from sitcov.roads import xodr_text
+
+    out = tmp_path / "m.xodr"
+    main(["export-xodr", "--map", "merge", "--out", str(out)])
+    assert out.read_text() == xodr_text(road_network(load_map("merge"))[0])
+    assert "2 movements" in capsys.readouterr().out
