@@ -1085,35 +1085,123 @@ def _calibrate_classes_cmd(
 
 @app.command("export-xosc")
 def export_xosc_cmd(
-    out: Path = typer.Option(..., "--out", help="Directory for the .xosc files."),
+    out: Path = typer.Option(..., "--out", help="Directory for the .xosc files and the road."),
     situation_json: Optional[str] = typer.Option(  # noqa: UP045
         None,
         "--situation-json",
         help="Situation JSON (as printed by `sitcov generate`; JSON lines ok), or @FILE.",
     ),
     db: Optional[Path] = typer.Option(  # noqa: UP045
-        None, "--db", help="Export every failing run of this campaign database."
+        None, "--db", help="Export the stored runs of this campaign database (see --status)."
     ),
     campaign: Optional[str] = typer.Option(  # noqa: UP045
         None, "--campaign", help="Only this campaign of --db."
     ),
-    map_name: str = typer.Option("Town03", "--map", help="CARLA map file (name or YAML)."),
+    status: str = typer.Option(
+        "fail", "--status", help="Runs of --db to export: fail | pass | all."
+    ),
+    map_name: str = typer.Option(
+        "t-junction", "--map", help="Embedded map the --situation-json situations run on."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Run seed of the --situation-json situations."),
+    road: Optional[Path] = typer.Option(  # noqa: UP045
+        None,
+        "--road",
+        help="Play on this OpenDRIVE file instead of the map's own export (CARLA's Town03 "
+        "for t-junction runs).",
+    ),
+    distribution: bool = typer.Option(
+        False,
+        "--distribution",
+        help="Also write the runs as one ParameterValueDistribution (campaign_distribution"
+        ".xosc over campaign_template.xosc and catalogs/; esmini --param_dist).",
+    ),
 ) -> None:
-    """Write OpenSCENARIO 1.0 files (one per situation) for ScenarioRunner / esmini."""
-    from sitcov.campaign._replay import failing_situations
+    """Write OpenSCENARIO 1.2 files (one per situation) plus their OpenDRIVE road, for
+    esmini, ScenarioRunner and other engines (docs/export-xosc.md)."""
+    from sitcov.campaign._xosc import export_runs, export_situations
     from sitcov.errors import ConfigError
-    from sitcov.sim.carla import export_xosc, situations_from_json
+    from sitcov.sim.carla import situations_from_json
 
     if (situation_json is None) == (db is None):
         raise ConfigError(field="export-xosc", expected="exactly one of --situation-json, --db")
+    if status not in ("fail", "pass", "all"):
+        raise ConfigError(field="--status", value=status, expected="fail | pass | all")
     if situation_json is not None:
+        if map_name.lower() == "town03":
+            raise ConfigError(
+                field="--map", value=map_name,
+                expected="an embedded map (t-junction, ...); for CARLA's Town03 give "
+                "--road PATH/Town03.xodr",
+            )  # fmt: skip
         situations = situations_from_json(situation_json)
+        written = export_situations(situations, out, map=map_name, seed=seed, road=road)
     else:
-        situations = failing_situations(db, campaign)
-    written = export_xosc(situations, out, map=map_name)
+        wanted = None if status == "all" else status
+        written = export_runs(db, out, campaign=campaign, status=wanted, road=road)
     for path in written:
         console.print(str(path), highlight=False, soft_wrap=True)
     err_console.print(f"{len(written)} OpenSCENARIO file(s) written to {out}")
+    if distribution and written:
+        from sitcov.sim.xosc import write_distribution
+
+        template, dist = write_distribution(written, out, campaign or "campaign")
+        console.print(str(dist), highlight=False, soft_wrap=True)
+        err_console.print(f"distribution of {len(written)} runs: {dist} (template {template})")
+
+
+@app.command("export-xodr")
+def export_xodr_cmd(
+    map_name: str = typer.Option("t-junction", "--map", help="Embedded map (name or YAML)."),
+    out: Path = typer.Option(..., "--out", help="OpenDRIVE file to write (.xodr)."),
+) -> None:
+    """Write an embedded map as OpenDRIVE 1.4 (roads, lanes, junction, sidewalks,
+    crosswalks), the road export-xosc's scenarios play on (docs/export-xosc.md)."""
+    from sitcov.roads import write_xodr
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._odr import road_network
+
+    network, ids = road_network(load_map(map_name))
+    write_xodr(network, out)
+    console.print(
+        f"wrote {out}: {len(network.roads)} roads, {len(ids.movements)} movements",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
+@app.command("play-xosc")
+def play_xosc_cmd(
+    paths: list[Path] = typer.Argument(..., help="Scenario files or folders of them."),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+) -> None:
+    """Play exported scenarios (and every run of a *_distribution.xosc) in esmini and compare
+    its collisions with sitcov's verdict (same road user hit, within 0.5 s); esmini from
+    SITCOV_ESMINI or PATH."""
+    import json
+
+    from sitcov.sim.xosc import play, play_distribution, summarise
+
+    def expand(path: Path) -> list[Path]:
+        if not path.is_dir():
+            return [path]
+        return [f for f in sorted(path.glob("*.xosc")) if not f.stem.endswith("_template")]
+
+    played = []
+    for f in (f for p in paths for f in expand(p)):
+        played += play_distribution(f) if f.stem.endswith("_distribution") else [play(f)]
+    summary = summarise(played)
+    if as_json:
+        console.print(json.dumps(summary.to_dict()), highlight=False, soft_wrap=True)
+        return
+    console.print(
+        f"{summary.files} file(s): {summary.clean} loaded cleanly ({summary.clean_rate:.1%}), "
+        f"{summary.agree} agree with sitcov ({summary.agree_rate:.1%}; "
+        f"{summary.expected_collisions} stored collisions)",
+        highlight=False,
+    )
+    for name in summary.disagreeing:
+        console.print(f"  differs: {name}", highlight=False, soft_wrap=True)
 
 
 @app.command("carla-check")
