@@ -17,7 +17,6 @@ anti-conservative for rates near 0.
 
 from __future__ import annotations
 
-import math
 import re
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -151,5 +150,7 @@ def residual_risk(region: str, failures: int, judged: int, criterion: Criterion)
 
 
 def zero_failure_runs(criterion: Criterion) -> int:
-    """Failure-free runs needed from nothing: ceil(ln(1 - confidence) / ln(1 - target))."""
-    return math.ceil(math.log(1.0 - criterion.confidence) / math.log(1.0 - criterion.target))
+    """Failure-free runs needed from nothing (``sitcov runs-needed --below``'s count)."""
+    from sitcov.analysis._flaky import zero_failure_runs as runs_below
+
+    return runs_below(criterion.target, criterion.confidence)
