@@ -97,11 +97,16 @@ def _conditions(
     return conds
 
 
-def _group_of(value: Any) -> str:
-    if isinstance(value, Mapping):
-        parts = [str(value[k]) for k in ("kind", "type") if value.get(k) is not None]
-        return " ".join(parts) if parts else "other"
-    return "other"
+def bin_group(value: Any) -> str:
+    """The group of a categorical bin: its road-user kind and conflict type where its value
+    carries them (``car crossing``, ``pedestrian crossing``), else ``other``."""
+    if not isinstance(value, Mapping) or value.get("kind") is None:
+        return "other"
+    kind = str(value["kind"])
+    kind_type = str(value.get("type") or "").replace("_", " ")
+    if not kind_type:
+        return kind
+    return kind_type if kind_type.startswith(kind) else f"{kind} {kind_type}"
 
 
 def grouped_text(el: Any, labels: list[str]) -> str:
@@ -111,7 +116,7 @@ def grouped_text(el: Any, labels: list[str]) -> str:
     chosen = set(labels)
     groups: dict[str, list[str]] = {}
     for b in el.bins:
-        groups.setdefault(_group_of(b.value), []).append(b.label)
+        groups.setdefault(bin_group(b.value), []).append(b.label)
     parts = []
     for group, members in sorted(groups.items(), key=lambda g: -len(g[1])):
         n = sum(m in chosen for m in members)

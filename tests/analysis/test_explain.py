@@ -163,7 +163,7 @@ def test_long_categorical_conditions_are_grouped_by_road_user_and_conflict():
     el = hs.element("intsit")
     peds = [b.label for b in el.bins if b.value.get("kind") == "pedestrian"]
     text = grouped_text(el, [*peds, el.labels[0]])
-    assert f"every pedestrian pedestrian_crossing bin ({len(peds)})" in text
+    assert f"every pedestrian crossing bin ({len(peds)})" in text
     assert text.startswith(f"intsit: {len(peds) + 1} of {len(el.bins)} bins")
     assert len(text) < 200
 
