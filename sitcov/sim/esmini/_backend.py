@@ -62,7 +62,18 @@ class _Body:
 class _Actor:
     """An esmini object as the ``EgoDriver`` sees an actor."""
 
-    __slots__ = ("active", "body", "height", "kind", "length", "name", "oid", "rows", "speed", "width")
+    __slots__ = (
+        "active",
+        "body",
+        "height",
+        "kind",
+        "length",
+        "name",
+        "oid",
+        "rows",
+        "speed",
+        "width",
+    )
 
     def __init__(self, oid: int, name: str, kind: str, length: float, width: float, height: float):
         self.oid, self.name, self.kind = oid, name, kind
@@ -487,8 +498,7 @@ class EsminiBackend(Backend):
                 "width": width,
                 "dt": self.dt,
                 "actors": {
-                    a.name: {"kind": a.kind, "length": a.length, "width": a.width}
-                    for a in actors
+                    a.name: {"kind": a.kind, "length": a.length, "width": a.width} for a in actors
                 },
             },
             actors={a.name: a.rows for a in actors},
@@ -516,5 +526,3 @@ def _advance(route: list[tuple[float, float]], idx: int, x: float, y: float) -> 
     while idx + 1 < n and math.dist(route[idx + 1], (x, y)) <= math.dist(route[idx], (x, y)):
         idx += 1
     return idx
-
-

@@ -243,7 +243,9 @@ def _value_text(path: Path, decl: Declaration, value: Any) -> str:
             f"{path}: parameter {decl.name!r}: expected a {kind} value, got {value!r}"
         ) from None
     if isinstance(value, Mapping | list | tuple):
-        raise ConfigError(f"{path}: parameter {decl.name!r}: expected a {kind} value, got {value!r}")
+        raise ConfigError(
+            f"{path}: parameter {decl.name!r}: expected a {kind} value, got {value!r}"
+        )
     return str(value)
 
 
