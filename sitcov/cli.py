@@ -258,6 +258,12 @@ def run_cmd(
     carla_launch: Optional[str] = typer.Option(  # noqa: UP045
         None, "--carla-launch", help="Shell command that (re)starts a dead CARLA server."
     ),
+    scenario: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--scenario", help="esmini: an OpenSCENARIO file (or a folder of them) to play."
+    ),
+    road: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--road", help="esmini: the OpenDRIVE file the situations are placed on."
+    ),
 ) -> None:
     """Run, resume or extend a campaign and print its summary."""
     from sitcov.campaign import load_config, open_store, run_campaign
@@ -277,9 +283,11 @@ def run_cmd(
         }.items()
         if value is not None
     }
+    esmini = {k: v for k, v in {"scenario": scenario, "road": road}.items() if v is not None}
     overrides = run_overrides(
         perception=perception,
         carla=carla,
+        esmini=esmini,
         av_cmd=av_cmd,
         av_step_timeout=av_step_timeout,
         grey_box=grey_box,
