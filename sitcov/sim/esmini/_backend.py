@@ -367,7 +367,7 @@ class EsminiBackend(Backend):
         hit: _Actor | None = None
         collision_speed: float | None = None
         road_departure: float | None = None
-        idx = 0
+        idx = start = _advance(route, 0, cx, cy)  # the point the ego starts at
         still = 0.0
         ego_rows: list[tuple[float, float, float, float, float]] = []
         reason = "sim_timeout"
@@ -429,8 +429,8 @@ class EsminiBackend(Backend):
                 break
             if k >= n_max:
                 break
-        length = _length(route)
-        progress = _length(route[: idx + 1])
+        length = _length(route[start:])
+        progress = _length(route[start : idx + 1])
         collided = hit is not None
         metrics = {
             "steps": k,
