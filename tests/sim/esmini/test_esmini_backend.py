@@ -167,3 +167,39 @@ def test_an_exported_paper_situation_plays_on_town03() -> None:
 def test_exported_situations_need_a_road() -> None:
     with pytest.raises(ConfigError, match="--road"):
         make_backend("esmini")
+
+
+def test_a_campaign_on_a_user_scenario_is_deterministic(tmp_path: Path) -> None:
+    """Same seed, same rows: two campaigns of the example, in worker processes."""
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+
+    rows = []
+    for name in ("a", "b"):
+        config = CampaignConfig(
+            name="c",
+            hyperspace=str(EXAMPLES / "crossing.yaml"),
+            backend="esmini",
+            backend_options={"scenario": str(CROSSING)},
+            runs=12,
+            seed=4,
+            workers=1,
+            executor="processes",
+        )
+        with open_store(tmp_path / f"{name}.db") as store:
+            run_campaign(config, store)
+            rows.append([(r.situation, r.seed, r.outcome) for r in store.iter_runs("c")])
+    assert len(rows[0]) == 12 and rows[0] == rows[1]
+    assert all(o.metrics["parameters"]["TriggerDistance"] for _, _, o in rows[0])
+
+
+def test_unknown_element_stops_the_campaign_before_the_database(tmp_path: Path) -> None:
+    from sitcov.campaign import CampaignConfig
+    from sitcov.campaign._build import check_parts
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text((EXAMPLES / "crossing.yaml").read_text().replace("OncomingSpeed", "Oncoming"))
+    config = CampaignConfig(
+        hyperspace=str(bad), backend="esmini", backend_options={"scenario": str(CROSSING)}
+    )
+    with pytest.raises(ConfigError, match="'Oncoming'"):
+        check_parts(config)
