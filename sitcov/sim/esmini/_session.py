@@ -77,6 +77,7 @@ class Session:
         if lib.SE_InitWithString(self.xml.encode(), 0, 0, 0, 0) == 0:
             return
         if log is not None:
+            lib.SE_Close()  # flushes the log
             raise EsminiError(_log_errors(log))
         lib.SE_Close()
         fd, name = tempfile.mkstemp(prefix="sitcov-esmini-", suffix=".log")
@@ -161,7 +162,7 @@ def _log_errors(log: str) -> str:
         lines = Path(log).read_text(encoding="utf-8", errors="replace").splitlines()
     except OSError:
         lines = []
-    errors = [ln.split("]", 2)[-1].strip() for ln in lines if "error" in ln.lower()]
+    errors = [ln.rsplit("] [error]", 1)[-1].strip() for ln in lines if "[error]" in ln]
     reason = "; ".join(dict.fromkeys(errors)) or "no reason logged"
     return f"esmini could not load the scenario: {reason}"
 

@@ -203,3 +203,16 @@ def test_unknown_element_stops_the_campaign_before_the_database(tmp_path: Path) 
     )
     with pytest.raises(ConfigError, match="'Oncoming'"):
         check_parts(config)
+
+
+def test_a_scenario_esmini_refuses_is_an_error_with_esmini_s_reason(tmp_path: Path) -> None:
+    """The run raises (the campaign stores it as ``error``) with esmini's own reason; the
+    next run in the same process plays normally (the failed scenario was closed)."""
+    from sitcov.sim.esmini._session import EsminiError
+
+    broken = tmp_path / "broken.xosc"
+    broken.write_text(CROSSING.read_text().replace("straight.xodr", "missing.xodr"))
+    with pytest.raises(EsminiError, match="missing.xodr"):
+        make_backend("esmini", scenario=str(broken)).run(situation(), Scripted(0.0), 0)
+    ok = make_backend("esmini", scenario=str(CROSSING)).run(situation(), Scripted(0.0), 0)
+    assert ok.status == "pass"
