@@ -42,9 +42,8 @@ def main() -> None:
         times.append(time.perf_counter() - start)
         seen = read()
         lib.SE_Close()
-    print(
-        f"A rewritten declaration: reads {seen}, median load {1000 * statistics.median(times):.1f} ms"
-    )
+    median = 1000 * statistics.median(times)
+    print(f"A rewritten declaration: reads {seen}, median load {median:.1f} ms")
 
     @PARAM_CALLBACK
     def set_value(_: object) -> None:
@@ -58,9 +57,8 @@ def main() -> None:
         times.append(time.perf_counter() - start)
         seen = read()
         lib.SE_Close()
-    print(
-        f"B declaration callback: reads {seen}, median load {1000 * statistics.median(times):.1f} ms"
-    )
+    median = 1000 * statistics.median(times)
+    print(f"B declaration callback: reads {seen}, median load {median:.1f} ms")
 
 
 if __name__ == "__main__":
