@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from needs import need_esmini
+from needs import missing, need_esmini
 
 from sitcov.av import AVStack, Control, Observation, RunInfo, make_stack
 from sitcov.errors import ConfigError
@@ -150,10 +150,11 @@ def test_a_folder_is_an_element(tmp_path: Path) -> None:
         folder.check_hyperspace(load_hyperspace(bad))
 
 
-@pytest.mark.skipif(not TOWN03.is_file(), reason="Town03.xodr is test data of ../shared")
 def test_an_exported_paper_situation_plays_on_town03() -> None:
     """IntSit-3 of the paper's hyperspace through the OpenSCENARIO exporter: the ego follows
     its exported route on Town03 to the goal, on the road all the way."""
+    if not TOWN03.is_file():
+        missing(f"{TOWN03} (test data next to the repository, with the esmini build)")
     hs = load_hyperspace()
     labels = {e: hs.labels(e)[0] for e in hs.element_names}
     labels.update(intsit="IntSit-3", friction="1.0")
