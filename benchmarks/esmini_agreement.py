@@ -1,7 +1,7 @@
 """Verdicts of the esmini backend against the embedded backend on the same situations.
 
 Usage: python benchmarks/esmini_agreement.py --db DB --campaign NAME [--speed-sample 60]
-       [--speed-only] [--out FILE.json]
+       [--speed-only] [--out FILE.json] [--rows FILE.csv]
 
 Every judged run (pass or fail) of an esmini campaign (``sitcov run --backend esmini``) is
 run again, with its stored situation and run seed, on the embedded backend with the
@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import csv
 import json
 import time
 from pathlib import Path
@@ -57,6 +58,7 @@ def compare(db: str, campaign: str) -> dict[str, Any]:
     }
     by_intsit: dict[str, list[int]] = collections.defaultdict(lambda: [0, 0])
     reasons: collections.Counter[str] = collections.Counter()
+    rows: list[dict[str, Any]] = []
     for rec in records:
         emb = judge(backend.run(rec.situation, stack, rec.seed))
         es = rec.outcome
@@ -70,6 +72,16 @@ def compare(db: str, campaign: str) -> dict[str, Any]:
         if not agree:
             pair = f"esmini {es.kind}/{es.end_reason} vs embedded {emb.kind}/{emb.end_reason}"
             reasons[pair] += 1
+        rows.append(
+            {
+                "index": rec.index,
+                **{f"bin_{k}": v for k, v in rec.situation.bins.items()},
+                "esmini": f"{es.kind}/{es.end_reason}",
+                "embedded": f"{emb.kind}/{emb.end_reason}",
+                "esmini_aeb": es.aeb_fired,
+                "embedded_aeb": emb.aeb_fired,
+            }
+        )
     stack.close()
     backend.close()
     n = len(records)
@@ -87,6 +99,7 @@ def compare(db: str, campaign: str) -> dict[str, Any]:
             k: {"runs": v[0], "disagree": v[1]} for k, v in sorted(by_intsit.items())
         },
         "disagreement_reasons": dict(reasons.most_common()),
+        "rows": rows,
     }
 
 
@@ -122,8 +135,15 @@ def main() -> None:
     parser.add_argument("--speed-sample", type=int, default=0)
     parser.add_argument("--speed-only", action="store_true", help="no verdict comparison")
     parser.add_argument("--out", default=None)
+    parser.add_argument("--rows", default=None, help="CSV of every run's two verdicts")
     args = parser.parse_args()
     result = {} if args.speed_only else compare(args.db, args.campaign)
+    rows = result.pop("rows", [])
+    if args.rows and rows:
+        with open(args.rows, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
     if args.speed_sample:
         result["speed"] = speed(args.db, args.campaign, args.speed_sample)
     text = json.dumps(result, indent=2)
