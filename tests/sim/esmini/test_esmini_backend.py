@@ -217,3 +217,23 @@ def test_a_scenario_esmini_refuses_is_an_error_with_esmini_s_reason(tmp_path: Pa
         make_backend("esmini", scenario=str(broken)).run(situation(), Scripted(0.0), 0)
     ok = make_backend("esmini", scenario=str(CROSSING)).run(situation(), Scripted(0.0), 0)
     assert ok.status == "pass"
+
+
+def test_a_wall_time_out_is_stored_and_leaves_esmini_usable(tmp_path: Path) -> None:
+    """The serial executor's alarm interrupts a run mid-scenario: stored as ``timeout``;
+    the scenario was closed and the lock released, so the next run plays."""
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+
+    config = CampaignConfig(
+        hyperspace=str(EXAMPLES / "crossing.yaml"),
+        backend="esmini",
+        backend_options={"scenario": str(CROSSING)},
+        runs=2,
+        executor="serial",
+        run_timeout=0.001,
+    )
+    with open_store(tmp_path / "t.db") as store:
+        run_campaign(config, store)
+        assert store.status_counts()["timeout"] == 2
+    again = make_backend("esmini", scenario=str(CROSSING))
+    assert again.run(situation(), Scripted(0.0), 0).status == "pass"
