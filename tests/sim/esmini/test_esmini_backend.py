@@ -237,3 +237,20 @@ def test_a_wall_time_out_is_stored_and_leaves_esmini_usable(tmp_path: Path) -> N
         assert store.status_counts()["timeout"] == 2
     again = make_backend("esmini", scenario=str(CROSSING))
     assert again.run(situation(), Scripted(0.0), 0).status == "pass"
+
+
+def test_without_a_route_the_ego_follows_its_lane_ahead(tmp_path: Path) -> None:
+    text = CROSSING.read_text()
+    routing = text.index("<RoutingAction>")
+    start = text.rindex("<PrivateAction>", 0, routing)
+    end = text.index("</PrivateAction>", routing) + len("</PrivateAction>")
+    free = tmp_path / "free.xosc"
+    free.write_text(text[:start] + text[end:])
+    shutil.copy(EXAMPLES / "straight.xodr", tmp_path)
+    stack = Scripted(0.0)
+    make_backend("esmini", scenario=str(free), route_length=120.0).run(situation(), stack, 0)
+    route = stack.info.route
+    assert route[0][0] == pytest.approx(20.0, abs=0.1) and stack.info.goal[0] == pytest.approx(
+        140.0, abs=1.0
+    )
+    assert all(y == pytest.approx(-1.75, abs=1e-6) for _, y in route)  # lane -1's centre
