@@ -119,6 +119,28 @@ def hyperspace_derive_cmd(
     err_console.print(f"wrote {out}: {n} intersection situations", highlight=False, soft_wrap=True)
 
 
+@hyperspace_app.command("scenario")
+def hyperspace_scenario_cmd(
+    scenario: Path = typer.Argument(..., help="An OpenSCENARIO file (.xosc)."),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the YAML here (default: stdout)."
+    ),
+) -> None:
+    """Write a hyperspace skeleton whose elements are the scenario's ParameterDeclarations."""
+    import yaml
+
+    from sitcov.sim.esmini import ScenarioFile
+
+    doc = ScenarioFile(scenario).hyperspace_skeleton()
+    text = yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {out}", highlight=False, soft_wrap=True)
+
+
 @app.command("generate")
 def generate_cmd(
     n: int = typer.Option(10, "-n", "--n", help="How many situations to print."),

@@ -193,6 +193,42 @@ class ScenarioFile:
             return None
         return Path(_resolve(self.path.parent, logic.get("filepath", "")))
 
+    def hyperspace_skeleton(self) -> dict[str, Any]:
+        """A hyperspace (file form) with one element per declared parameter, to edit: a
+        positive ``double`` gets two ranges around its default (0.5x-1x, 1x-1.5x), a
+        ``boolean`` both values, anything else its default as the only bin."""
+        elements = []
+        for decl in self.declarations.values():
+            kind = decl.type.lower()
+            bins: list[dict[str, Any]] = [{"value": decl.default}]
+            if kind == "double":
+                try:
+                    d = float(decl.default)
+                except ValueError:
+                    d = math.nan
+                if math.isfinite(d) and d > 0:
+                    bins = [
+                        {"label": "low", "range": [round(0.5 * d, 6), d]},
+                        {"label": "high", "range": [d, round(1.5 * d, 6)]},
+                    ]
+                elif math.isfinite(d):
+                    bins = [{"value": d}]
+            elif kind in ("integer", "int", "unsignedint", "unsignedshort"):
+                bins = [{"value": float(decl.default)}] if _is_number(decl.default) else bins
+            elif kind == "boolean":
+                bins = [{"value": "false"}, {"value": "true"}]
+            elements.append(
+                {"name": decl.name, "description": f"{kind} parameter of {self.path.name}",
+                 "bins": bins}
+            )  # fmt: skip
+        return {
+            "name": self.name,
+            "description": f"The ParameterDeclarations of {self.path.name} (edit the bins).",
+            "metadata": {"scenario": str(self.path)},
+            "axes": [{"name": "scenario", "elements": elements}],
+            "constraints": [],
+        }
+
     def environment_friction(self) -> float | None:
         """The file's ``RoadCondition frictionScaleFactor`` (the run's mu when no ``friction``
         element sets it), or None."""
@@ -207,6 +243,14 @@ class ScenarioFile:
             return float(text)
         except ValueError:
             return None
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _copy(root: ET.Element) -> ET.Element:

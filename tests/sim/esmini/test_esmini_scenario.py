@@ -134,3 +134,14 @@ def test_a_missing_library_is_one_line(monkeypatch: pytest.MonkeyPatch, tmp_path
         find_library()
     text = str(err.value)
     assert "SITCOV_ESMINI" in text and "\n" not in text
+
+
+def test_the_skeleton_hyperspace_binds_to_its_scenario(tmp_path: Path) -> None:
+    """`sitcov hyperspace scenario FILE`'s document loads and passes the binding check."""
+    from sitcov.hyperspace import load_hyperspace
+
+    file = ScenarioFile(CROSSING)
+    hs = load_hyperspace(file.hyperspace_skeleton())
+    assert set(hs.element_names) == set(file.declarations)
+    file.check_names(hs.element_names)
+    assert hs.labels("TriggerDistance") == ["low", "high"]  # ranges around the default 30
