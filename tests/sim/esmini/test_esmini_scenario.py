@@ -144,4 +144,4 @@ def test_the_skeleton_hyperspace_binds_to_its_scenario(tmp_path: Path) -> None:
     hs = load_hyperspace(file.hyperspace_skeleton())
     assert set(hs.element_names) == set(file.declarations)
     file.check_names(hs.element_names)
-    assert hs.labels("TriggerDistance") == ["low", "high"]  # ranges around the default 30
+    assert list(hs.labels("TriggerDistance")) == ["low", "high"]  # ranges around the default 30
