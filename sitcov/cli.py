@@ -119,6 +119,28 @@ def hyperspace_derive_cmd(
     err_console.print(f"wrote {out}: {n} intersection situations", highlight=False, soft_wrap=True)
 
 
+@hyperspace_app.command("scenario")
+def hyperspace_scenario_cmd(
+    scenario: Path = typer.Argument(..., help="An OpenSCENARIO file (.xosc)."),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the YAML here (default: stdout)."
+    ),
+) -> None:
+    """Write a hyperspace skeleton whose elements are the scenario's ParameterDeclarations."""
+    import yaml
+
+    from sitcov.sim.esmini import ScenarioFile
+
+    doc = ScenarioFile(scenario).hyperspace_skeleton()
+    text = yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {out}", highlight=False, soft_wrap=True)
+
+
 @app.command("generate")
 def generate_cmd(
     n: int = typer.Option(10, "-n", "--n", help="How many situations to print."),
@@ -258,6 +280,12 @@ def run_cmd(
     carla_launch: Optional[str] = typer.Option(  # noqa: UP045
         None, "--carla-launch", help="Shell command that (re)starts a dead CARLA server."
     ),
+    scenario: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--scenario", help="esmini: an OpenSCENARIO file (or a folder of them) to play."
+    ),
+    road: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--road", help="esmini: the OpenDRIVE file the situations are placed on."
+    ),
 ) -> None:
     """Run, resume or extend a campaign and print its summary."""
     from sitcov.campaign import load_config, open_store, run_campaign
@@ -277,9 +305,11 @@ def run_cmd(
         }.items()
         if value is not None
     }
+    esmini = {k: v for k, v in {"scenario": scenario, "road": road}.items() if v is not None}
     overrides = run_overrides(
         perception=perception,
         carla=carla,
+        esmini=esmini,
         av_cmd=av_cmd,
         av_step_timeout=av_step_timeout,
         grey_box=grey_box,

@@ -48,6 +48,19 @@ def need_program(*names: str) -> str:
     missing(f"{' or '.join(names)} is not on PATH")
 
 
+def need_esmini_library() -> str:
+    """The path of esmini's C library, found as the esmini backend finds it
+    (``SITCOV_ESMINI_LIB``, ``SITCOV_ESMINI`` or an ``esmini`` on PATH; CI sets
+    ``SITCOV_ESMINI`` to the shared build)."""
+    from sitcov.errors import SetupError
+    from sitcov.sim.esmini import find_library
+
+    try:
+        return str(find_library())
+    except SetupError as exc:
+        missing(str(exc))
+
+
 def not_on_this_machine(reason: str) -> NoReturn:
     """Skip, in CI too: the test needs a capability of the machine itself that no install
     step can provide (root, a cgroup-v1 memory controller, /proc start times). Each such test

@@ -51,6 +51,7 @@ PACKAGES = (
     "sim",
     "sim.embedded",
     "sim.carla",
+    "sim.esmini",
     "weather",
     "report",
     "evidence",
