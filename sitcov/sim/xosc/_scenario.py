@@ -60,6 +60,9 @@ def _xosc() -> Any:
         from scenariogeneration import xosc
     except ImportError:
         raise MissingExtraError("OpenSCENARIO export", "xosc", "scenariogeneration") from None
+    # scenariogeneration checks every element against one process-wide version, which the
+    # last Scenario built set (the CARLA exporter writes 1.0): set ours before building
+    xosc.VersionBase().setVersion(minor=OSC_MINOR)
     return xosc
 
 
