@@ -177,11 +177,20 @@ def build_stack(config: CampaignConfig) -> AVStack:
     return make_stack(config.av, fault=config.fault, params=config.av_params)
 
 
-def check_hyperspace_values(backend: Any, hyperspace: Any, spec: str | None) -> None:
-    """The backend's check of the hyperspace's category values (routes, actor keys), its
-    error naming the hyperspace file (or built-in name) the values came from."""
+def check_backend_hyperspace(backend: Any, hyperspace: Any, spec: str | None = None) -> None:
+    """Let a backend refuse a hyperspace it cannot play (its optional ``check_hyperspace``:
+    the esmini backend's scenario parameters, the embedded and CARLA backends' routes and
+    actor keys); an error that names no file names the hyperspace ``spec`` (file or
+    built-in name) the values came from.
+
+    Raises:
+        ConfigError: the backend's one-line reason.
+    """
+    check = getattr(backend, "check_hyperspace", None)
+    if not callable(check):
+        return
     try:
-        backend.check_hyperspace(hyperspace)
+        check(hyperspace)
     except ConfigError as exc:
         if exc.file is not None or exc.field is None:
             raise
@@ -206,7 +215,7 @@ def check_parts(config: CampaignConfig) -> None:
     make_generator(config, hyperspace)
     backend = build_backend(config)
     try:
-        check_hyperspace_values(backend, hyperspace, config.hyperspace)
+        check_backend_hyperspace(backend, hyperspace, config.hyperspace)
     finally:
         backend.close()
     build_stack(config).close()
