@@ -24,7 +24,7 @@ from sitcov.campaign._summary import summarize_store, summary_table
 from sitcov.errors import ConfigError
 from sitcov.generation import make_generator
 from sitcov.hyperspace import load_hyperspace
-from sitcov.sim import WORLD_MODEL_VERSION, Judge
+from sitcov.sim import FAILURE_KINDS, WORLD_MODEL_VERSION, Judge
 
 # --- the judge is configuration; the facts are not -------------------------------------------
 
@@ -105,7 +105,7 @@ def test_summary_breaks_failures_down_by_kind(judged_db):
         assert by_kind[kind]["failure_rate"] == pytest.approx(n / judged)
     assert sum(k["failures"] for k in by_kind.values()) == summary["failures"]
     assert summary["physics"] == "carla" and summary["judge"] == "strict"
-    assert summary["judge_counts"] == ["collision", "road_departure", "lane_departure"]
+    assert summary["judge_counts"] == list(FAILURE_KINDS)
     assert summary["world_model"] == WORLD_MODEL_VERSION and not summary["legacy_world_model"]
     # events: every fact, counted or not (here the strict judge counts all)
     assert summary["events_by_kind"]["lane_departure"] >= by_kind["lane_departure"]["failures"]
@@ -118,7 +118,7 @@ def test_summary_breaks_failures_down_by_kind(judged_db):
     Console(file=text, width=120).print(summary_table(summary))
     shown = text.getvalue()
     assert "road departure" in shown and "lane departure" in shown
-    assert "strict (collision + road departure + lane departure)" in shown
+    assert "strict (collision + ego stationary + road departure + lane departure" in shown
 
 
 def test_exports_carry_the_failure_kind(judged_db, tmp_path):

@@ -19,6 +19,8 @@ new metric is a new monitor in the list (``default_monitors``), not a change of 
   to a stop; the run goes on.
 - :class:`LeaveMapRule`: an actor at the end of its route leaves the world.
 - :class:`GoalMonitor`: the ego reached its goal: ends the run.
+- :class:`~sitcov.sim.embedded._progress.ProgressMonitor`: the ego's route completion,
+  time to goal, standstill and ``blocked`` time (``_progress.py``).
 - :class:`EarlyEndMonitor`: the ego's AEB latched and it stands, and no actor can still
   reach it: ends the run as ``stopped`` (docs/embedded.md, "End of a run").
 
@@ -578,7 +580,8 @@ class GoalMonitor:
 class EarlyEndMonitor:
     """Ends a run as ``stopped`` once nothing can change any more.
 
-    The ego's AEB has latched (``world.driver.aeb_time``) and the ego stands; then the run
+    The ego's AEB has latched (``world.driver.latched``: an AEB that releases never ends a
+    run early) and the ego stands; then the run
     is over when no active actor can still reach it. An actor cannot when it is
     ``clear`` (the stopped ego's box lies outside the corridor the actor will still sweep:
     its remaining route widened by half its width and :data:`CORRIDOR_MARGIN`, and the road
@@ -608,7 +611,7 @@ class EarlyEndMonitor:
 
     def update(self, world: Any) -> str | None:
         """``"stopped"`` when the ego stands latched and no actor can reach it."""
-        if not self.enabled or world.driver.aeb_time is None:
+        if not self.enabled or not world.driver.latched:
             return None
         if world.ego.body.speed >= STOPPED_SPEED:
             return None
@@ -628,11 +631,19 @@ class EarlyEndMonitor:
 
 
 def default_monitors(
-    world: Any, lane: LaneDepartureMonitor, road: RoadDepartureMonitor, early_end: bool
+    world: Any,
+    lane: LaneDepartureMonitor,
+    road: RoadDepartureMonitor,
+    early_end: bool,
+    budget: float = 60.0,
 ) -> list[Any]:
-    """The monitors of an embedded run, in the order the loop calls them."""
+    """The monitors of an embedded run, in the order the loop calls them (``budget``: the
+    run's time limit [s], for the route progress facts)."""
+    from sitcov.sim.embedded._progress import ProgressMonitor  # it imports this module
+
     return [
         EgoRouteMonitor(world.ego.route, lane, road),
+        ProgressMonitor(world, budget),
         PETMonitor(world),
         ProximityMonitor(world),
         CollisionMonitor(world),
