@@ -24,10 +24,10 @@ def make_stack(
 
     Args:
         spec: ``"reference"`` (the paper's stack, its AEB releasing),
-            ``"reference-latched"`` (its AEB latched, as the paper's), ``"no-perception"`` (the same without
-            its brake), an entry point in the group ``sitcov.av``, ``package.module:Class``,
-            or ``cmd:COMMAND`` (an external process; ``params`` are its options, see
-            ``sitcov.av.external_stack``).
+            ``"reference-latched"`` (its AEB latched, as the paper's),
+            ``"no-perception"`` (the same without its brake), an entry point in the
+            group ``sitcov.av``, ``package.module:Class``, or ``cmd:COMMAND`` (an
+            external process; ``params`` are its options, see ``sitcov.av.external_stack``).
         fault: seeded fault (``f1``/``f2``/``f3``), passed to stacks that accept ``fault``.
         params: parameter overrides, passed to stacks that accept ``params``.
 

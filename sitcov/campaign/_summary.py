@@ -169,9 +169,7 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     # (events that happened in runs the campaign's judge passes or fails for another kind)
     contacts = summary.get("actor_collisions") or {}
     if contacts.get("runs"):
-        totals.add_row(
-            "  other road users collided", f"{contacts['runs']} runs (never the ego's)"
-        )
+        totals.add_row("  other road users collided", f"{contacts['runs']} runs (never the ego's)")
     if "route_completion" in summary:
         from sitcov.analysis import completion_lines
 

@@ -50,7 +50,7 @@ def test_the_judge_decides_verdicts_from_identical_facts():
             judge = Judge.from_spec(run.config["judge"])
             assert run.failure_kind == judge.kind(raw) and run.status == judge(raw).status
     kinds = {j: _kinds(store, j) for j in runs}
-    assert set(kinds["paper"]) <= {"pass", "collision"}
+    assert set(kinds["paper"]) <= {"pass", "collision", "ego_stationary"}
     assert "road_departure" in kinds["default"] and "lane_departure" in kinds["strict"]
     fails = {j: store.count_runs(j, "fail") for j in runs}
     assert fails["paper"] < fails["default"] < fails["strict"]  # each judge counts more
@@ -320,4 +320,4 @@ def test_judge_flag_reaches_the_stored_config(tmp_path, capsys):
         info = store.campaign("default")
         assert info.config["judge"] == "paper" and info.config["physics"] == "physical"
         assert info.world_version == WORLD_MODEL_VERSION
-        assert {r.failure_kind for r in store.runs()} <= {"pass", "collision"}
+        assert {r.failure_kind for r in store.runs()} <= {"pass", "collision", "ego_stationary"}

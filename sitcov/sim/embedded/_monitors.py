@@ -590,12 +590,17 @@ class EarlyEndMonitor:
     ``away`` (past its conflict zone and moving away), or ``stuck`` (its controller will
     never move it again, e.g. the timing law braked waiting for an ego that stands).
 
+    The route progress facts must be those of the whole run, so the run also waits until
+    the standing ego's path is clear (``progress.settled()``, ``_progress.py``).
+
     Args:
         enabled: False never ends a run early.
+        progress: the run's ``ProgressMonitor`` (None: not waited for).
     """
 
-    def __init__(self, world: Any, enabled: bool = True) -> None:
+    def __init__(self, world: Any, enabled: bool = True, progress: Any = None) -> None:
         self.enabled = enabled
+        self.progress = progress
         self.clear: list[bool | None] = [None] * len(world.actors)
         self.zone_end = [
             math.inf if a.conflict is None else min(a.conflict.s_ov_end, a.conflict.s_ov + PET_ZONE)
@@ -624,6 +629,8 @@ class EarlyEndMonitor:
             away = a.s - a.half_l > self.zone_end[i] and a.gap > a.prev_gap
             if not (away or a.controller.stuck(a)):
                 return None
+        if self.progress is not None and not self.progress.settled():
+            return None
         return "stopped"
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
@@ -641,14 +648,15 @@ def default_monitors(
     run's time limit [s], for the route progress facts)."""
     from sitcov.sim.embedded._progress import ProgressMonitor  # it imports this module
 
+    progress = ProgressMonitor(world, budget)
     return [
         EgoRouteMonitor(world.ego.route, lane, road),
-        ProgressMonitor(world, budget),
+        progress,
         PETMonitor(world),
         ProximityMonitor(world),
         CollisionMonitor(world),
         *([ActorCollisionMonitor(world)] if len(world.actors) > 1 else []),
         LeaveMapRule(world),
         GoalMonitor(world),
-        EarlyEndMonitor(world, early_end),
+        EarlyEndMonitor(world, early_end, progress),
     ]

@@ -139,11 +139,18 @@ class ProgressMonitor:
         elif world.t - self.clear_since >= BLOCKED_TIME - 1e-9:
             self.blocked_time = world.t
 
+    def settled(self) -> bool:
+        """Whether the standing ego's ``blocked`` fact is known without running on: it is
+        blocked already, or its path is clear now (the early end asks, so that the facts
+        of a run ended early are those of the whole run; an actor that merely passes
+        through the ego's path later is the one case it cannot foresee)."""
+        return self.blocked_time is not None or self.clear_since is not None
+
     def report(self, run: dict, actors: dict, world: Any) -> None:
         """The facts of the module docstring into the run's metrics.
 
-        A run that ended as ``stopped`` (the ego stands for good and nothing can reach it)
-        is extrapolated to the time budget: the state at the end holds, so a clear-path
+        A run that ended as ``stopped`` (the ego stands for good, nothing can reach it and
+        its path is clear: :meth:`settled`) is extrapolated to the time budget: the clear
         standstill becomes ``blocked`` when it would have lasted :data:`BLOCKED_TIME`.
         """
         ego = world.ego
@@ -152,10 +159,9 @@ class ProgressMonitor:
         standing = ego.body.speed < STILL_SPEED
         occupied = standing and path_occupied(world, self.xs, self.ys, self.ss)
         blocked = self.blocked_time
-        if blocked is None and reason == "stopped" and standing and not occupied:
-            since = t if self.clear_since is None else self.clear_since
-            if since + BLOCKED_TIME <= self.budget + 1e-9:
-                blocked = max(t, since + BLOCKED_TIME)
+        since = self.clear_since
+        if blocked is None and reason == "stopped" and since is not None:
+            blocked = since + BLOCKED_TIME if since + BLOCKED_TIME <= self.budget + 1e-9 else None
         if reason == "goal" and self.goal_time is None:
             self.goal_time = t
         reached = self.goal_time is not None
