@@ -28,10 +28,11 @@ DEFAULT_PARAMS: dict[str, Any] = {
     # detection classes the AEB acts on (the label above always counts); how closeness
     # is judged per class: sitcov.av._aeb.CLASS_SIZE, docs/embedded.md
     "classes": ("car", "person", "bicycle"),
-    # What the AEB does once it fired: hold full brake while a frame still triggers it and
-    # for aeb_hold seconds after the last one that did, then hand back to route following
-    # (a production AEB holds the car, then releases to the driver). aeb_latch: brake to
-    # the end of the run instead (the paper's stack; the "reference-latched" stack).
+    # What the AEB does once it fired: brake fully to a standstill, hold while a frame
+    # still triggers it and for aeb_hold seconds after the last one that did, then hand
+    # back to route following (a production AEB holds the car, then releases to the
+    # driver). aeb_latch: brake to the end of the run instead (the paper's stack; the
+    # "reference-latched" stack).
     "aeb_latch": False,
     "aeb_hold": 1.0,  # [s]
     # Route following (CARLA's local planner and PID controllers).

@@ -5,10 +5,10 @@ controllers drive the route at 25 km/h; a camera-only perception stage feeds an 
 brake that fires when a detection of a road user (by default a car, a person or a bicycle:
 the ``classes`` parameter) passes three tests (score, centering, apparent size: the box
 width for a car, the scaled box height for a person or cyclist, :data:`CLASS_SIZE`).
-Once fired, it brakes fully while frames still trigger it and for ``aeb_hold`` seconds
-after the last one that did, then hands back to route following, so the stack can finish
-its route after a stop. The paper's brake latched until the end of the run: that is the
-``aeb_latch`` parameter, and the stack named ``reference-latched``
+Once fired, it brakes fully to a standstill, holds while frames still trigger it and for
+``aeb_hold`` seconds after the last one that did, then hands back to route following, so
+the stack can finish its route after a stop. The paper's brake latched until the end of
+the run: that is the ``aeb_latch`` parameter, and the stack named ``reference-latched``
 (:class:`LatchedReferenceStack`), which the paper's Table 2 protocol uses. The seeded
 faults change the three tests' parameters (see :mod:`sitcov.av._faults`).
 """
@@ -30,6 +30,9 @@ from sitcov.perception._base import CameraSpec, Detection
 
 Detector = Callable[[Any], Sequence[Detection]]
 
+#: The releasing AEB hands back only once the car stands (below this speed [m/s]): like a
+#: production AEB it brakes to a standstill and holds there (the judge's stationary speed).
+_HELD_SPEED = 0.3
 #: Distance to the last route point at which the route counts as driven [m] (CARLA: 1 m).
 _ARRIVED = 1.0
 #: ``math.hypot`` under the name :func:`_route_step` uses (``sitcov/_jit.py``
@@ -164,7 +167,7 @@ class ReferenceStack(AVStack):
                 elif self._clear_since is None:
                     self._clear_since = t
             clear = self._clear_since
-            if clear is None or t - clear < self._hold - 1e-9:
+            if clear is None or t - clear < self._hold - 1e-9 or speed >= _HELD_SPEED:
                 return 0.0, 1.0, self._steer, since
             self._braking_since = self._clear_since = None
         elif frame and self._perceive(detections, image):

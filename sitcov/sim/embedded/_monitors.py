@@ -20,7 +20,8 @@ new metric is a new monitor in the list (``default_monitors``), not a change of 
 - :class:`LeaveMapRule`: an actor at the end of its route leaves the world.
 - :class:`GoalMonitor`: the ego reached its goal: ends the run.
 - :class:`~sitcov.sim.embedded._progress.ProgressMonitor`: the ego's route completion,
-  time to goal, standstill and ``blocked`` time (``_progress.py``).
+  time to goal, standstill and ``blocked`` time (``_progress.py``); it ends the run at the
+  goal as :class:`GoalMonitor` does, in the built-in list instead of it.
 - :class:`EarlyEndMonitor`: the ego's AEB latched and it stands, and no actor can still
   reach it: ends the run as ``stopped`` (docs/embedded.md, "End of a run").
 
@@ -648,15 +649,14 @@ def default_monitors(
     run's time limit [s], for the route progress facts)."""
     from sitcov.sim.embedded._progress import ProgressMonitor  # it imports this module
 
-    progress = ProgressMonitor(world, budget)
+    progress = ProgressMonitor(world, budget)  # also the goal monitor
     return [
         EgoRouteMonitor(world.ego.route, lane, road),
-        progress,
         PETMonitor(world),
         ProximityMonitor(world),
         CollisionMonitor(world),
         *([ActorCollisionMonitor(world)] if len(world.actors) > 1 else []),
         LeaveMapRule(world),
-        GoalMonitor(world),
+        progress,
         EarlyEndMonitor(world, early_end, progress),
     ]

@@ -20,8 +20,9 @@ failure kinds and what the summary shows next to the failure rate:
   not reach its goal, and why: ``aeb_latched`` (its emergency brake latched),
   ``path_occupied`` or ``path_clear``.
 
-Only the arc length comparison runs on every step; the path test runs only while the ego
-stands and has not been blocked yet.
+It ends the run at the goal (it is the built-in list's goal monitor: one call per step for
+both); only the arc length and speed comparisons run on every step, the path test only
+while the ego stands and has not been blocked yet.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ from sitcov.sim.embedded._monitors import GOAL_TOLERANCE
 #: the ``ego_stationary`` collisions: a car below 0.3 m/s moves less than its own length
 #: in 15 s; ScenarioRunner's blocked test uses 0.1 m/s).
 STILL_SPEED = STATIONARY_SPEED
+_STILL2 = STILL_SPEED * STILL_SPEED  # [m^2/s^2]
 #: How long the ego may stand with a clear path before it is ``blocked`` [s]: long enough
 #: for a stack to look and go after the road user it yielded to has passed.
 BLOCKED_TIME = 10.0
@@ -118,17 +120,21 @@ class ProgressMonitor:
         self.clear_since: float | None = None  # start of the current clear-path standstill
         self.blocked_time: float | None = None
 
-    def update(self, world: Any) -> None:
-        """Progress every step; the path test only while the ego stands, not yet blocked."""
+    def update(self, world: Any) -> str | None:
+        """Progress every step, ``"goal"`` (ends the run) once the ego is within
+        ``GOAL_TOLERANCE`` of its route's end, as ``GoalMonitor`` does; the path test only
+        while the ego stands, not yet blocked."""
         ego = world.ego
         s = ego.s
         if s > self.best:
             self.best = s
-            if self.goal_time is None and s >= self.goal_s:
+            if s >= self.goal_s:
                 self.goal_time = world.t
-        if ego.body.speed >= STILL_SPEED:
+                return "goal"
+        b = ego.body
+        if b.vx * b.vx + b.vy * b.vy >= _STILL2:
             self.clear_since = None
-            return
+            return None
         self.still_steps += 1
         if self.blocked_time is not None:
             return
@@ -138,6 +144,7 @@ class ProgressMonitor:
             self.clear_since = world.t
         elif world.t - self.clear_since >= BLOCKED_TIME - 1e-9:
             self.blocked_time = world.t
+        return None
 
     def settled(self) -> bool:
         """Whether the standing ego's ``blocked`` fact is known without running on: it is
