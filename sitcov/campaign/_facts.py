@@ -55,6 +55,9 @@ class RunFacts:
         campaign, index, seed, status, failure_kind, bins: as in ``RunRecord``.
         config: the campaign's stored config (shared by its runs).
         hit: the kind of road user the ego collided with, as :func:`iter_facts` says.
+        events, completion, actor_collisions: as :func:`iter_facts` says (the failure
+            events that happened, counted or not; the route completion; collisions
+            between two other road users).
     """
 
     campaign: str
@@ -65,6 +68,9 @@ class RunFacts:
     bins: Mapping[str, str]
     config: Mapping[str, Any]
     hit: str | None = None
+    events: tuple[str, ...] = ()
+    completion: float | None = None
+    actor_collisions: int = 0
 
 
 def iter_run_facts(
@@ -74,6 +80,7 @@ def iter_run_facts(
     order, streamed."""
     if not isinstance(store, SQLiteStore):
         for run in store.iter_runs(campaign, status):
+            facts = record_facts(run)
             yield RunFacts(
                 run.campaign,
                 run.index,
@@ -82,22 +89,39 @@ def iter_run_facts(
                 run.failure_kind,
                 dict(run.bins),
                 run.config,
-                run_hit(run),
+                facts["hit"],
+                facts["events"],
+                facts["completion"],
+                facts["actor_collisions"],
             )
         return
     config = store._config(campaign)
     where, params = store._where(campaign, status)
     cursor = store._db.execute(
-        f"SELECT idx, seed, status, failure_kind, bins, {_HIT} FROM runs{where} ORDER BY idx",
+        f"SELECT idx, seed, status, failure_kind, bins, {_HIT}, {_EVENT_MASK}, {_COMPLETION}, "
+        f"{_ACTOR_COLLISIONS} FROM runs{where} ORDER BY idx",
         params,
     )
     while rows := cursor.fetchmany(_CHUNK):
-        for idx, seed, state, kind, bins, hit in rows:
+        for idx, seed, state, kind, bins, hit, mask, completion, contacts in rows:
             try:
                 decoded = json.loads(bins)
             except (ValueError, TypeError) as exc:
                 raise _damaged(store.location, f"run {campaign}:{idx}", exc) from None
-            yield RunFacts(campaign, int(idx), int(seed), state, kind, decoded, config, hit)
+            events = _COLLISION if mask == 0 and state == "fail" else _EVENTS[mask]
+            yield RunFacts(
+                campaign,
+                int(idx),
+                int(seed),
+                state,
+                kind,
+                decoded,
+                config,
+                hit,
+                events,
+                completion,
+                contacts or 0,
+            )
 
 
 def total_wall_time(store: Store, campaign: str) -> float:
