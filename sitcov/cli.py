@@ -37,8 +37,10 @@ PHYSICS_OPT = typer.Option(
 JUDGE_OPT = typer.Option(
     None,
     "--judge",
-    help="What fails a run: default (collision + road departure) | paper (collision only)"
-    " | strict (+ lane departure) | kinds, comma-separated.",
+    help="What fails a run: default (collision while moving + road departure + blocked +"
+    " route incomplete) | paper (every ego collision) | strict (every kind) | kinds,"
+    " comma-separated (collision, ego_stationary, road_departure, lane_departure, blocked,"
+    " route_incomplete).",
 )
 
 
