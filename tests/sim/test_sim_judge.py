@@ -226,3 +226,13 @@ def test_reference_stack_on_dry_road_stays_on_the_road():
         out = backend.run(make_situation(intsit, friction=1.0), stack, seed=intsit)
         assert out.metrics["road_departure_time"] is None, intsit
         assert out.metrics["lane_departure_time"] is None, intsit
+
+
+def test_collisions_between_other_road_users_never_fail_the_ego():
+    contact = {"actors": ["ov", "actor2"], "kinds": ["car", "pedestrian"], "time": 4.0}
+    base = facts()
+    outcome = Outcome(
+        **{**base.to_dict(), "metrics": {**base.metrics, "actor_collisions": [contact]}}
+    )
+    for name in JUDGES:
+        assert Judge.from_spec(name)(outcome).status == "pass", name
