@@ -45,6 +45,9 @@ def test_a_stack_that_never_drives_is_blocked_and_never_completes(intsit):
 
 
 def test_runs_that_reach_the_goal_complete_their_route():
+    """On a dry road the reference stack (its AEB stops it, then hands back) reaches its
+    goal in most of the paper's situations, well within half the time budget: the budget
+    leaves room for a stack that yields once (docs/campaigns.md, "The time budget")."""
     backend = EmbeddedBackend()
     stack = make_stack("reference")
     reached = 0
@@ -56,10 +59,11 @@ def test_runs_that_reach_the_goal_complete_their_route():
             reached += 1
             assert m["route_completion"] == 1.0 and m["time_to_goal"] == out.sim_time
             assert m["route_incomplete_time"] is None and not m["ego_stopped"]
-            assert m["stop_reason"] is None
+            assert m["stop_reason"] is None and m["blocked_time"] is None
+            assert m["time_to_goal"] <= 0.5 * backend.sim_timeout
         else:
             assert m["time_to_goal"] is None and m["route_completion"] < 1.0
-    assert reached >= 6
+    assert reached >= 8
 
 
 def test_a_shorter_budget_leaves_the_route_incomplete():
