@@ -252,7 +252,8 @@ def hit_table(rows: Mapping[str, Any]) -> Any:
 
 def _uncounted_text(n: int, judged: int) -> str:
     """``12 runs (6.0%)``: runs with an event the judge does not count."""
-    return f"{n} runs ({n / judged:.1%})" if judged else f"{n} runs"
+    runs = "1 run" if n == 1 else f"{n} runs"
+    return f"{runs} ({n / judged:.1%})" if judged else runs
 
 
 def _setup_text(summary: dict[str, Any], key: str) -> str:
