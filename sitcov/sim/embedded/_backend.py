@@ -337,7 +337,10 @@ class EmbeddedBackend(Backend):
         road = RoadDepartureMonitor(
             self.map.drivable_area, route.hs, left, right, ego.half_l, ego.half_w
         )
-        return default_monitors(world, lane, road, self.early_end, self.sim_timeout)
+        driver = world.driver
+        never_latches = driver.plain_step is not None and not driver.plain_latches
+        early_end = self.early_end and not never_latches
+        return default_monitors(world, lane, road, early_end, self.sim_timeout)
 
     def _outcome(self, plan, world, monitors, cond, wind_direction, reason, record) -> Outcome:
         """The run's Outcome: the primary OV's values at the top level, as before actors."""
