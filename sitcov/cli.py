@@ -37,8 +37,10 @@ PHYSICS_OPT = typer.Option(
 JUDGE_OPT = typer.Option(
     None,
     "--judge",
-    help="What fails a run: default (collision + road departure) | paper (collision only)"
-    " | strict (+ lane departure) | kinds, comma-separated.",
+    help="What fails a run: default (collision while moving + road departure + blocked +"
+    " route incomplete) | paper (every ego collision) | strict (every kind) | kinds,"
+    " comma-separated (collision, ego_stationary, road_departure, lane_departure, blocked,"
+    " route_incomplete).",
 )
 
 
@@ -554,7 +556,12 @@ def experiment_faults_cmd(
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     as_json: bool = typer.Option(False, "--json", help="Print Table 2 as JSON."),
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
-    av: str = typer.Option("reference", "--av", help="AV stack under test (must take faults)."),
+    av: str = typer.Option(
+        "reference",
+        "--av",
+        help="AV stack under test (must take faults); reference-latched with --judge paper is"
+        " the paper's protocol.",
+    ),
     backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
     batch_size: Optional[int] = typer.Option(  # noqa: UP045
         None, "--batch-size", min=1, help="Asks per batch (how often learning generators learn)."

@@ -6,11 +6,14 @@ row / test case per run; a run's bins and concrete values become ``bin.ELEMENT``
 its ``actor_kinds`` and ``conflict_types`` (``;``-separated, see
 :mod:`sitcov.analysis._breakdown`) so that failure rates can be broken down by road user,
 and ``hit_kind``, the kind of road user the ego collided with (empty without a collision).
-Every format carries each run's ``failure_kind`` (``pass``, ``collision``,
-``road_departure``, ``lane_departure``, ``error``, ``timeout``; empty while pending); the
-JSON export also gives each campaign's ``physics``, ``judge`` and ``world_model``, and its
-``breakdowns`` (failure rates by actor kind and conflict type, and collisions by the road
-user hit, as ``sitcov summary``).
+Every format carries each run's ``failure_kind`` (``pass``, a kind of
+``sitcov.sim.FAILURE_KINDS``, ``error``, ``timeout``; empty while pending) and its route
+progress facts (:data:`PROGRESS_COLUMNS`: route completion, time to goal, blocked and
+route-incomplete times, stationary collision, stop reason; the JSON export has them in
+the outcome's metrics); the JSON export also gives each campaign's ``physics``, ``judge``
+and ``world_model``, its ``breakdowns`` (failure rates by actor kind and conflict type,
+and collisions by the road user hit, as ``sitcov summary``) and its ``route_completion``
+(mean, goal rate, distribution, as ``sitcov summary``).
 """
 
 from __future__ import annotations
@@ -41,6 +44,16 @@ _BASE_COLUMNS = (
     *OUTCOME_COLUMNS,
 )
 _TAIL_COLUMNS = ("wall_time", "replay_of", "actor_kinds", "conflict_types", "hit_kind")
+#: Route progress facts of ``Outcome.metrics`` exported as columns (empty for runs stored
+#: before world model 3): docs/campaigns.md, "Route completion and blame".
+PROGRESS_COLUMNS = (
+    "route_completion",
+    "time_to_goal",
+    "blocked_time",
+    "route_incomplete_time",
+    "ego_stationary",
+    "stop_reason",
+)
 
 
 def _elements(store: Store, campaign: str | None) -> list[str]:
@@ -71,6 +84,7 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
     columns = [
         *_BASE_COLUMNS,
         *_TAIL_COLUMNS,
+        *PROGRESS_COLUMNS,
         *(f"bin.{e}" for e in elements),
         *(f"value.{e}" for e in elements),
     ]
@@ -91,6 +105,8 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
                 "replay_of": run.replay_of,
             }
             row.update({c: out.get(c) for c in OUTCOME_COLUMNS})
+            metrics = out.get("metrics") or {}
+            row.update({c: metrics.get(c) for c in PROGRESS_COLUMNS})
             values = run.situation.to_dict()["values"]
             kinds, types = run_roles(values, typing.get(run.campaign))
             row["actor_kinds"], row["conflict_types"] = ";".join(kinds), ";".join(types)
@@ -154,6 +170,7 @@ def export_json(store: Store, out: IO[str], campaign: str | None = None) -> int:
                 "tags": c.tags,
                 **campaign_setup(c),
                 "breakdowns": _breakdowns(store, c),
+                "route_completion": _completion(store, c.name),
             }
             for c in infos
         ],
@@ -180,6 +197,15 @@ def _breakdowns(store: Store, info: Any) -> dict[str, Any]:
 
     hs = Hyperspace.from_dict(info.hyperspace, file=f"{store.location} (campaign {info.name})")
     return breakdowns(hs, iter_facts(store, info.name, FINISHED), slot_types(hs))
+
+
+def _completion(store: Store, campaign: str) -> dict[str, Any]:
+    """A campaign's route completion statistics over its judged runs."""
+    from sitcov.analysis import route_completion_stats
+    from sitcov.campaign._facts import iter_facts
+
+    facts = iter_facts(store, campaign, ("pass", "fail"))
+    return route_completion_stats(f.get("completion") for f in facts)
 
 
 def run_to_json(run: RunRecord) -> dict[str, Any]:
@@ -279,6 +305,8 @@ def export_parquet(store: Store, path: str, campaign: str | None = None) -> int:
         "aeb_fired": pa.bool_(),
         **{c: pa.float64() for c in ("sim_time", "collision_time", "collision_speed")},
         **{c: pa.float64() for c in ("min_distance", "min_ttc", "pet", "aeb_time", "wall_time")},
+        **{c: pa.float64() for c in PROGRESS_COLUMNS[:4]},
+        "ego_stationary": pa.bool_(),
     }
     schema = pa.schema([(c, types.get(c, pa.string())) for c in columns])
     n = 0
