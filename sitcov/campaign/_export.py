@@ -264,14 +264,15 @@ def export_junit(store: Store, out: IO[str], campaign: str | None = None) -> int
     return n
 
 
-def replay_command(db: str, run: RunRecord) -> str:
-    """``sitcov replay --db DB CAMPAIGN:INDEX``, quoted for a POSIX shell."""
-    return f"sitcov replay --db {shlex.quote(db)} {shlex.quote(f'{run.campaign}:{run.index}')}"
+def replay_command(db: str, campaign: str, index: int) -> str:
+    """``sitcov replay --db DB CAMPAIGN:INDEX``, quoted for a POSIX shell: runs as printed."""
+    return f"sitcov replay --db {shlex.quote(db)} {shlex.quote(f'{campaign}:{index}')}"
 
 
 def failure_message(run: RunRecord) -> str:
     """What failed, what was hit and when: ``collision with actor2 (pedestrian) at 12.3 s``,
-    ``road_departure at 8.1 s`` (the judge's failure kind; its time from the outcome)."""
+    ``road_departure at 8.1 s`` (the judge's failure kind; its time from the outcome, the
+    end of the run if the event ended it and stores no time)."""
     outcome = run.outcome
     if outcome is None:
         return run.failure_kind or run.status
@@ -282,13 +283,15 @@ def failure_message(run: RunRecord) -> str:
         time = outcome.collision_time
     else:
         text, time = kind, outcome.metrics.get(f"{kind}_time")
+    if time is None and outcome.end_reason == kind:  # the event ended the run
+        time = outcome.sim_time
     if isinstance(time, int | float) and not isinstance(time, bool):
         return f"{text} at {time:.1f} s"
     return f"{text} (run ended: {outcome.end_reason} at {outcome.sim_time:.1f} s)"
 
 
 def _testcase(run: RunRecord, name: str, db: str) -> str:
-    replay = replay_command(db, run)
+    replay = replay_command(db, run.campaign, run.index)
     head = (
         f"    <testcase classname={quoteattr('sitcov.' + run.campaign)} "
         f'name={quoteattr(name)} time="{(run.wall_time or 0.0):.3f}">\n'
