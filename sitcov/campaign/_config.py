@@ -194,6 +194,7 @@ def run_overrides(
     *,
     perception: str | None = None,
     carla: Mapping[str, Any] | None = None,
+    esmini: Mapping[str, Any] | None = None,
     av_cmd: str | None = None,
     av_step_timeout: float | None = None,
     grey_box: bool | None = None,
@@ -205,6 +206,9 @@ def run_overrides(
         perception: ``--perception``, an option of the embedded backend.
         carla: the ``--carla-*``/``--map`` flags that were given, as keyword arguments of
             ``sitcov.sim.carla.carla_backend_options``; they need ``backend="carla"``.
+        esmini: ``--scenario`` (a .xosc file or a folder of them) and ``--road`` (an
+            OpenDRIVE file) as the esmini backend's ``scenario`` and ``road`` options, made
+            absolute; they need ``backend="esmini"``.
         av_cmd: ``--av-cmd``, an external-process stack (protocol in docs/protocol.md).
         av_step_timeout: ``--av-step-timeout`` [s] for an external stack.
         grey_box: ``--grey-box``: the stack is also given the situation at reset.
@@ -226,6 +230,11 @@ def run_overrides(
         from sitcov.sim.carla import carla_backend_options
 
         backend_options.update(carla_backend_options(**carla))
+    if esmini:
+        if fields.get("backend") != "esmini":
+            flags = ", ".join("--" + k for k in esmini)
+            raise ConfigError(f"{flags}: these flags need --backend esmini")
+        backend_options.update({k: str(Path(v).resolve()) for k, v in esmini.items()})
     if av_cmd:
         if fields.get("av"):
             raise ConfigError("--av and --av-cmd: give one stack, not both")

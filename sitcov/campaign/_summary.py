@@ -110,12 +110,18 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
     return summary
 
 
+#: a bin needs this many runs to be ranked among the worst (fewer say too little)
+MIN_RANKED = 10
+
+
 def worst_bins(summary: dict[str, Any], n: int = 5) -> list[tuple[str, str, dict[str, Any]]]:
-    """The ``n`` bins with the highest Wilson lower bound of failure rate (ties: rate, count)."""
+    """The ``n`` bins with the highest Wilson lower bound of failure rate (ties: rate,
+    count), among bins with at least :data:`MIN_RANKED` runs."""
     ranked = []
     for element, bins in summary.get("elements", {}).items():
         for label, stats in bins.items():
-            if stats.get("failures") and stats.get("ci95"):
+            enough = stats.get("generated", 0) >= MIN_RANKED
+            if enough and stats.get("failures") and stats.get("ci95"):
                 key = (stats["ci95"][0], stats["failure_rate"], stats["generated"])
                 ranked.append((key, element, label, stats))
     ranked.sort(key=lambda r: r[0], reverse=True)
@@ -154,7 +160,10 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     cov = summary.get("coverage", {})
     totals.add_row("bins covered", f"{cov.get('bins_covered', 0)} / {cov.get('bins_total', 0)}")
     totals.add_row("pairwise coverage", f"{cov.get('pairwise', 0.0):.1%}")
-    worst = Table(title="worst bins (by Wilson lower bound)", title_justify="left")
+    worst = Table(
+        title=f"worst bins (by Wilson lower bound; bins of >= {MIN_RANKED} runs)",
+        title_justify="left",
+    )
     for col in ("element", "bin", "runs", "failures", "rate", "95% CI"):
         worst.add_column(col, justify="left" if col in ("element", "bin") else "right")
     for element, label, s in worst_bins(summary):

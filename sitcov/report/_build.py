@@ -24,7 +24,7 @@ DEFAULT_HEATMAP = ("intsit", "friction")
 #: Rows of the worst-bins and worst-combinations tables.
 TOP = 10
 #: A bin or pair needs this many judged runs to be ranked (fewer say too little).
-MIN_JUDGED = 5
+MIN_JUDGED = 10
 
 
 def _heat_pair(names: Sequence[str], heatmap: tuple[str, str] | None) -> tuple[str, str] | None:
@@ -116,7 +116,9 @@ def build_report(
             scope_primary=scope,
             table2=sec.table2_section(experiment, fig_dir),
             worst_bins=sec.ranked_rows(worst_bins(hs, primary, min_judged=MIN_JUDGED, top=TOP)),
-            worst_pairs=sec.ranked_rows(worst_pairs(hs, primary, min_judged=MIN_JUDGED, top=TOP)),
+            worst_pairs=sec.ranked_rows(
+                worst_pairs(hs, primary, min_judged=MIN_JUDGED, top=TOP, beyond_bins=True)
+            ),
             min_judged=MIN_JUDGED,
         )
     finally:
