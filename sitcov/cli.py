@@ -379,15 +379,19 @@ def export_cmd(
     fmt: str = typer.Option(..., "--format", help="csv | parquet | json | junit"),
     out: Optional[Path] = typer.Option(None, "--out", help="Output file (default: stdout)."),  # noqa: UP045
     campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign."),  # noqa: UP045
+    per_actor: bool = typer.Option(
+        False, "--per-actor", help="csv/parquet: one row per run and road user."
+    ),
 ) -> None:
     """Export stored runs (one row / test case per run)."""
     from sitcov.campaign._console import existing_store
     from sitcov.campaign._export import export
 
+    target = str(out) if out is not None else sys.stdout
     with existing_store(db) as store:
-        n = export(store, fmt, str(out) if out is not None else sys.stdout, campaign)
+        n = export(store, fmt, target, campaign, per_actor=per_actor)
     if out is not None:
-        err_console.print(f"{n} runs written to {out}")
+        err_console.print(f"{n} {'actor rows' if per_actor else 'runs'} written to {out}")
 
 
 @app.command("replay")
