@@ -37,8 +37,10 @@ PHYSICS_OPT = typer.Option(
 JUDGE_OPT = typer.Option(
     None,
     "--judge",
-    help="What fails a run: default (collision + road departure) | paper (collision only)"
-    " | strict (+ lane departure) | kinds, comma-separated.",
+    help="What fails a run: default (collision while moving + road departure + blocked +"
+    " route incomplete) | paper (every ego collision) | strict (every kind) | kinds,"
+    " comma-separated (collision, ego_stationary, road_departure, lane_departure, blocked,"
+    " route_incomplete).",
 )
 
 
@@ -397,15 +399,19 @@ def export_cmd(
     fmt: str = typer.Option(..., "--format", help="csv | parquet | json | junit"),
     out: Optional[Path] = typer.Option(None, "--out", help="Output file (default: stdout)."),  # noqa: UP045
     campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign."),  # noqa: UP045
+    per_actor: bool = typer.Option(
+        False, "--per-actor", help="csv/parquet: one row per run and road user."
+    ),
 ) -> None:
     """Export stored runs (one row / test case per run)."""
     from sitcov.campaign._console import existing_store
     from sitcov.campaign._export import export
 
+    target = str(out) if out is not None else sys.stdout
     with existing_store(db) as store:
-        n = export(store, fmt, str(out) if out is not None else sys.stdout, campaign)
+        n = export(store, fmt, target, campaign, per_actor=per_actor)
     if out is not None:
-        err_console.print(f"{n} runs written to {out}")
+        err_console.print(f"{n} {'actor rows' if per_actor else 'runs'} written to {out}")
 
 
 @app.command("replay")
@@ -578,7 +584,12 @@ def experiment_faults_cmd(
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     as_json: bool = typer.Option(False, "--json", help="Print Table 2 as JSON."),
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
-    av: str = typer.Option("reference", "--av", help="AV stack under test (must take faults)."),
+    av: str = typer.Option(
+        "reference",
+        "--av",
+        help="AV stack under test (must take faults); reference-latched with --judge paper is"
+        " the paper's protocol.",
+    ),
     backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
     batch_size: Optional[int] = typer.Option(  # noqa: UP045
         None, "--batch-size", min=1, help="Asks per batch (how often learning generators learn)."

@@ -6,7 +6,8 @@ with those keys work too. ``pending`` runs were planned but not run and are igno
 ``generated`` counts every other run; failure rates are over *judged* runs (pass + fail),
 so errors and timeouts neither count as failures nor dilute the rate.
 
-A failed run's kind (``collision``, ``road_departure``, ``lane_departure``) is its
+A failed run's kind (``collision``, ``ego_stationary``, ``road_departure``,
+``lane_departure``, ``blocked``, ``route_incomplete``) is its
 ``failure_kind`` (a RunRecord property or a mapping key); a failed run without one is a
 collision, as every failure was before failure kinds existed.
 """
@@ -28,7 +29,16 @@ from sitcov.hyperspace import Hyperspace
 
 #: Kinds a failed run can have (``sitcov.sim.FAILURE_KINDS``, repeated to keep analysis
 #: free of simulation imports).
-FAILURE_KINDS = ("collision", "road_departure", "lane_departure")
+FAILURE_KINDS = (
+    "collision",
+    "ego_stationary",
+    "road_departure",
+    "lane_departure",
+    "blocked",
+    "route_incomplete",
+)
+#: Kinds that are a collision of the ego (which road user it hit is counted for them).
+COLLISION_KINDS = ("collision", "ego_stationary")
 
 
 def _field(run: Any, name: str) -> Any:
@@ -262,7 +272,7 @@ class _Tally:
         self.idx.extend(row)
         self.codes.append(_CODE.get(status, -1))
         self.kind_codes.append(kind)
-        self.hits.append(run_hit(run, kind >= 0 and FAILURE_KINDS[kind] == "collision"))
+        self.hits.append(run_hit(run, kind >= 0 and FAILURE_KINDS[kind] in COLLISION_KINDS))
 
     def _matrix(self) -> np.ndarray:
         return np.array(self.idx, dtype=np.int64).reshape(-1, len(self.names))

@@ -8,7 +8,7 @@ Example ``campaign.yaml``::
     seed: 7
     backend_options: {perception: pem}
     physics: carla          # or physical (docs/weather.md)
-    judge: default          # collision + road_departure; paper | strict | [kinds]
+    judge: default          # or paper | strict | a list of kinds (docs/campaigns.md)
     fault: f2
     executor: processes
     workers: 2
@@ -42,9 +42,10 @@ class CampaignConfig(BaseModel):
         physics: the backend's physics profile, ``carla`` (what CARLA does: weather acts on
             perception only) or ``physical`` (wet-road friction, crosswind force); given to
             the backend as its ``physics`` option. ``backend_options.physics`` is moved here.
-        judge: what counts as a failure: ``default`` (collision + road departure),
-            ``paper`` (collision only, the paper's judge), ``strict`` (also lane
-            departure) or a list of kinds (``sitcov.sim.FAILURE_KINDS``).
+        judge: what counts as a failure: ``default`` (collision while moving, road
+            departure, blocked, route incomplete), ``paper`` (every ego collision, the
+            paper's judge), ``strict`` (every kind) or a list of kinds
+            (``sitcov.sim.FAILURE_KINDS``).
         av: AV stack name (or ``module:Class``); ``fault`` a seeded fault (f1|f2|f3);
             ``av_params`` parameter overrides.
         runs: total runs wanted in the campaign (running again with more extends it).

@@ -78,24 +78,35 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
     """The `sitcov summary --json` object of the finished runs of ``campaign`` (or all), plus
     ``physics``, ``judge`` and ``world_model`` (one value, or a list when the campaigns
     differ), ``judge_counts`` (the kinds that fail a run), ``legacy_world_model`` (any
-    campaign made before world versions) and ``events_by_kind``.
+    campaign made before world versions), ``events_by_kind`` (judged runs with each event,
+    counted or not), ``not_counted`` (the kinds the judge does not count that happened,
+    with their run counts), ``route_completion``
+    (:func:`sitcov.analysis.route_completion_stats` over the judged runs) and
+    ``actor_collisions`` (runs with a collision between two other road users, and how many
+    such collisions: recorded, never the ego's failure).
 
     The runs are read once, as a stream of their facts (no run records are built), so a
     100,000-run campaign is summarised in seconds with flat memory.
     """
-    from sitcov.analysis import summarize
+    from sitcov.analysis import route_completion_stats, summarize
     from sitcov.campaign._breakdown import slot_types
     from sitcov.campaign._facts import iter_facts
     from sitcov.sim import FAILURE_KINDS, Judge
 
     hyperspace = campaign_hyperspace(store, campaign)
     events = dict.fromkeys(FAILURE_KINDS, 0)
+    completions: list[float | None] = []
+    contacts = [0, 0]  # runs with a collision between two other road users, collisions
 
     def stream() -> Iterator[Mapping[str, Any]]:
         for facts in iter_facts(store, campaign, FINISHED):
             if facts["status"] in ("pass", "fail"):
                 for kind in facts["events"]:
                     events[kind] += 1
+                completions.append(facts.get("completion"))
+                n = facts.get("actor_collisions") or 0
+                contacts[0] += n > 0
+                contacts[1] += n
             yield facts
 
     summary = summarize(hyperspace, stream(), slot_types(hyperspace))
@@ -107,6 +118,12 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
         summary["judge_counts"] = list(Judge.from_spec(setups[0]["judge"]).counts)
     summary["legacy_world_model"] = any(i.legacy for i in infos)
     summary["events_by_kind"] = events
+    summary["route_completion"] = route_completion_stats(completions)
+    counted = summary.get("judge_counts")
+    summary["not_counted"] = (
+        {k: n for k, n in events.items() if n and k not in counted} if counted else {}
+    )
+    summary["actor_collisions"] = {"runs": contacts[0], "collisions": contacts[1]}
     return summary
 
 
@@ -148,6 +165,19 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
         if k["failures"]:
             text = f"{k['failures']}  {_rate_text(k['failure_rate'], k['ci95'], judged)}"
             totals.add_row(f"  {kind.replace('_', ' ')}", text)
+    for kind, n in summary.get("not_counted", {}).items():
+        totals.add_row(f"  not counted: {kind.replace('_', ' ')}", _uncounted_text(n, judged))
+    # (events that happened in runs the campaign's judge passes or fails for another kind)
+    contacts = summary.get("actor_collisions") or {}
+    if contacts.get("runs"):
+        totals.add_row("  other road users collided", f"{contacts['runs']} runs (never the ego's)")
+    if "route_completion" in summary:
+        from sitcov.analysis import completion_lines
+
+        head, dist = completion_lines(summary["route_completion"])
+        totals.add_row("route completion", head)
+        if dist:
+            totals.add_row("  distribution", dist)
     totals.add_row("errors + timeouts", f"{errors} + {timeouts}")
     for key, label in (("physics", "physics"), ("judge", "judge"), ("world_model", "world model")):
         if key in summary:
@@ -229,6 +259,12 @@ def _rate_text(rate: float | None, ci95: Any, judged: int) -> str:
     if rate is None or not ci95:
         return "n/a (no judged run)"
     return f"{rate:.1%}  (95% CI {ci95[0]:.1%} - {ci95[1]:.1%}) of {judged} judged"
+
+
+def _uncounted_text(n: int, judged: int) -> str:
+    """``12 runs (6.0%)``: runs with an event the judge does not count."""
+    runs = "1 run" if n == 1 else f"{n} runs"
+    return f"{runs} ({n / judged:.1%})" if judged else runs
 
 
 def _setup_text(summary: dict[str, Any], key: str) -> str:

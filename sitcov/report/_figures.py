@@ -204,6 +204,38 @@ def ranked_bins_figure(title: str, rows: Sequence[Mapping[str, Any]], note: str 
     return fig
 
 
+def histograms_figure(
+    series: Mapping[str, Mapping[str, Sequence[float]]], caps: Mapping[str, float]
+) -> Any:
+    """One histogram per measure, passing and failing runs overlaid (counts), values above
+    a measure's cap gathered in its last bin (labelled ``>= cap``)."""
+    plt = _plt()
+    import numpy as np
+
+    n = max(1, len(series))
+    fig, axes = plt.subplots(1, n, figsize=(WIDTH, 3.0))
+    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.2, top=0.86, wspace=0.28)
+    axes = list(np.atleast_1d(axes))
+    for ax, (label, by_status) in zip(axes, series.items(), strict=False):
+        cap = caps[label]
+        edges = np.linspace(0.0, cap, 21)
+        edges[-1] = cap + 1e-9
+        for i, (status, colour) in enumerate((("pass", PALETTE[0]), ("fail", PALETTE[1]))):
+            values = by_status.get(status, [])
+            ax.hist(
+                values,
+                bins=edges,
+                color=colour,
+                alpha=0.6 if i else 0.75,
+                label=f"{status} ({len(values)})",
+            )
+        ax.set_xlabel(f"{label} (last bin: >= {cap:g})")
+        ax.set_ylabel("runs")
+        ax.legend(fontsize=8)
+    fig.suptitle("Criticality of every judged run (smallest over its road users)", fontsize=10)
+    return fig
+
+
 def growth_figure(curves: Mapping[str, tuple[Sequence[float], Sequence[float], int]]) -> Any:
     """Bins covered and pairwise coverage against run index, one line per campaign.
 

@@ -217,9 +217,61 @@ def kind_rows(runs: Sequence[Any]) -> list[dict[str, str]]:
     ]
 
 
+def _completion(runs: Sequence[Any]) -> dict[str, Any]:
+    """Route completion statistics of the judged runs (``sitcov.analysis``)."""
+    from sitcov.analysis import route_completion_stats
+
+    judged = (r for r in runs if r.status in ("pass", "fail"))
+    return route_completion_stats(getattr(r, "completion", None) for r in judged)
+
+
+def _completion_card(runs: Sequence[Any]) -> dict[str, Any]:
+    stats = _completion(runs)
+    if not stats["runs"]:
+        return {"key": "route completion", "value": "n/a", "detail": "no run reports it"}
+    return {
+        "key": "route completion",
+        "value": pct(stats["mean"]),
+        "detail": f"mean; goal reached {pct(stats['goal_rate'])}, median {pct(stats['median'])}",
+    }
+
+
+def uncounted_rows(views: Sequence[CampaignView], runs: Sequence[Any]) -> list[dict[str, str]]:
+    """Events that happened in judged runs but that the campaigns' judge does not count
+    (per kind: runs with it, share of the judged runs), and collisions between two other
+    road users (never the ego's failure); empty when the judges differ."""
+    from sitcov.sim import FAILURE_KINDS, Judge
+
+    judge = _setup_value(views, "judge")
+    try:
+        counted = set(Judge.from_spec(judge).counts)
+    except ValueError:  # mixed judges
+        return []
+    judged = [r for r in runs if r.status in ("pass", "fail")]
+    rows = []
+    for kind in FAILURE_KINDS:
+        if kind in counted:
+            continue
+        n = sum(kind in getattr(r, "events", ()) for r in judged)
+        if n:
+            share = pct(n / len(judged))
+            rows.append({"kind": kind.replace("_", " "), "runs": str(n), "share": share})
+    n = sum(getattr(r, "actor_collisions", 0) > 0 for r in judged)
+    if n:
+        rows.append(
+            {
+                "kind": "collision between two other road users (never the ego's)",
+                "runs": str(n),
+                "share": pct(n / len(judged)),
+            }
+        )
+    return rows
+
+
 def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[Any]) -> dict:
-    """The summary cards, the failures by kind and the per-campaign table."""
-    from sitcov.analysis import coverage
+    """The summary cards, the failures by kind, the events the judge does not count, the
+    route completion and the per-campaign table."""
+    from sitcov.analysis import completion_lines, coverage
 
     counts = status_counts(all_runs)
     judged = counts["pass"] + counts["fail"]
@@ -243,6 +295,7 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
             "value": f"{cov['bins_covered']} / {cov['bins_total']}",
             "detail": f"{len(hs.elements)} elements",
         },
+        _completion_card(all_runs),
         {"key": "pairwise coverage", "value": pct(cov["pairwise"]), "detail": "2-way bins"},
         *_setup_cards(views),
     ]
@@ -264,15 +317,19 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
                 "bins": f"{s['bins_covered']}/{s['bins_total']}" if s else "–",
                 "pairwise": pct(s["pairwise"]) if s else "–",
                 "kinds": kinds_text(view.runs),
+                "completion": pct(_completion(view.runs)["mean"]),
                 "physics": str(view.setup.get("physics", "?")),
                 "judge": str(view.setup.get("judge", "?")),
             }
         )
+    head, dist = completion_lines(_completion(all_runs))
     return {
         "cards": cards,
         "campaigns": rows,
         "bins_total": cov["bins_total"],
         "kinds": kind_rows(all_runs),
+        "uncounted": uncounted_rows(views, all_runs),
+        "completion": {"head": head, "distribution": dist},
     }
 
 
