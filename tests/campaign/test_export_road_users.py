@@ -24,7 +24,7 @@ from sitcov.campaign._export_actors import ACTOR_COLUMNS, RUN_COLUMNS
 FAKE = ["--generator", GENERATOR, "--backend", BACKEND, "--av", STACK, "--executor", "serial"]
 #: A JUnit failure message: the kind, for a collision what was hit, and when.
 MESSAGE = re.compile(
-    r"^(collision with \w+ \((car|truck|cyclist|pedestrian)\)|road_departure|lane_departure)"
+    r"^(collision with \w+ \((car|truck|cyclist|pedestrian)\)|road_departure|lane_departure|blocked|route_incomplete)"
     r" at \d+\.\d s$"
 )
 
