@@ -21,7 +21,11 @@ app = typer.Typer(
 hyperspace_app = typer.Typer(help="Inspect situation hyperspaces.", no_args_is_help=True)
 experiment_app = typer.Typer(help="Run predefined experiments.", no_args_is_help=True)
 models_app = typer.Typer(help="Manage detector models.", no_args_is_help=True)
+map_app = typer.Typer(
+    help="Road networks: import OpenDRIVE junctions as maps.", no_args_is_help=True
+)
 app.add_typer(hyperspace_app, name="hyperspace")
+app.add_typer(map_app, name="map")
 app.add_typer(experiment_app, name="experiment")
 app.add_typer(models_app, name="models")
 
@@ -89,7 +93,9 @@ def hyperspace_show_cmd(
 
 @hyperspace_app.command("derive")
 def hyperspace_derive_cmd(
-    map_name: str = typer.Option("t-junction", "--map", help="Built-in map name or map YAML."),
+    map_name: str = typer.Option(
+        "t-junction", "--map", help="Built-in map name, map YAML or FILE.xodr[#JUNCTION]."
+    ),
     actors: str = typer.Option(
         "car", "--actors", help="Kinds besides the ego, comma-separated: car,cyclist,pedestrian."
     ),
@@ -117,6 +123,43 @@ def hyperspace_derive_cmd(
     out.write_text(text, encoding="utf-8")
     n = len(doc["axes"][1]["elements"][0]["bins"])
     err_console.print(f"wrote {out}: {n} intersection situations", highlight=False, soft_wrap=True)
+
+
+@map_app.command("import")
+def map_import_cmd(
+    file: Path = typer.Argument(..., help="OpenDRIVE file (.xodr)."),
+    list_only: bool = typer.Option(False, "--list", help="List every junction and its legs."),
+    junction: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--junction", help="Junction id (default: the file's only junction)."
+    ),
+    near: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--near", help="X,Y [m, file coordinates]: the junction nearest this point."
+    ),
+    legs: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--legs", help="Keep only these legs, comma-separated (e.g. B,L,R)."
+    ),
+    extension: float = typer.Option(
+        100.0, "--extension", min=20.0, help="How far routes run along the legs [m]."
+    ),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the map YAML here (default: stdout)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="With --list: print JSON."),
+) -> None:
+    """Import one junction of an OpenDRIVE file as a map (--map, hyperspace derive --map)."""
+    from sitcov.roads._cli import import_map, junction_table
+
+    if list_only:
+        print(junction_table(file, as_json=as_json), end="")
+        return
+    leg_names = [n.strip() for n in legs.split(",") if n.strip()] if legs else None
+    text, summary = import_map(file, junction, near, leg_names, extension)
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {out}: {summary}", highlight=False, soft_wrap=True)
 
 
 @app.command("generate")

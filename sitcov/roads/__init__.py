@@ -7,6 +7,16 @@ embedded world loads as it loads the shipped YAML maps.
 """
 
 from sitcov.roads._geometry import Arc, Geometry, Line, ParamPoly3, PlanView, Spiral, poly3
+from sitcov.roads._junction import (
+    DEFAULT_EXTENSION,
+    LegInfo,
+    junction_centre,
+    junction_legs,
+    junction_map_data,
+    leg_names,
+    list_junctions,
+    nearest_junction,
+)
 from sitcov.roads._opendrive import (
     DRIVING_TYPES,
     Connection,
@@ -21,7 +31,15 @@ from sitcov.roads._opendrive import (
 )
 
 __all__ = [
+    "DEFAULT_EXTENSION",
     "DRIVING_TYPES",
+    "LegInfo",
+    "junction_centre",
+    "junction_legs",
+    "junction_map_data",
+    "leg_names",
+    "list_junctions",
+    "nearest_junction",
     "Arc",
     "Connection",
     "Crosswalk",
