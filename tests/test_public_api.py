@@ -52,6 +52,7 @@ PACKAGES = (
     "sim.embedded",
     "sim.carla",
     "weather",
+    "roads",
     "report",
 )
 

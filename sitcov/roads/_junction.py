@@ -121,7 +121,7 @@ def list_junctions(net: Network) -> list[dict]:
             {
                 "id": jid,
                 "name": junction.name,
-                "centre": [round(float(centre[0]), 2), round(float(centre[1]), 2)],
+                "centre": [round(float(centre[0]), 2) + 0.0, round(float(centre[1]), 2) + 0.0],
                 "legs": [
                     {
                         "name": leg.name,

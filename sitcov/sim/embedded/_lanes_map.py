@@ -159,7 +159,8 @@ class LanesMap(JunctionMap):
         pts = np.asarray(self._crosswalks[leg_name])
         centre = pts.mean(axis=0)
         heading = self.legs[leg_name].heading
-        across = np.array([math.sin(heading), -math.cos(heading)])  # left, facing the centre
+        # the walking direction: from the left kerb to the right one, facing the centre
+        across = np.array([-math.sin(heading), math.cos(heading)])
         if side == "R":
             across = -across
         t = np.arange(-_CROSS_REACH, _CROSS_REACH + 1e-9, 0.25)
