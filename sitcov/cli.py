@@ -588,6 +588,11 @@ def experiment_faults_cmd(
     ),
     physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
     judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None,
+        "--map",
+        help="Embedded map: name, YAML or FILE.xodr[#ID] (default: the hyperspace's).",
+    ),
 ) -> None:
     """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
     import json
@@ -624,6 +629,7 @@ def experiment_faults_cmd(
             executor=executor,
             workers=workers,
             batch_size=batch_size,
+            backend_options={"map": map_name} if map_name else None,
             progress=lambda _name, n: bar.advance(task, n),
         )
     if as_json:
@@ -858,13 +864,17 @@ def bench_cmd(
         "machine's speed drifts) and check every round gives the same outcomes.",
     ),
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--map", help="Embedded map: name, YAML or FILE.xodr[#ID] (default: t-junction)."
+    ),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
 ) -> None:
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
     import json
 
     from sitcov.campaign._bench import bench
 
-    result = bench(runs, seed, fault=fault, rounds=rounds)
+    result = bench(runs, seed, fault=fault, rounds=rounds, map=map_name, hyperspace=hyperspace)
     if json_out:
         console.print_json(json.dumps(result))
         return

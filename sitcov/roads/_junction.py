@@ -17,9 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sitcov._geometry import convex_hull
 from sitcov.errors import ConfigError
 from sitcov.roads._opendrive import Junction, Network
-from sitcov.roads._walk import Stretch, _cut, _lane_at_end, _sample, walk
+from sitcov.roads._walk import Stretch, _cut, _lane_at_end, _sample, inside_section, walk
 
 #: How far routes run up and down the legs from the junction's mouths [m] (the shipped
 #: maps' legs: 110 m from the centre, mouths at 12 m).
@@ -274,7 +275,13 @@ def junction_map_data(
         }
     lane_width = _median_lane_width(net, by_name.values())
     sidewalk_width = _median_sidewalk_width(net, by_name.values())
+    # the junction box: every connecting road of the junction, and the convex hull of
+    # the legs' drivable edges at their mouths (as the shipped maps' junction area)
+    stretches += [
+        Stretch(r.id, 0.0, r.length) for r in net.roads.values() if r.junction == junction_id
+    ]
     polygons, sidewalks = _surfaces(net, stretches)
+    polygons.append(_mouth_hull(net, all_legs))
     crosswalks = _crosswalks(net, junction_id, by_name, centre, mouths, lengths)
     leg_data = {}
     for n in sorted(used):
@@ -425,7 +432,7 @@ def _surfaces(net: Network, stretches: list[Stretch]) -> tuple[list[list], list[
                 if b - a < 1e-6:
                     continue
                 n = max(1, math.ceil((b - a) / PIECE))
-                s = np.linspace(a, b, n + 1)
+                s = inside_section(road, i, np.linspace(a, b, n + 1))
                 x, y, h = road.plan_view.evaluate(s)
                 nx, ny = -np.sin(h), np.cos(h)
                 drivable = [lid for lid, lane in sec.lanes.items() if lid and lane.drivable]
@@ -440,6 +447,26 @@ def _surfaces(net: Network, stretches: list[Stretch]) -> tuple[list[list], list[
                             x, y, nx, ny, np.minimum(inner, outer), np.maximum(inner, outer)
                         )
     return road_pieces, walk_pieces
+
+
+def _mouth_hull(net: Network, legs: list[LegInfo]) -> list[tuple[float, float]]:
+    """Convex hull of the outermost drivable lane borders of every leg at the junction."""
+    corners = []
+    for leg in legs:
+        road = net.roads[leg.road]
+        i = len(road.sections) - 1 if leg.contact == "end" else 0
+        s = np.array([road.length if leg.contact == "end" else 0.0])
+        ts = [
+            t[0]
+            for lid, lane in road.sections[i].lanes.items()
+            if lid and lane.drivable
+            for t in road.borders(i, lid, inside_section(road, i, s))
+        ]
+        if ts:
+            for t in (min(ts), max(ts)):
+                x, y, _ = road.at(float(s[0]), float(t))
+                corners.append((x, y))
+    return convex_hull(corners)
 
 
 def _quads(x, y, nx, ny, lo, hi) -> list[list[tuple[float, float]]]:

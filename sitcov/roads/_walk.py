@@ -38,6 +38,15 @@ def _lane_at_end(road: Road, lane_id: int, forward: bool) -> int | None:
     return lane.successor if forward else lane.predecessor
 
 
+def inside_section(road: Road, index: int, s: np.ndarray) -> np.ndarray:
+    """``s`` kept just inside section ``index``'s end: at the end itself, records that
+    start there (the next lane offset, the next section's widths) would already apply, as
+    they do in esmini; a road's own end is kept."""
+    if index + 1 < len(road.sections):
+        return np.minimum(s, road.section_end(index) - 1e-7)
+    return s
+
+
 def _sample(road: Road, lane_id: int, s_from: float, s_to: float) -> tuple[np.ndarray, int | None]:
     """Centre-line points of a lane from ``s_from`` to ``s_to`` (either direction), following
     its lane links across sections; returns the points (about half a step apart) and the
@@ -60,7 +69,7 @@ def _sample(road: Road, lane_id: int, s_from: float, s_to: float) -> tuple[np.nd
             return (np.concatenate(pieces) if pieces else np.zeros((0, 2))), None
         n = max(1, math.ceil((b - a) / (0.5 * STEP)))
         s = np.linspace(a, b, n + 1) if forward else np.linspace(b, a, n + 1)
-        x, y, _ = road.points(i, lid, s)
+        x, y, _ = road.points(i, lid, inside_section(road, i, s))
         pts = np.column_stack([x, y])
         pieces.append(pts if not pieces else pts[1:])
     return (np.concatenate(pieces) if pieces else np.zeros((0, 2))), lid
