@@ -145,6 +145,11 @@ def map_import_cmd(
         None, "--out", help="Write the map YAML here (default: stdout)."
     ),
     as_json: bool = typer.Option(False, "--json", help="With --list: print JSON."),
+    mouth_crosswalks: bool = typer.Option(
+        False,
+        "--mouth-crosswalks",
+        help="Add a crossing at each leg mouth with sidewalks on both sides (no object there).",
+    ),
 ) -> None:
     """Import one junction of an OpenDRIVE file as a map (--map, hyperspace derive --map)."""
     from sitcov.roads._cli import import_map, junction_table
@@ -153,7 +158,7 @@ def map_import_cmd(
         print(junction_table(file, as_json=as_json), end="")
         return
     leg_names = [n.strip() for n in legs.split(",") if n.strip()] if legs else None
-    text, summary = import_map(file, junction, near, leg_names, extension)
+    text, summary = import_map(file, junction, near, leg_names, extension, mouth_crosswalks)
     if out is None:
         print(text, end="")
         return

@@ -37,6 +37,7 @@ def import_map(
     near: str | None,
     legs: list[str] | None,
     extension: float,
+    mouth_crosswalks: bool = False,
 ) -> tuple[str, str]:
     """The map YAML of one junction and a one-line summary."""
     net = read_opendrive(file)
@@ -57,12 +58,16 @@ def import_map(
                 f"{', ...' if len(ids) > 20 else ''}; --list shows them)",
             )
         junction = ids[0]
-    data = junction_map_data(net, junction, extension=extension, legs=legs)
+    data = junction_map_data(
+        net, junction, extension=extension, legs=legs, mouth_crosswalks=mouth_crosswalks
+    )
     head = (
         f"# sitcov map (layout: lanes), imported from {Path(file).name} junction {junction}\n"
         f"# by: sitcov map import {file} --junction {junction}"
         + (f" --legs {','.join(legs)}" if legs else "")
-        + f" --extension {extension:g}\n# format: docs/roads.md\n"
+        + f" --extension {extension:g}"
+        + (" --mouth-crosswalks" if mouth_crosswalks else "")
+        + "\n# format: docs/roads.md\n"
     )
     text = head + yaml.safe_dump(data, sort_keys=False, default_flow_style=None, width=100)
     routes = data["lanes"]["routes"]

@@ -19,7 +19,7 @@ import numpy as np
 
 from sitcov._geometry import convex_hull
 from sitcov.errors import ConfigError
-from sitcov.roads._opendrive import Junction, Network
+from sitcov.roads._opendrive import Crosswalk, Junction, Network
 from sitcov.roads._walk import Stretch, _cut, _lane_at_end, _sample, inside_section, walk
 
 #: How far routes run up and down the legs from the junction's mouths [m] (the shipped
@@ -202,6 +202,7 @@ def junction_map_data(
     extension: float = DEFAULT_EXTENSION,
     legs: list[str] | None = None,
     name: str | None = None,
+    mouth_crosswalks: bool = False,
 ) -> dict:
     """The data of a sitcov map (``layout: lanes``) for one junction of ``net``.
 
@@ -211,6 +212,9 @@ def junction_map_data(
         extension: how far routes run along the legs beyond the mouths [m].
         legs: keep only these legs (names as :func:`junction_legs` gives them); all by default.
         name: the map's name (default ``<file stem>-junction-<id>``).
+        mouth_crosswalks: give every kept leg without a crosswalk object, but with a
+            sidewalk on both sides at the junction, a crossing like the shipped maps' (3 m
+            wide, from 1 m outside the mouth, kerb to kerb).
 
     Raises:
         ConfigError: unknown junction or leg, or a junction without two connected legs.
@@ -282,7 +286,8 @@ def junction_map_data(
     ]
     polygons, sidewalks = _surfaces(net, stretches)
     polygons.append(_mouth_hull(net, all_legs))
-    crosswalks = _crosswalks(net, junction_id, by_name, centre, mouths, lengths)
+    extra = _mouth_crosswalks(net, by_name) if mouth_crosswalks else {}
+    crosswalks = _crosswalks(net, junction_id, by_name, centre, mouths, lengths, extra)
     leg_data = {}
     for n in sorted(used):
         heading = math.degrees(by_name[n].heading + rot) % 360.0
@@ -509,15 +514,52 @@ def _median_sidewalk_width(net: Network, legs) -> float:
     return float(np.median(widths)) if widths else 2.0
 
 
-def _crosswalks(net, junction_id, by_name, centre, mouths, lengths) -> dict[str, dict]:
+#: A crossing added at a leg's mouth: from this far outside the junction [m], this wide [m]
+#: (the shipped maps' crosswalks: offset 1 m, width 3 m).
+MOUTH_CROSSWALK = (1.0, 3.0)
+
+
+def _mouth_crosswalks(net: Network, by_name: dict[str, LegInfo]) -> dict[str, list[Crosswalk]]:
+    """Per road, crossings at the mouths of legs with sidewalks on both sides: across every
+    lane between the two sidewalks, :data:`MOUTH_CROSSWALK` from the junction."""
+    out: dict[str, list[Crosswalk]] = {}
+    offset, width = MOUTH_CROSSWALK
+    for leg in by_name.values():
+        road = net.roads[leg.road]
+        at_end = leg.contact == "end"
+        i = len(road.sections) - 1 if at_end else 0
+        sec = road.sections[i]
+        walks = [lid for lid, lane in sec.lanes.items() if lid and lane.type == "sidewalk"]
+        if not (any(lid > 0 for lid in walks) and any(lid < 0 for lid in walks)):
+            continue
+        s_near = road.length - offset if at_end else offset
+        s_far = s_near - width if at_end else s_near + width
+        if min(s_near, s_far) < 0.0 or max(s_near, s_far) > road.length:
+            continue
+        s = inside_section(road, i, np.array([s_near, s_far]))
+        inner = [road.borders(i, lid, s)[0] for lid in walks]
+        lo = max((t for t in inner if t[0] < 0), key=lambda t: t[0])  # right kerb
+        hi = min((t for t in inner if t[0] > 0), key=lambda t: t[0])  # left kerb
+        corners = [
+            road.at(float(s[k]), float(t[k]))[:2] for k, t in ((0, lo), (1, lo), (1, hi), (0, hi))
+        ]
+        ring = zip(corners, corners[1:] + corners[:1], strict=True)
+        if sum(a[0] * b[1] - b[0] * a[1] for a, b in ring) < 0:
+            corners = corners[::-1]
+        out.setdefault(road.id, []).append(Crosswalk(f"mouth-{leg.name}", road.id, tuple(corners)))
+    return out
+
+
+def _crosswalks(net, junction_id, by_name, centre, mouths, lengths, extra=None) -> dict[str, dict]:
     """The crosswalk object nearest the junction on each leg (on the leg's road or a
-    connecting road of the junction), with its place along the leg for the map."""
+    connecting road of the junction; ``extra`` adds crossings per road), with its place
+    along the leg for the map."""
     found: dict[str, tuple[float, dict]] = {}
     for road in net.roads.values():
         near = road.junction == junction_id or road.id in {leg.road for leg in by_name.values()}
         if not near:
             continue
-        for cw in road.crosswalks:
+        for cw in road.crosswalks + (extra or {}).get(road.id, []):
             pts = np.array(cw.outline)
             c = pts.mean(axis=0) - centre
             best = None

@@ -153,3 +153,22 @@ def test_compare_puts_both_maps_in_one_frame() -> None:
     moved = compare_maps(t, t, at_a=(3.0, 4.0, 0.0))
     assert all(sp["ego"] == pytest.approx(5.0) for sp in moved["spawns"].values())
     assert all(c["distance"] == pytest.approx(5.0, abs=0.01) for c in moved["conflicts"].values())
+
+
+def test_mouth_crosswalks_where_the_file_has_none(tmp_path: Path) -> None:
+    """Without crosswalk objects a leg has no crossing, unless asked: then one like the
+    shipped maps' (1 m outside the mouth, 3 m wide) across the lanes between the sidewalks."""
+    import re
+
+    bare = tmp_path / "bare.xodr"
+    bare.write_text(re.sub(r"<objects>.*?</objects>", "", T_XODR.read_text(), flags=re.S))
+    net = read_opendrive(bare)
+    assert junction_map_data(net, "100")["lanes"]["crosswalks"] == {}
+    data = junction_map_data(net, "100", mouth_crosswalks=True)
+    assert set(data["lanes"]["crosswalks"]) == {"B", "L", "R"}
+    assert data["legs"]["B"]["crosswalk"] == {"offset": 1.0, "width": 3.0}
+    jmap = JunctionMap(data, source="bare.yaml")
+    path = actor_route(jmap, "pedestrian", "XBR")
+    assert np.allclose(path.ys, -12.5, atol=1e-6)
+    assert path.xs[0] == pytest.approx(5.5) and path.xs[-1] == pytest.approx(-5.5)
+    assert kerb_positions(jmap, "XBR") == pytest.approx((2.0, 9.0), abs=0.26)
