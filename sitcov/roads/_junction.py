@@ -30,6 +30,9 @@ PIECE = 2.0
 #: Default spawn distances from the centre [m]: the ego as on the shipped maps (Town03's
 #: 72 m), the adversary 25 m (within Town03's 20-35 m).
 EGO_SPAWN, OV_SPAWN = 72.0, 25.0
+#: A mouth closer to the centre than a lane width is moved out to a lane width plus this [m]
+#: (junctions where legs meet at a point, such as lane splits).
+MIN_MOUTH_MARGIN = 0.5
 
 
 @dataclass(frozen=True)
@@ -141,7 +144,7 @@ def list_junctions(net: Network) -> list[dict]:
 def junction_centre(legs: list[LegInfo]) -> np.ndarray:
     """Where the legs' axes meet [m, file coordinates]: the point nearest (least squares)
     to every line through a leg's mouth along its heading; the mean of the mouths when the
-    axes are (nearly) parallel."""
+    axes are (nearly) parallel or meet more than twice the mouths' spread away."""
     a, b = np.zeros((2, 2)), np.zeros(2)
     for leg in legs:
         n = np.array([-math.sin(leg.heading), math.cos(leg.heading)])
@@ -150,7 +153,10 @@ def junction_centre(legs: list[LegInfo]) -> np.ndarray:
     mean = np.mean([leg.mouth for leg in legs], axis=0)
     if np.linalg.cond(a) > 1e6:
         return mean
-    return np.linalg.solve(a, b)
+    point = np.linalg.solve(a, b)
+    # nearly parallel axes (a lane split, a bend) meet far away: the mouths' mean instead
+    spread = max(float(np.hypot(*(np.asarray(leg.mouth) - mean))) for leg in legs)
+    return point if float(np.hypot(*(point - mean))) <= max(2.0 * spread, 5.0) else mean
 
 
 def nearest_junction(net: Network, x: float, y: float) -> str:
@@ -252,7 +258,12 @@ def junction_map_data(
             expected="a junction with at least two movements between its legs",
         )
     used = {r.entry for r in routes} | {r.exit for r in routes}
-    mouths = {n: float(np.hypot(*(by_name[n].mouth - centre))) for n in used}
+    lane_width = _median_lane_width(net, by_name.values())
+    # the leg model wants mouths beyond a lane width: distances along a leg start there
+    mouths = {
+        n: max(float(np.hypot(*(by_name[n].mouth - centre))), lane_width + MIN_MOUTH_MARGIN)
+        for n in used
+    }
     lengths: dict[str, float] = {}
     for n in used:
         lines = [r.inbound for r in routes if r.entry == n] + [
@@ -277,7 +288,6 @@ def junction_map_data(
             "through": _rounded(to_map(r.through)),
             "out": _rounded(to_map(outbound)),
         }
-    lane_width = _median_lane_width(net, by_name.values())
     sidewalk_width = _median_sidewalk_width(net, by_name.values())
     # the junction box: every connecting road of the junction, and the convex hull of
     # the legs' drivable edges at their mouths (as the shipped maps' junction area)

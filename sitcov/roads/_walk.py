@@ -153,12 +153,11 @@ def _next(
                 linked = lane.predecessor if at_start else lane.successor
                 if linked != lane_id:
                     continue
+                # the connecting road's chord, in the direction it is driven from here
                 s = np.array([0.0, cand.length]) if at_start else np.array([cand.length, 0.0])
-                x, y, _ = cand.points(0 if at_start else len(cand.sections) - 1, lid, s[:1])
-                x2, y2, _ = cand.points(len(cand.sections) - 1 if at_start else 0, lid, s[1:])
-                turn = abs(
-                    math.remainder(math.atan2(y2[0] - y[0], x2[0] - x[0]) - heading, math.tau)
-                )
+                x, y, _ = cand.plan_view.evaluate(s)
+                chord = math.atan2(y[1] - y[0], x[1] - x[0])
+                turn = abs(math.remainder(chord - heading, math.tau))
                 if best is None or turn < best[0]:
                     best = (turn, cand, lid, at_start)
     if best is None:

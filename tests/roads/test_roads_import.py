@@ -172,3 +172,23 @@ def test_mouth_crosswalks_where_the_file_has_none(tmp_path: Path) -> None:
     assert np.allclose(path.ys, -12.5, atol=1e-6)
     assert path.xs[0] == pytest.approx(5.5) and path.xs[-1] == pytest.approx(-5.5)
     assert kerb_positions(jmap, "XBR") == pytest.approx((2.0, 9.0), abs=0.26)
+
+
+@pytest.mark.slow
+def test_every_town03_junction_imports_or_says_why() -> None:
+    """All 34 junctions of Town03: a map with derived conflicts, or one ConfigError line
+    (junction 685: a leg whose lanes end 5.9 m out)."""
+    from tests.roads._shared import town03
+
+    net = read_opendrive(town03())
+    imported, refused = 0, []
+    for row in list_junctions(net):
+        try:
+            jmap = JunctionMap(junction_map_data(net, row["id"], mouth_crosswalks=True))
+        except ConfigError as err:
+            refused.append(row["id"])
+            assert "\n" not in str(err)
+            continue
+        assert derive_conflicts(jmap, ("car", "cyclist", "pedestrian"))
+        imported += 1
+    assert imported == 33 and refused == ["685"]
