@@ -14,13 +14,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path as FsPath
 
 import numpy as np
 
 from sitcov._geometry import convex_hull
 from sitcov.errors import ConfigError
 from sitcov.roads._opendrive import Crosswalk, Junction, Network
-from sitcov.roads._walk import Stretch, _cut, _lane_at_end, _sample, inside_section, walk
+from sitcov.roads._walk import Stretch, cut_polyline, inside_section, lane_at_end, sample_lane, walk
 
 #: How far routes run up and down the legs from the junction's mouths [m] (the shipped
 #: maps' legs: 110 m from the centre, mouths at 12 m).
@@ -225,8 +226,6 @@ def junction_map_data(
     Raises:
         ConfigError: unknown junction or leg, or a junction without two connected legs.
     """
-    from pathlib import Path as FsPath
-
     all_legs = junction_legs(net, junction_id)
     centre = junction_centre(all_legs)
     by_name = {leg.name: leg for leg in all_legs}
@@ -379,12 +378,12 @@ def _routes(
         lane_in, (conn, link) = pick(options, key=lambda o: abs(o[0]))
         c = net.roads[conn.connecting]
         forward = conn.contact_point != "end"
-        through, lane_c = _sample(
+        through, lane_c = sample_lane(
             c, link.to_lane, 0.0 if forward else c.length, c.length if forward else 0.0
         )
         if lane_c is None or len(through) < 2:
             continue
-        lane_out = _lane_at_end(c, lane_c, forward)
+        lane_out = lane_at_end(c, lane_c, forward)
         if lane_out is None:
             continue
         inbound, s_in = walk(net, x.road, lane_in, x.contact == "end", extension)
@@ -411,7 +410,7 @@ def _length(line: np.ndarray) -> float:
 
 
 def _cut_start(line: np.ndarray, length: float) -> np.ndarray:
-    return _cut(line, length)
+    return cut_polyline(line, length)
 
 
 def _cut_from_end(line: np.ndarray, length: float) -> np.ndarray:

@@ -29,7 +29,7 @@ class Stretch:
     s1: float
 
 
-def _lane_at_end(road: Road, lane_id: int, forward: bool) -> int | None:
+def lane_at_end(road: Road, lane_id: int, forward: bool) -> int | None:
     """The lane id a lane continues as beyond the road's end (forward) or start."""
     sec = road.sections[-1 if forward else 0]
     lane = sec.lanes.get(lane_id)
@@ -47,7 +47,9 @@ def inside_section(road: Road, index: int, s: np.ndarray) -> np.ndarray:
     return s
 
 
-def _sample(road: Road, lane_id: int, s_from: float, s_to: float) -> tuple[np.ndarray, int | None]:
+def sample_lane(
+    road: Road, lane_id: int, s_from: float, s_to: float
+) -> tuple[np.ndarray, int | None]:
     """Centre-line points of a lane from ``s_from`` to ``s_to`` (either direction), following
     its lane links across sections; returns the points (about half a step apart) and the
     lane id in the last section reached (None where the lane ends before ``s_to``)."""
@@ -92,7 +94,7 @@ def walk(
         s_from = 0.0 if forward else road.length
         remaining = length - covered
         s_to = min(road.length, remaining) if forward else max(0.0, road.length - remaining)
-        pts, end_lid = _sample(road, lid, s_from, s_to)
+        pts, end_lid = sample_lane(road, lid, s_from, s_to)
         if len(pts) > 1:
             points.append(pts if not points else pts[1:])
             covered += float(np.hypot(*np.diff(pts, axis=0).T).sum())
@@ -104,10 +106,10 @@ def walk(
             break
         road, lid, forward = nxt
     line = np.concatenate(points) if points else np.zeros((0, 2))
-    return _cut(line, length), stretches
+    return cut_polyline(line, length), stretches
 
 
-def _cut(line: np.ndarray, length: float) -> np.ndarray:
+def cut_polyline(line: np.ndarray, length: float) -> np.ndarray:
     """The first ``length`` metres of a polyline (the last point interpolated)."""
     if len(line) < 2:
         return line
@@ -133,7 +135,7 @@ def _next(
         nxt = net.roads.get(link.element_id)
         if nxt is None:
             return None
-        next_lane = _lane_at_end(road, lane_id, forward)
+        next_lane = lane_at_end(road, lane_id, forward)
         if next_lane is None:
             return None
         return nxt, next_lane, link.contact_point != "end"
