@@ -192,3 +192,10 @@ def test_every_town03_junction_imports_or_says_why() -> None:
         assert derive_conflicts(jmap, ("car", "cyclist", "pedestrian"))
         imported += 1
     assert imported == 33 and refused == ["685"]
+
+
+def test_bench_runs_on_an_imported_map() -> None:
+    from sitcov.campaign._bench import bench
+
+    result = bench(6, 0, map=str(T_XODR), warmup=1)
+    assert result["runs"] == 6 and result["runs_per_s"] > 0
