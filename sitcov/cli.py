@@ -21,7 +21,11 @@ app = typer.Typer(
 hyperspace_app = typer.Typer(help="Inspect situation hyperspaces.", no_args_is_help=True)
 experiment_app = typer.Typer(help="Run predefined experiments.", no_args_is_help=True)
 models_app = typer.Typer(help="Manage detector models.", no_args_is_help=True)
+map_app = typer.Typer(
+    help="Road networks: import OpenDRIVE junctions as maps.", no_args_is_help=True
+)
 app.add_typer(hyperspace_app, name="hyperspace")
+app.add_typer(map_app, name="map")
 app.add_typer(experiment_app, name="experiment")
 app.add_typer(models_app, name="models")
 
@@ -107,7 +111,9 @@ def hyperspace_show_cmd(
 
 @hyperspace_app.command("derive")
 def hyperspace_derive_cmd(
-    map_name: str = typer.Option("t-junction", "--map", help="Built-in map name or map YAML."),
+    map_name: str = typer.Option(
+        "t-junction", "--map", help="Built-in map name, map YAML or FILE.xodr[#JUNCTION]."
+    ),
     actors: str = typer.Option(
         "car", "--actors", help="Kinds besides the ego, comma-separated: car,cyclist,pedestrian."
     ),
@@ -157,6 +163,84 @@ def hyperspace_scenario_cmd(
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text, encoding="utf-8")
     err_console.print(f"wrote {out}", highlight=False, soft_wrap=True)
+
+
+@map_app.command("import")
+def map_import_cmd(
+    file: Path = typer.Argument(..., help="OpenDRIVE file (.xodr)."),
+    list_only: bool = typer.Option(False, "--list", help="List every junction and its legs."),
+    junction: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--junction", help="Junction id (default: the file's only junction)."
+    ),
+    near: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--near", help="X,Y [m, file coordinates]: the junction nearest this point."
+    ),
+    legs: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--legs", help="Keep only these legs, comma-separated (e.g. B,L,R)."
+    ),
+    extension: float = typer.Option(
+        100.0, "--extension", min=20.0, help="How far routes run along the legs [m]."
+    ),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the map YAML here (default: stdout)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="With --list: print JSON."),
+    mouth_crosswalks: bool = typer.Option(
+        False,
+        "--mouth-crosswalks",
+        help="Add a crossing at each leg mouth with sidewalks on both sides (no object there).",
+    ),
+) -> None:
+    """Import one junction of an OpenDRIVE file as a map (--map, hyperspace derive --map)."""
+    from sitcov.roads._cli import import_map, junction_table
+
+    if list_only:
+        print(junction_table(file, as_json=as_json), end="")
+        return
+    leg_names = [n.strip() for n in legs.split(",") if n.strip()] if legs else None
+    text, summary = import_map(file, junction, near, leg_names, extension, mouth_crosswalks)
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {out}: {summary}", highlight=False, soft_wrap=True)
+
+
+@map_app.command("compare")
+def map_compare_cmd(
+    map_a: str = typer.Argument(..., help="Map A: name, YAML or FILE.xodr[#ID]."),
+    map_b: str = typer.Argument(..., help="Map B: name, YAML or FILE.xodr[#ID]."),
+    at_a: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--at-a", help="X,Y,DEG: where map A's frame lies (default: its own frame)."
+    ),
+    at_b: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--at-b", help="X,Y,DEG: where map B's frame lies (default: its own frame)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Compare two maps: legs, spawns, goals, routes and conflict points, in metres."""
+    import json
+
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._compare import compare_maps, comparison_text
+
+    def place(text: str | None, option: str) -> tuple[float, float, float] | None:
+        if text is None:
+            return None
+        try:
+            x, y, deg = (float(v) for v in text.split(","))
+        except ValueError:
+            raise SitcovError(f"{option}: expected X,Y,DEG, got {text!r}") from None
+        return x, y, deg
+
+    result = compare_maps(
+        load_map(map_a), load_map(map_b), place(at_a, "--at-a"), place(at_b, "--at-b")
+    )
+    print(
+        json.dumps(result, sort_keys=True) if as_json else comparison_text(result),
+        end="\n" if as_json else "",
+    )
 
 
 @app.command("generate")
@@ -596,6 +680,11 @@ def experiment_faults_cmd(
     ),
     physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
     judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None,
+        "--map",
+        help="Embedded map: name, YAML or FILE.xodr[#ID] (default: the hyperspace's).",
+    ),
 ) -> None:
     """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
     import json
@@ -638,6 +727,7 @@ def experiment_faults_cmd(
             executor=executor,
             workers=workers,
             batch_size=batch_size,
+            backend_options={"map": map_name} if map_name else None,
             progress=lambda _name, n: bar.advance(task, n),
         )
     if as_json:
@@ -914,13 +1004,17 @@ def bench_cmd(
         "machine's speed drifts) and check every round gives the same outcomes.",
     ),
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--map", help="Embedded map: name, YAML or FILE.xodr[#ID] (default: t-junction)."
+    ),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
 ) -> None:
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
     import json
 
     from sitcov.campaign._bench import bench
 
-    result = bench(runs, seed, fault=fault, rounds=rounds)
+    result = bench(runs, seed, fault=fault, rounds=rounds, map=map_name, hyperspace=hyperspace)
     if json_out:
         console.print_json(json.dumps(result))
         return

@@ -304,9 +304,11 @@ def failure_message(run: RunRecord) -> str:
     if outcome is None:
         return run.failure_kind or run.status
     kind = run.failure_kind or outcome.kind
-    if kind == "collision":
+    if kind in ("collision", "ego_stationary"):
         hit = hit_description(run, run.situation.to_dict()["values"])
         text = f"collision with {hit}" if hit else "collision"
+        if kind == "ego_stationary":
+            text += " while the ego stood still"
         time = outcome.collision_time
     else:
         text, time = kind, outcome.metrics.get(f"{kind}_time")

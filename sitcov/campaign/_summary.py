@@ -204,6 +204,8 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     parts = [totals, *breakdown_tables(summary)]
     if worst.row_count:
         parts.append(worst)
+    elif summary.get("failures"):
+        parts.append(f"worst bins: none ranked yet (a bin needs >= {MIN_RANKED} runs)")
     return Group(*parts)
 
 

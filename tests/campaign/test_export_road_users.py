@@ -24,8 +24,8 @@ from sitcov.campaign._export_actors import ACTOR_COLUMNS, RUN_COLUMNS
 FAKE = ["--generator", GENERATOR, "--backend", BACKEND, "--av", STACK, "--executor", "serial"]
 #: A JUnit failure message: the kind, for a collision what was hit, and when.
 MESSAGE = re.compile(
-    r"^(collision with \w+ \((car|truck|cyclist|pedestrian)\)|road_departure|lane_departure)"
-    r" at \d+\.\d s$"
+    r"^(collision with \w+ \((car|truck|cyclist|pedestrian)\)( while the ego stood still)?"
+    r"|road_departure|lane_departure|blocked|route_incomplete) at \d+\.\d s$"
 )
 
 
@@ -233,7 +233,7 @@ def test_junit_messages_name_the_road_user_hit_and_the_departure(derived_db, jud
             assert message == failure_message(run) and MESSAGE.match(message), message
             kind = run.failure_kind
             seen.add(kind)
-            if kind == "collision":
+            if kind in ("collision", "ego_stationary"):
                 actor = run.outcome.metrics.get("collision_actor") or "ov"
                 assert message.startswith(f"collision with {actor} (")
                 assert message.endswith(f" at {run.outcome.collision_time:.1f} s")
