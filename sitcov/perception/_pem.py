@@ -28,9 +28,15 @@ dark parts, ``chroma``, ``red_green`` and ``yellow_blue`` the body colour's CIEL
 and b* over 100 (:mod:`sitcov.perception._colors`), and ``n_t`` a unit-variance noise,
 optionally correlated in time:
 
-    n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share) * u_t
+    n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share - noise_frame_share) * u_t
+          + sqrt(noise_frame_share) * e_t
     a ~ N(0, 1)                 drawn once per run and actor ("this car is hard to see")
     u_t = phi * u_{t-1} + sqrt(1 - phi^2) * N(0, 1),   phi = exp(-frame_dt / noise_tau)
+    e_t ~ N(0, 1)               drawn afresh every frame (the detector's flicker)
+
+(the shipped parameters: the frame model of :mod:`sitcov.calibration._frame_model`,
+fitted by maximum likelihood on recorded detector frames; ``e_t`` is drawn only when
+``noise_frame_share`` > 0, so files without it draw as before)
 
 A detection is reported when the score reaches the detector's output ``floor``; rain also
 drops whole frames with probability ``rain_miss * rain_noise``, decided by a second
@@ -471,7 +477,13 @@ class PEMSensor(Sensor):
             track.u = phi * track.u + keep * e_u
             track.m = phi * track.m + keep * e_m
             track.frame = self._frame
-        share = p.noise_run_share
+        share, fresh = p.noise_run_share, p.noise_frame_share
+        if fresh > 0.0:  # the frame's own part, independent of the AR(1) part
+            (e,) = normals.take(1)
+            ar = 1.0 - share - fresh
+            ar = ar if ar > 0.0 else 0.0
+            n = math.sqrt(share) * track.offset + math.sqrt(ar) * track.u + math.sqrt(fresh) * e
+            return n, track.m
         n = math.sqrt(share) * track.offset + math.sqrt(1.0 - share) * track.u
         return n, track.m
 

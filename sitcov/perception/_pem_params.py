@@ -56,6 +56,8 @@ class PEMParams:
             for one actor (between-run share) [-].
         noise_tau: correlation time of the frame-to-frame part of the noise [s]
             (0 = independent frames).
+        noise_frame_share: share of the logit-noise variance drawn afresh every frame,
+            independent of the AR(1) part (the detector's frame-to-frame flicker) [-].
         contrast_gain: logit per unit of the body's luminance contrast against road and
             sky (Michelson, 0..1) [-].
         detail_gain: logit per unit of the body's contrast against the car's dark parts
@@ -83,6 +85,7 @@ class PEMParams:
     floor: float = 0.3
     noise_run_share: float = 0.0
     noise_tau: float = 0.0
+    noise_frame_share: float = 0.0
     aspect_gain: float = 0.0
     view2_gain: float = 0.0
     edge_gain: float = 0.0
@@ -130,7 +133,12 @@ class PEMParams:
                 raise ConfigError(file=file, field=name, value=getattr(self, name), expected=">= 0")
         if self.noise_tau < 0:
             raise ConfigError(file=file, field="noise_tau", value=self.noise_tau, expected=">= 0")
-        for name in ("rain_miss", "floor", "noise_run_share"):
+        if self.noise_run_share + self.noise_frame_share > 1.0 + 1e-9:
+            raise ConfigError(
+                file=file, field="noise_frame_share", value=self.noise_frame_share,
+                expected="<= 1 - noise_run_share",
+            )  # fmt: skip
+        for name in ("rain_miss", "floor", "noise_run_share", "noise_frame_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ConfigError(
                     file=file, field=name, value=getattr(self, name), expected="in [0, 1]"
