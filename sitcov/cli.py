@@ -947,6 +947,15 @@ def calibrate_cmd(
     classes_out: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--classes-out", help="--frames-from: write the per-class file here."
     ),
+    heldout: Optional[list[Path]] = typer.Option(  # noqa: UP045
+        None,
+        "--heldout",
+        help="--frames-from: choose the model on these frames files' even-index runs "
+        "(recorded with another seed) instead of --cv-folds folds.",
+    ),
+    check_runs: str = typer.Option(
+        "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
+    ),
     check: Optional[Path] = typer.Option(  # noqa: UP045
         None,
         "--check",
@@ -965,10 +974,10 @@ def calibrate_cmd(
     from rich.progress import Progress
 
     if check is not None:
-        _check_frames_cmd(check, kinds, pem, pem_classes)
+        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs)
         return
     if frames_from:
-        _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out)
+        _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout)
         return
     if record_frames:
         _record_frames_cmd(kinds, runs, seed, workers, model, samples_out, sweep_frames)
@@ -1039,8 +1048,9 @@ def calibrate_cmd(
 
 
 def _frame_model_cmd(
-    paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None
-) -> None:
+    paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
+    workers: int = 1, heldout: list[Path] | None = None,
+) -> None:  # fmt: skip
     """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
     import shlex
     import time
@@ -1048,9 +1058,15 @@ def _frame_model_cmd(
     from sitcov.calibration import _frame_model as fm
 
     cpu = time.process_time()
-    results = fm.fit_files(paths, folds=folds)
+    wall = time.perf_counter()
+    results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or ())
+    wall = time.perf_counter() - wall
     command = "sitcov calibrate " + " ".join(f"--frames-from {shlex.quote(str(p))}" for p in paths)
-    command += f" --cv-folds {folds} --seed {seed}"
+    if heldout:
+        command += "".join(f" --heldout {shlex.quote(str(p))}" for p in heldout)
+    else:
+        command += f" --cv-folds {folds}"
+    command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     if classes_out is not None:
@@ -1076,10 +1092,16 @@ def _frame_model_cmd(
             f"AR share {summary['ar_share']}",
             highlight=False,
         )
-    err_console.print(f"{time.process_time() - cpu:.0f} CPU-s", highlight=False)
+    err_console.print(
+        f"{wall:.0f} s wall on {workers} worker(s) ({time.process_time() - cpu:.0f} CPU-s in "
+        "the main process)",
+        highlight=False,
+    )
 
 
-def _check_frames_cmd(path: Path, kinds: str, pem: Path | None, pem_classes: Path | None) -> None:
+def _check_frames_cmd(
+    path: Path, kinds: str, pem: Path | None, pem_classes: Path | None, part: str = "all"
+) -> None:
     """``sitcov calibrate --check``: the frame model's done-when table (docs/pem.md)."""
     from sitcov.calibration import _frame_check as fc
     from sitcov.calibration._frames import parse_kinds, read_frames
@@ -1087,7 +1109,12 @@ def _check_frames_cmd(path: Path, kinds: str, pem: Path | None, pem_classes: Pat
     from sitcov.perception._pem_params import load_pem_params
 
     names = parse_kinds(kinds)
-    frames = {k: v for k, v in read_frames(path).items() if k in names}
+    from sitcov.calibration._frame_model import split_runs
+    from sitcov.errors import ConfigError
+
+    if part not in ("all", "odd", "even"):
+        raise ConfigError(field="--check-runs", value=part, expected="all | odd | even")
+    frames = {k: split_runs(v, part) for k, v in read_frames(path).items() if k in names}
     classes = load_class_params(pem_classes)
     params = {k: load_pem_params(pem) if k == "car" else classes[k][1] for k in frames}
     rows = fc.check_frames(frames, params)

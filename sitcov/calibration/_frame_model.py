@@ -1,35 +1,41 @@
 """The frame model: the detector's score per road user and frame, fitted by maximum likelihood.
 
-The PEM (:mod:`sitcov.perception._pem`) says, for one road user in one frame, what top
-score the SSD gives it: ``logit(score_t) = m(x_t) + s_a * a_t + s_e * e_t`` with ``m`` the
-PEM's logit of the features ``x_t`` (class, size, view, truncation, fog transmittance,
-light, rain, colour), ``a_t`` a unit AR(1) process over the road user's frames (``a_t =
-rho^g a_{t-g} + sqrt(1 - rho^(2g)) N(0, 1)``, ``g`` frames apart) and ``e_t`` independent
-unit noise. ``s_a^2 + s_e^2 = noise_sigma^2``; ``noise_frame_share = s_e^2 / noise_sigma^2``;
-``rho = exp(-frame_dt / noise_tau)``. The detector reports the road user when the score
-reaches its output floor (0.3). It is the same model for every stack: no term is chosen
-on any stack's verdicts.
+The PEM (:mod:`sitcov.perception._pem`) says, for one road user in one frame, whether the
+SSD outputs it and with which top score. With ``m(x_t)`` the PEM's logit of the frame's
+features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain, colour):
+
+- a latent unit noise ``n_t = sqrt(s) a_t + sqrt(1 - s) e_t``, ``a_t`` an AR(1) process
+  over the road user's frames (``a_t = rho^g a_{t-g} + sqrt(1 - rho^(2g)) N(0, 1)``, ``g``
+  frames apart), ``e_t`` fresh every frame;
+- the score ``logit(score_t) = m(x_t) + g(n_t)``, ``g(n) = sigma n`` below 0 and
+  ``sigma * up * n`` above (a split normal: the detector's scores spread less upwards);
+- the detector outputs the road user with probability ``Phi(d0 + d1 m(x_t) + lam a_t)``
+  (its misses, which come in bursts with the same AR state).
+
+In ``pem.yaml``: ``noise_sigma`` = sigma, ``noise_up_ratio`` = up, ``noise_frame_share`` =
+1 - s, ``noise_tau`` = -frame_dt / ln(rho), ``detect_bias/gain/ar`` = d0, d1, lam. It is
+the same model for every stack: no term is chosen on any stack's verdicts.
 
 The data are recorded frames of the real detector (:mod:`sitcov.calibration._frames`):
 camera runs (consecutive frames of one road user form a *track*) and static sweep frames
-(tracks of one frame). The recording kept detections down to 0.05, so a score below it is
-*censored* (only ``logit(score) < logit(0.05)`` is known).
+(tracks of one frame). A score below :data:`CENSOR` counts as censored (only "below" is
+used): the recording kept boxes down to 0.05, but those weak boxes are the frames the
+detector all but misses, which the detection term covers.
 
-Fit (:func:`fit_kind`), by maximum likelihood:
+Fit (:func:`fit_tracks`), by maximum likelihood:
 
-1. *Frames as independent* (a Tobit model of the logit score, censored at 0.05): the
-   coefficients ``beta`` and ``noise_sigma``, with a ridge penalty on the non-intercept
-   coefficients, for each ``size_max_px`` on a grid (the best by likelihood).
-2. *Tracks as sequences*: the exact likelihood of every track under the AR(1) + noise
-   model (a forward filter on a grid of the AR state, :func:`track_loglik`), maximised over
-   the intercept, a common scale of the other coefficients, ``noise_sigma``, the frame
-   share and ``rho``. A camera run recorded with the reference stack stops calling its
-   detector when its AEB fires; the sequence likelihood conditions each frame on the
-   earlier ones, so that stopping rule (which depends only on earlier frames) leaves it
-   valid, where step 1's independent-frames likelihood is biased by it.
+1. the coefficients of ``m`` and a starting scale, by ridge least squares of the logit
+   scores above :data:`CENSOR`, for each ``size_max_px`` on a grid (the best by likelihood);
+2. the exact likelihood of every track (a forward filter on a grid of the AR state,
+   :func:`track_loglik`), maximised over the intercept, a common scale of the other
+   coefficients, sigma, up, s, rho, d0, d1 and lam. A camera run recorded with the
+   reference stack stops calling its detector when its AEB fires; the sequence
+   likelihood conditions each frame on the earlier ones, so that stopping rule (which
+   depends only on earlier frames) leaves it valid, where a likelihood of independent
+   frames is biased by it.
 
-Model choice (:func:`choose_model`): candidates (independent frames, AR(1) + noise; ridge
-penalties) are compared by their log-likelihood on held-out tracks, run-grouped folds.
+Model choice (:func:`choose_model`): independent frames (``s = 0``) or the AR(1) model, by
+the log-likelihood of held-out tracks over run-grouped folds.
 """
 
 from __future__ import annotations
@@ -46,22 +52,28 @@ from sitcov.calibration._frames import KindFrames
 from sitcov.errors import SitcovError
 from sitcov.perception._pem import FRAME_DT, PEMFeatures, PEMParams
 
-#: Scores below this were not recorded (the recording detector's floor): censored [-].
-CENSOR = 0.05
+#: Scores below this count as censored (only "below" is used) [-]: the recording kept
+#: scores down to 0.05, but below ~0.2 the detector's box is a stray weak one (the frames
+#: it all but misses); the model's detection term covers them, its score law the scores
+#: that matter to any stack (>= the output floor 0.3) without being widened by them.
+CENSOR = 0.2
 #: The detector's output floor in use: a road user is reported at this score [-].
 FLOOR = 0.3
 #: ``size_max_px`` candidates [px] (the best by step 1's likelihood).
 SIZE_MAX_GRID = (60.0, 100.0, 150.0, 200.0, 300.0, 450.0)
-#: Nodes of the AR state's grid (standard units, uniformly over +-5).
-GRID_NODES = 41
+#: Nodes of the AR state's grid (standard units, uniformly over +-4.5).
+GRID_NODES = 25
+#: Largest AR share of the latent noise (the frame part keeps the grid's emissions smooth).
+SHARE_MAX = 0.97
 #: Largest AR(1) coefficient per frame tried (the grid resolves kernels down to this).
 RHO_MAX = 0.98
+#: Percentile of the reported boxes' heights below which the PEM reports nothing [%]
+#: (low: the logit, fitted on every size, already makes small boxes rare).
+MIN_PX_PERCENTILE = 0.5
 #: Model candidates: (name, ridge penalty, AR(1) term).
 CANDIDATES = (
-    ("independent ridge=1", 1.0, False),
-    ("ar1 ridge=1", 1.0, True),
-    ("independent ridge=10", 10.0, False),
-    ("ar1 ridge=10", 10.0, True),
+    ("independent", 1.0, False),
+    ("ar1", 1.0, True),
 )
 
 
@@ -132,38 +144,19 @@ def tracks_of(data: KindFrames) -> Tracks:
                   np.asarray(gap), np.asarray(group), np.asarray(dist, dtype=float))  # fmt: skip
 
 
-# --- step 1: frames as independent (Tobit) ----------------------------------------------------
+# --- step 1: the detected frames' scores, as independent (ridge least squares) ------------
 
 
-def _tobit(x: np.ndarray, y: np.ndarray, obs: np.ndarray, ridge: float) -> tuple[np.ndarray, float]:
-    """Censored-normal regression of ``y`` on ``x`` (``obs`` False: ``y`` < logit(CENSOR)):
-    (coefficients with ``log sigma`` last, penalised NLL)."""
-    from scipy.optimize import minimize
-    from scipy.special import log_ndtr
-
-    c = float(_logit(CENSOR))
-    yo = np.where(obs, y, 0.0)
-
-    def nll(theta: np.ndarray) -> tuple[float, np.ndarray]:
-        beta, ls = theta[:-1], theta[-1]
-        sigma = math.exp(ls)
-        m = x @ beta
-        r = (yo - m) / sigma
-        z = (c - m) / sigma
-        lcdf = log_ndtr(z)
-        value = float(np.sum(np.where(obs, 0.5 * r * r + ls, -lcdf)))
-        lam = np.exp(-0.5 * z * z - 0.5 * math.log(2 * math.pi) - lcdf)
-        dm = np.where(obs, -r / sigma, lam / sigma)
-        dls = float(np.sum(np.where(obs, 1.0 - r * r, lam * z)))
-        grad = np.r_[x.T @ dm, dls]
-        value += ridge * float(np.sum(beta[1:] ** 2))
-        grad[1:-1] += 2.0 * ridge * beta[1:]
-        return value, grad
-
-    start = np.zeros(x.shape[1] + 1)
-    start[0] = float(np.mean(np.where(obs, y, c - 1.0)))
-    res = minimize(nll, start, jac=True, method="L-BFGS-B")
-    return res.x, float(res.fun)
+def _ridge_ls(x: np.ndarray, y: np.ndarray, ridge: float) -> tuple[np.ndarray, float, float]:
+    """Ridge least squares of ``y`` on ``x`` (intercept free): (coefficients, residual
+    standard deviation, Gaussian NLL)."""
+    pen = ridge * np.eye(x.shape[1])
+    pen[0, 0] = 0.0
+    beta = np.linalg.solve(x.T @ x + pen, x.T @ y)
+    res = y - x @ beta
+    sigma = float(np.sqrt(np.mean(res * res)))
+    nll = 0.5 * len(y) * (1.0 + math.log(2 * math.pi * sigma * sigma))
+    return beta, sigma, nll
 
 
 def _design_for(t: Tracks, size_max: float, ref: float) -> np.ndarray:
@@ -177,11 +170,11 @@ def _observed(t: Tracks) -> tuple[np.ndarray, np.ndarray]:
     return y, obs
 
 
-# --- step 2: tracks as sequences (AR(1) + noise, forward filter on a grid) -------------------
+# --- step 2: tracks as sequences (forward filter on a grid of the AR state) -------------------
 
 
 def _grid() -> tuple[np.ndarray, np.ndarray]:
-    u = np.linspace(-5.0, 5.0, GRID_NODES)
+    u = np.linspace(-4.5, 4.5, GRID_NODES)
     p = np.exp(-0.5 * u * u)
     return u, p / p.sum()
 
@@ -193,28 +186,57 @@ def _kernel(u: np.ndarray, rho: float) -> np.ndarray:
     return k / k.sum(axis=1, keepdims=True)
 
 
-def track_loglik(
-    m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, sigma: float, share: float,
-    rho: float,
-) -> np.ndarray:  # fmt: skip
-    """Log-likelihood of each track (array over tracks, in track order).
+@dataclass(frozen=True)
+class Noise:
+    """The model's noise and detection terms (module docstring): ``sigma`` the logit
+    score's noise scale below its median, ``up`` the scale above it over ``sigma``,
+    ``share`` the AR part's share of the unit latent noise, ``rho`` the AR coefficient per
+    frame; detection ``P = Phi(d0 + d1 * m + lam * a_t)``."""
 
-    ``m``: the PEM logit per frame; ``y``/``obs``: the logit score and whether it was
-    recorded; ``share``: the AR part's share ``s_a^2 / sigma^2`` (0 = independent frames,
-    exact closed form); ``rho``: the AR coefficient per frame. Observed frames contribute
-    densities of the logit score.
-    """
+    sigma: float
+    share: float
+    rho: float
+    d0: float = 8.0
+    d1: float = 0.0
+    lam: float = 0.0
+    up: float = 1.0
+
+
+def _ginv(v: np.ndarray, noise: Noise) -> np.ndarray:
+    """The latent unit noise ``n`` whose score offset ``g(n)`` is ``v`` [logit]."""
+    return np.where(v < 0.0, v / noise.sigma, v / (noise.sigma * noise.up))
+
+
+def frame_logliks(
+    m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise
+) -> np.ndarray:
+    """Log-likelihood of each frame (rows) given the AR state at each grid node (columns)."""
     from scipy.special import log_ndtr
 
     c = float(_logit(CENSOR))
+    ra, re = math.sqrt(noise.share), math.sqrt(1.0 - noise.share)
+    det = noise.d0 + noise.d1 * m[:, None] + noise.lam * u[None, :]
+    log_det, log_miss = log_ndtr(det), log_ndtr(-det)
+    v = y - m
+    n = _ginv(v, noise)
+    slope = np.where(v < 0.0, noise.sigma, noise.sigma * noise.up)
+    r = (n[:, None] - ra * u[None, :]) / re
+    seen = log_det - 0.5 * r * r - math.log(re) - 0.5 * math.log(2 * math.pi)
+    seen = seen - np.log(slope)[:, None]
+    nc = _ginv(c - m, noise)
+    low = np.logaddexp(log_miss, log_det + log_ndtr((nc[:, None] - ra * u[None, :]) / re))
+    return np.where(obs[:, None], seen, low)
+
+
+def track_loglik(
+    m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, noise: Noise
+) -> np.ndarray:
+    """Log-likelihood of each track (array over tracks, in track order): the forward
+    filter over the AR state's grid; ``m`` the PEM logit per frame, ``y``/``obs`` the
+    logit score and whether one >= CENSOR was recorded."""
     n_tracks = int(t.track.max()) + 1 if len(t.track) else 0
-    if share <= 0.0:
-        r = (y - m) / sigma
-        per = np.where(obs, -0.5 * r * r - math.log(sigma) - 0.5 * math.log(2 * math.pi),
-                       log_ndtr((c - m) / sigma))  # fmt: skip
-        return np.bincount(t.track, weights=per, minlength=n_tracks)
-    s_a, s_e = sigma * math.sqrt(share), sigma * math.sqrt(1.0 - share)
     u, prior = _grid()
+    log_e = frame_logliks(m, y, obs, u, noise)
     starts = np.flatnonzero(np.r_[True, t.track[1:] != t.track[:-1]])
     lengths = np.diff(np.r_[starts, len(t.track)])
     order = np.argsort(-lengths, kind="stable")  # longest first: active tracks are a prefix
@@ -223,7 +245,7 @@ def track_loglik(
     out = np.zeros(n_tracks)
     alpha = np.tile(prior, (len(starts), 1))
     kernels: dict[int, np.ndarray] = {}
-    for step in range(int(lengths.max())):
+    for step in range(int(lengths.max()) if len(lengths) else 0):
         active = int(np.sum(lengths > step))
         idx = starts[:active] + step
         a = alpha[:active]
@@ -233,32 +255,27 @@ def track_loglik(
             for g in np.unique(gaps):
                 sel = gaps == g
                 if int(g) not in kernels:
-                    kernels[int(g)] = _kernel(u, rho ** int(g))
+                    kernels[int(g)] = _kernel(u, noise.rho ** int(g))
                 new[sel] = a[sel] @ kernels[int(g)]
             a = new
-        mu = m[idx, None] + s_a * u[None, :]
-        r = (y[idx, None] - mu) / s_e
-        log_e = np.where(obs[idx, None], -0.5 * r * r - math.log(s_e) - 0.5 * math.log(2 * math.pi),
-                         log_ndtr((c - mu) / s_e))  # fmt: skip
-        top = log_e.max(axis=1, keepdims=True)
-        a = a * np.exp(log_e - top)
-        total = a.sum(axis=1)
-        out[ids[:active]] += np.log(np.maximum(total, 1e-300)) + top[:, 0]
-        alpha[:active] = a / np.maximum(total, 1e-300)[:, None]
+        le = log_e[idx]
+        top = le.max(axis=1, keepdims=True)
+        a = a * np.exp(le - top)
+        total = np.maximum(a.sum(axis=1), 1e-300)
+        out[ids[:active]] += np.log(total) + top[:, 0]
+        alpha[:active] = a / total[:, None]
     return out
 
 
 @dataclass(frozen=True)
 class FrameFit:
     """A fitted frame model: the logit's coefficients (``_LINEAR`` order), the size clamp
-    and reference [px], and the noise (``noise_sigma``, AR share, rho per frame)."""
+    and reference [px], and the noise and detection terms."""
 
     beta: np.ndarray
     size_max: float
     size_ref: float
-    sigma: float
-    share: float
-    rho: float
+    noise: Noise
 
     def logit(self, t: Tracks) -> np.ndarray:
         """The PEM logit ``m`` of every frame of ``t``."""
@@ -267,7 +284,7 @@ class FrameFit:
     def loglik(self, t: Tracks) -> float:
         """Sequence log-likelihood of ``t`` (every track)."""
         y, obs = _observed(t)
-        return float(track_loglik(self.logit(t), y, obs, t, self.sigma, self.share, self.rho).sum())
+        return float(track_loglik(self.logit(t), y, obs, t, self.noise).sum())
 
 
 def fit_tracks(t: Tracks, *, ridge: float, ar: bool, size_ref: float) -> FrameFit:
@@ -277,35 +294,40 @@ def fit_tracks(t: Tracks, *, ridge: float, ar: bool, size_ref: float) -> FrameFi
     y, obs = _observed(t)
     if int(np.sum(t.score >= FLOOR)) < 10:
         raise SitcovError(f"only {int(np.sum(t.score >= FLOOR))} frames detected at >= {FLOOR}")
-    best: tuple[float, np.ndarray, float, np.ndarray] | None = None
+    best: tuple[float, np.ndarray, float, float, np.ndarray] | None = None
     for size_max in SIZE_MAX_GRID:
         x = _design_for(t, size_max, size_ref)
-        theta, value = _tobit(x, y, obs, ridge)
+        beta, sigma0, value = _ridge_ls(x[obs], y[obs], ridge)
         if best is None or value < best[0]:
-            best = (value, theta, size_max, x)
+            best = (value, beta, sigma0, size_max, x)
     assert best is not None
-    _, theta, size_max, x = best
-    beta, sigma0 = theta[:-1], math.exp(theta[-1])
+    _, beta, sigma0, size_max, x = best
     rest = x[:, 1:] @ beta[1:]
 
-    def unpack(p: np.ndarray) -> tuple[float, float, float, float, float]:
-        b0, kappa, sigma = p[0], p[1], math.exp(p[2])
-        share = 1.0 / (1.0 + math.exp(-p[3])) if ar else 0.0
-        rho = RHO_MAX / (1.0 + math.exp(-p[4])) if ar else 0.0
-        return b0, kappa, sigma, share, rho
+    def unpack(p: np.ndarray) -> tuple[float, float, Noise]:
+        up = math.exp(min(3.0, max(-5.0, p[5])))
+        share = SHARE_MAX / (1.0 + math.exp(-p[6])) if ar else 0.0
+        rho = RHO_MAX / (1.0 + math.exp(-p[7])) if ar else 0.0
+        lam = p[8] if ar else 0.0
+        sigma = math.exp(min(3.0, max(-6.0, p[2])))
+        return p[0], p[1], Noise(sigma, share, rho, p[3], p[4], lam, up)
 
     def nll(p: np.ndarray) -> float:
-        b0, kappa, sigma, share, rho = unpack(p)
-        m = b0 + kappa * rest
-        return -float(track_loglik(m, y, obs, t, sigma, share, rho).sum())
+        b0, kappa, noise = unpack(p)
+        return -float(track_loglik(b0 + kappa * rest, y, obs, t, noise).sum())
 
-    start = np.array([beta[0], 1.0, math.log(sigma0), 1.0, 1.5])
-    if not ar:
-        start = start[:3]
-    res = minimize(nll, start, method="L-BFGS-B", options={"maxiter": 200})
-    b0, kappa, sigma, share, rho = unpack(np.r_[res.x, 0.0, 0.0] if not ar else res.x)
-    coef = np.r_[b0, kappa * beta[1:]]
-    return FrameFit(coef, size_max, size_ref, sigma, share, rho)
+    rate = float(np.clip(np.mean(obs), 0.02, 0.98))
+    start = [beta[0], 1.0, math.log(sigma0), float(_ndtri(rate)), 0.0, 0.0]
+    start += [1.0, 1.5, 0.5] if ar else []
+    res = minimize(nll, np.asarray(start), method="L-BFGS-B", options={"maxiter": 150})
+    b0, kappa, noise = unpack(res.x if ar else np.r_[res.x, 0.0, 0.0, 0.0])
+    return FrameFit(np.r_[b0, kappa * beta[1:]], size_max, size_ref, noise)
+
+
+def _ndtri(p: float) -> float:
+    from scipy.special import ndtri
+
+    return float(ndtri(p))
 
 
 def _folds(groups: np.ndarray, k: int, seed: int = 0) -> list[np.ndarray]:
@@ -343,23 +365,30 @@ def choose_model(
 
 def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) -> PEMParams:
     """The fit as PEM parameters (other fields from ``base``; jitter from the runs'
-    matched boxes; ``size_min_px`` the 2nd percentile of the box heights reported)."""
+    matched boxes; ``size_min_px`` the :data:`MIN_PX_PERCENTILE` percentile of the box
+    heights reported: below it the sensor reports nothing, above it the fitted logit,
+    fitted down to 1 px, decides)."""
     values = {name: round(float(v), 4) for name, v in zip(_LINEAR, fit.beta, strict=True)}
     heights = np.asarray([f.height_px for f in t.feats])
     seen = heights[t.score >= FLOOR]
-    size_min = float(np.percentile(seen, 2)) if seen.size else base.size_min_px
+    size_min = float(np.percentile(seen, MIN_PX_PERCENTILE)) if seen.size else base.size_min_px
     jitter = _jitter([f for r in runs for f in r.frames])
-    tau = -FRAME_DT / math.log(fit.rho) if fit.share > 0.0 and fit.rho > 0.0 else 0.0
+    nz = fit.noise
+    tau = -FRAME_DT / math.log(nz.rho) if nz.share > 0.0 and nz.rho > 0.0 else 0.0
     return replace(
         base,
         **values,
         size_ref_px=round(fit.size_ref, 4),
         size_min_px=round(max(1.0, size_min), 2),
         size_max_px=fit.size_max,
-        noise_sigma=round(fit.sigma, 4),
+        noise_sigma=round(nz.sigma, 4),
         noise_tau=round(tau, 4),
         noise_run_share=0.0,
-        noise_frame_share=round(1.0 - fit.share, 4) if fit.share > 0.0 else 0.0,
+        noise_frame_share=round(1.0 - nz.share, 4) if nz.share > 0.0 else 0.0,
+        detect_bias=round(nz.d0, 4),
+        detect_gain=round(nz.d1, 4),
+        detect_ar=round(nz.lam, 4),
+        noise_up_ratio=round(nz.up, 4),
         rain_sigma=0.0,
         rain_miss=0.0,
         rain_jitter=0.0,
@@ -368,42 +397,85 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
     )
 
 
+def held_out_choice(
+    t: Tracks, held: Tracks, *, size_ref: float,
+    candidates: Sequence[tuple[str, float, bool]] = CANDIDATES,
+) -> tuple[str, dict[str, Any], dict[str, FrameFit]]:  # fmt: skip
+    """Each candidate fitted on ``t`` and scored by its sequence log-likelihood on the
+    held-out tracks ``held`` (per frame): (the best, the table, the fits)."""
+    table: dict[str, Any] = {}
+    fits: dict[str, FrameFit] = {}
+    for name, ridge, ar in candidates:
+        fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+        table[name] = {
+            "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
+            "heldout_frames": len(held.score),
+        }
+    chosen = max(table, key=lambda k: table[k]["heldout_loglik_per_frame"])
+    return chosen, table, fits
+
+
+def split_runs(data: KindFrames, part: str) -> KindFrames:
+    """The runs of even (``even``) or odd (``odd``) index, or all (``all``); no sweep frames
+    unless ``all``. Held-out files are split so that the model is chosen on one half and
+    checked on the other."""
+    if part == "all":
+        return data
+    want = 0 if part == "even" else 1
+    return KindFrames(runs=[r for r in data.runs if r.index % 2 == want])
+
+
 def fit_kind(
-    data: KindFrames, base: PEMParams, *, folds: int = 5
+    data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None
 ) -> tuple[PEMParams, dict[str, Any]]:
-    """Choose the model on held-out runs, refit it on every frame of the kind; the
-    parameters and a summary (frames, tracks, the choice table, the fitted noise)."""
+    """Choose the model on held-out runs and fit it on every frame of the kind; the
+    parameters and a summary (frames, tracks, the choice table, the fitted noise).
+
+    With ``held`` (frames recorded with another seed) the candidates are fitted once and
+    chosen by their log-likelihood on ``held``'s even-index runs (the odd ones are left for
+    the check, :mod:`sitcov.calibration._frame_check`); else by ``folds`` run-grouped
+    folds of ``data`` and the chosen one refitted on all of it."""
     t = tracks_of(data)
     size_ref = base.size_ref_px
-    chosen, table = choose_model(t, folds=folds, size_ref=size_ref)
-    _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)
-    fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+    if held is not None:
+        chosen, table, fits = held_out_choice(t, tracks_of(split_runs(held, "even")),
+                                              size_ref=size_ref)  # fmt: skip
+        fit = fits[chosen]
+    else:
+        chosen, table = choose_model(t, folds=folds, size_ref=size_ref)
+        _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
     params = to_params(fit, base, t, data.runs)
-    lag1 = fit.share * fit.rho
+    nz = fit.noise
+    lag1 = nz.share * nz.rho
     summary = {
         "frames": len(t.score),
         "sweep_frames": len(data.sweep),
         "runs": len(data.runs),
         "tracks": int(t.track.max()) + 1 if len(t.track) else 0,
         "detected_ge_floor": round(float(np.mean(t.score >= FLOOR)), 4),
-        "model_choice": {"folds": folds, "chosen": chosen, "table": table},
-        "rho_per_frame": round(fit.rho, 4),
-        "ar_share": round(fit.share, 4),
+        "model_choice": {
+            "on": "held-out runs (even index)" if held is not None else f"{folds} folds",
+            "chosen": chosen,
+            "table": table,
+        },
+        "rho_per_frame": round(nz.rho, 4),
+        "ar_share": round(nz.share, 4),
         "lag1_autocorrelation_of_logit_noise": round(lag1, 4),
         "loglik_per_frame": round(fit.loglik(t) / max(1, len(t.score)), 4),
     }
     return params, summary
 
 
-def fit_files(
-    paths: Sequence[Any], *, folds: int = 5
-) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
-    """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
-    kind -> (parameters, summary). Cars start from the shipped car parameters, the other
-    kinds from the shipped per-class ones (their size reference [px] is kept)."""
+def _fit_job(
+    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None],
+) -> tuple[PEMParams, dict[str, Any]]:
+    kind, data, base, folds, held = job
+    return fit_kind(data, base, folds=folds, held=held)
+
+
+def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
     from sitcov.calibration._frames import read_frames
-    from sitcov.perception._pem_classes import load_class_params
-    from sitcov.perception._pem_params import load_pem_params
 
     merged: dict[str, KindFrames] = {}
     for path in paths:
@@ -411,12 +483,34 @@ def fit_files(
             into = merged.setdefault(kind, KindFrames())
             into.sweep.extend(data.sweep)
             into.runs.extend(data.runs)
+    return merged
+
+
+def fit_files(
+    paths: Sequence[Any], *, folds: int = 5, workers: int = 1, held: Sequence[Any] = ()
+) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
+    """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
+    kind -> (parameters, summary). Cars start from the shipped car parameters, the other
+    kinds from the shipped per-class ones (their size reference [px] is kept).
+    ``workers`` > 1 fits the kinds in that many processes (the same results). ``held``:
+    frames files recorded with another seed, to choose the model on (:func:`fit_kind`)."""
+    from sitcov.perception._pem_classes import load_class_params
+    from sitcov.perception._pem_params import load_pem_params
+
+    merged = _merged(paths)
+    other = _merged(held) if held else {}
     classes = load_class_params()
-    out = {}
-    for kind, data in merged.items():
-        base = load_pem_params() if kind == "car" else classes[kind][1]
-        out[kind] = fit_kind(data, base, folds=folds)
-    return out
+    jobs = [
+        (kind, data, load_pem_params() if kind == "car" else classes[kind][1], folds,
+         other.get(kind) if held else None)
+        for kind, data in merged.items()
+    ]  # fmt: skip
+    if workers <= 1 or len(jobs) <= 1:
+        return {job[0]: _fit_job(job) for job in jobs}
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
+        return dict(zip([j[0] for j in jobs], pool.map(_fit_job, jobs), strict=True))
 
 
 def frame_yaml(

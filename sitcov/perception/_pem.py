@@ -17,7 +17,8 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + contrast_gain * contrast + detail_gain * detail                     body colour
         + chroma_gain * chroma + red_green_gain * red_green
         + yellow_blue_gain * yellow_blue                                      body hue
-    score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * n_t)
+    score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * r * n_t)
+    r = noise_up_ratio if n_t > 0 else 1     (the scores spread less upwards)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
 actor's heading relative to the line of sight (+1 rear view, -1 front view), ``offset`` the
@@ -38,6 +39,9 @@ optionally correlated in time:
 fitted by maximum likelihood on recorded detector frames; ``e_t`` is drawn only when
 ``noise_frame_share`` > 0, so files without it draw as before)
 
+The detector outputs the actor at all in a frame with probability ``Phi(detect_bias +
+detect_gain * z + detect_ar * u_t)`` (its misses: the frames in which the SSD gives the
+actor no box; one more N(0, 1) draw per frame, only when that probability is not 1).
 A detection is reported when the score reaches the detector's output ``floor``; rain also
 drops whole frames with probability ``rain_miss * rain_noise``, decided by a second
 process of the same form (so misses come in runs too), and the box corners jitter by a
@@ -59,7 +63,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
 from sitcov.perception._camera import _clip_near, _project, _view_angle, project_raw
 from sitcov.perception._colors import chroma_features, color_features
-from sitcov.perception._pem_params import PEMParams, load_pem_params
+from sitcov.perception._pem_params import DETECT_ALWAYS, PEMParams, load_pem_params
 from sitcov.weather._conditions import fog_transmittance
 
 if TYPE_CHECKING:
@@ -464,7 +468,8 @@ class PEMSensor(Sensor):
         return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
 
     def _noise(self, key: int, normals: NormalStream) -> tuple[float, float]:
-        """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1) each."""
+        """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1)
+        each (the AR(1) part stays in ``self._tracks[key].u``)."""
         p = self.params
         track = self._tracks.get(key)
         if track is None:
@@ -589,7 +594,14 @@ class PEMSensor(Sensor):
             n, m = self._noise(key, normals)
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
-            score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
+            sig = p.noise_sigma + p.rain_sigma * rain
+            if n > 0.0 and p.noise_up_ratio != 1.0:
+                sig *= p.noise_up_ratio  # the scores' narrower upper spread
+            score = _sigmoid(z + sig * n)
+            if p.detect_gain != 0.0 or p.detect_ar != 0.0 or p.detect_bias < DETECT_ALWAYS:
+                (e,) = normals.take(1)  # whether the detector outputs it at all
+                if p.detect_bias + p.detect_gain * z + p.detect_ar * self._tracks[key].u + e < 0:
+                    continue
             if score < p.floor:
                 continue
             n1, n2, n3, n4 = normals.take(4)
