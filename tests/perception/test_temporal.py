@@ -52,7 +52,7 @@ def test_frame_share_is_fresh_noise_on_top_of_the_ar1_part() -> None:
     """The frame model's noise: lag-k correlation ``(1 - frame share) * phi^k``, unit variance."""
     fresh, tau = 0.25, 1.0
     sensor = PEMSensor({"noise_frame_share": fresh, "noise_tau": tau, "noise_run_share": 0.0,
-                        "floor": 0.0, "bias": 0.0, "noise_sigma": 0.5, "rain_miss": 0.0})  # fmt: skip
+                        "floor": 0.0, "bias": 0.0, "noise_sigma": 0.5})  # fmt: skip
     x = _noise_series(sensor, runs=300, frames=40)
     assert x.std() == pytest.approx(1.0, abs=0.08)
     for lag in (1, 3, 10):
