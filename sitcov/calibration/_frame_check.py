@@ -12,14 +12,14 @@ dropped because of a score: the marginal probability is then the right predictio
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from sitcov.calibration._frames import KIND_LABEL, KindFrames
-from sitcov.perception._pem import PEMParams, pem_logit
+from sitcov.perception._pem import PEMParams
+from sitcov.perception._pem import pass_probability as _pass
 
 #: Distance bands [m] of the check (lower bound inclusive).
 BANDS: tuple[tuple[float, float], ...] = ((0.0, 10.0), (10.0, 20.0), (20.0, 40.0))
@@ -29,36 +29,10 @@ THETAS = (0.3, 0.4, 0.5, 0.6, 0.7)
 TOLERANCE = 0.05
 
 
-#: Gauss-Hermite nodes and weights (probabilists', normalised) over the AR state.
-_NODES, _WEIGHTS = np.polynomial.hermite_e.hermegauss(40)
-_WEIGHTS = _WEIGHTS / _WEIGHTS.sum()
-
-
 def pass_probability(params: PEMParams, feats: Any, theta: float) -> float:
-    """The PEM's P(score >= theta) for one frame's features: the detector outputs the
-    actor (``Phi(detect_bias + detect_gain z + detect_ar u)``) and its score reaches
-    ``theta``, averaged over the AR state ``u`` (rain's extra noise and misses included)."""
-    from scipy.special import ndtr
-
-    if feats.height_px < params.size_min_px:
-        return 0.0
-    sigma = params.noise_sigma + params.rain_sigma * feats.rain_noise
-    z = pem_logit(feats, params)
-    gap = z - math.log(theta / (1.0 - theta))
-    keep = 1.0 - params.rain_miss * feats.rain_noise
-    ar = max(0.0, 1.0 - params.noise_run_share - params.noise_frame_share)
-    u = _NODES
-    detect = ndtr(params.detect_bias + params.detect_gain * z + params.detect_ar * u)
-    # the score passes when the latent unit noise n exceeds g^-1(-gap), g(n) = sigma * n
-    # below 0 and sigma * noise_up_ratio * n above; n | u ~ N(sqrt(ar) u, 1 - ar)
-    need = -gap / sigma if gap > 0.0 else -gap / (sigma * params.noise_up_ratio)
-    if sigma <= 0.0:
-        passes = np.full_like(u, 1.0 if gap >= 0.0 else 0.0)
-    elif ar >= 1.0:
-        passes = (math.sqrt(ar) * u >= need).astype(float)
-    else:
-        passes = ndtr((math.sqrt(ar) * u - need) / math.sqrt(1.0 - ar))
-    return keep * float(np.sum(_WEIGHTS * detect * passes))
+    """The PEM's P(score >= theta) for one frame's features
+    (:func:`sitcov.perception._pem.pass_probability`)."""
+    return _pass(feats, params, theta)
 
 
 def frames_of(data: KindFrames) -> list[tuple[Any, float, float]]:

@@ -234,6 +234,52 @@ def pem_score(features: PEMFeatures, params: PEMParams) -> float:
     return _sigmoid(pem_logit(features, params))
 
 
+def pass_probability(features: PEMFeatures, params: PEMParams, threshold: float) -> float:
+    """P(the sensor reports this frame's actor with a score >= ``threshold``): the detector
+    outputs it (``Phi(detect_bias + detect_gain z + detect_ar u)``), its noisy score
+    reaches ``max(threshold, floor)``, and rain does not drop the frame; averaged over the
+    noise's AR(1) part ``u`` (Gauss-Hermite, 40 nodes). 0 for a box lower than
+    ``size_min_px``. The noise ``n = sqrt(ar) u + sqrt(1 - ar) e`` enters the logit as
+    ``sigma n`` below 0 and ``sigma noise_up_ratio n`` above (module docstring)."""
+    if features.height_px < params.size_min_px:
+        return 0.0
+    nodes, weights = _hermite()
+    theta = min(max(threshold, params.floor, 1e-12), 1.0 - 1e-12)
+    sigma = params.noise_sigma + params.rain_sigma * features.rain_noise
+    z = pem_logit(features, params)
+    gap = z - math.log(theta / (1.0 - theta))
+    keep = 1.0 - params.rain_miss * features.rain_noise
+    ar = 1.0 - params.noise_run_share - params.noise_frame_share
+    ar = ar if ar > 0.0 else 0.0
+    if sigma <= 0.0:
+        need = -math.inf if gap >= 0.0 else math.inf
+    else:
+        need = -gap / sigma if gap > 0.0 else -gap / (sigma * params.noise_up_ratio)
+    total = 0.0
+    for u, w in zip(nodes, weights, strict=True):
+        out = params.detect_bias + params.detect_gain * z + params.detect_ar * u
+        if ar >= 1.0 or math.isinf(need):
+            passes = 1.0 if math.sqrt(ar) * u >= need else 0.0
+        else:
+            passes = _normal_cdf((math.sqrt(ar) * u - need) / math.sqrt(1.0 - ar))
+        total += w * _normal_cdf(out) * passes
+    return keep * total
+
+
+_HERMITE: tuple[list[float], list[float]] | None = None
+
+
+def _hermite() -> tuple[list[float], list[float]]:
+    """Probabilists' Gauss-Hermite nodes and weights (summing to 1), made once."""
+    global _HERMITE
+    if _HERMITE is None:
+        import numpy as np
+
+        x, w = np.polynomial.hermite_e.hermegauss(40)
+        _HERMITE = (x.tolist(), (w / w.sum()).tolist())
+    return _HERMITE
+
+
 def _sigmoid(z: float) -> float:
     if z >= 0.0:
         return 1.0 / (1.0 + math.exp(-z))

@@ -324,14 +324,17 @@ N_FRAMES, TOLERANCE = 1500, 0.06
 
 @params_ids
 def test_sampled_frames_reach_the_aeb_threshold_as_often_as_the_model_says(name):
-    """P(score >= 0.5) = Phi(z / sigma) in dry weather (no rain noise or misses)."""
+    """P(score >= 0.5) in dry weather as the frame model says (``pass_probability``: the
+    detection term times the split-normal tail; Phi(z / sigma) for a normal law)."""
+    from sitcov.calibration._frame_check import pass_probability
+
     sensor = PEMSensor(PARAM_SETS[name])
     rng = np.random.default_rng(11)
     for actor in (car(12.0, 1.0, math.pi / 2), car(25.0, -3.0, 0.2)):
         f = sensor.features(EGO, actor, CLEAR)
         if f.height_px < sensor.params.size_min_px:
             continue
-        expected = float(ndtr(pem_logit(f, sensor.params) / sensor.params.noise_sigma))
+        expected = pass_probability(sensor.params, f, 0.5)  # detection term, split normal
         hits = 0
         for _ in range(N_FRAMES):
             # a fresh rng per frame starts a fresh noise track: independent frames
