@@ -27,6 +27,9 @@ BANDS: tuple[tuple[float, float], ...] = ((0.0, 10.0), (10.0, 20.0), (20.0, 40.0
 THETAS = (0.3, 0.4, 0.5, 0.6, 0.7)
 #: Largest allowed |PEM - detector| difference of P(score >= θ) [-].
 TOLERANCE = 0.05
+#: Fewest frames in a cell for it to be judged (the binomial standard error of a rate
+#: from 30 frames is up to 0.09, more than the tolerance: smaller cells say nothing).
+MIN_FRAMES = 30
 
 
 def pass_probability(params: PEMParams, feats: Any, theta: float) -> float:
@@ -60,7 +63,7 @@ def check_frames(
             for theta in thetas:
                 row: dict[str, Any] = {"kind": kind, "label": KIND_LABEL[kind], "theta": theta}
                 row.update(band=f"{lo:g}-{hi:g} m", n=len(sel))
-                if sel:
+                if len(sel) >= MIN_FRAMES:
                     det = float(np.mean([s >= theta for _, s in sel]))
                     pem = float(np.mean([pass_probability(p, f, theta) for f, _ in sel]))
                     row.update(detector=round(det, 4), pem=round(pem, 4),
@@ -76,7 +79,10 @@ def table_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
              f"{'diff':>7}  within ±{TOLERANCE:g}"]  # fmt: skip
     for r in rows:
         if "detector" not in r:
-            lines.append(f"{r['label']:<8} {r['band']:<9} {r['theta']:>5.1f} {r['n']:>6}  (none)")
+            lines.append(
+                f"{r['label']:<8} {r['band']:<9} {r['theta']:>5.1f} {r['n']:>6}  "
+                f"(fewer than {MIN_FRAMES} frames: not judged)"
+            )
             continue
         lines.append(
             f"{r['label']:<8} {r['band']:<9} {r['theta']:>5.1f} {r['n']:>6} {r['detector']:>9.3f} "

@@ -439,16 +439,23 @@ def fit_kind(
     """Choose the model on held-out runs and fit it on every frame of the kind; the
     parameters and a summary (frames, tracks, the choice table, the fitted noise).
 
-    With ``held`` (frames recorded with another seed) the candidates are fitted once and
-    chosen by their log-likelihood on ``held``'s even-index runs (the odd ones are left for
-    the check, :mod:`sitcov.calibration._frame_check`); else by ``folds`` run-grouped
-    folds of ``data`` and the chosen one refitted on all of it."""
+    With ``held`` (frames recorded with another seed) the candidates are fitted on
+    ``data`` and chosen by their log-likelihood on ``held``'s even-index runs, and the
+    chosen one is refitted on ``data`` and those runs (the odd ones are left for the
+    check, :mod:`sitcov.calibration._frame_check`); else by ``folds`` run-grouped folds
+    of ``data`` and the chosen one refitted on all of it."""
     t = tracks_of(data)
     size_ref = base.size_ref_px
     if held is not None:
-        chosen, table, fits = held_out_choice(t, tracks_of(split_runs(held, "even")),
-                                              size_ref=size_ref)  # fmt: skip
-        fit = fits[chosen]
+        even = split_runs(held, "even")
+        chosen, table, _ = held_out_choice(t, tracks_of(even), size_ref=size_ref)
+        # then the chosen model on every frame but the check's: the held-out runs are
+        # recorded with the stack given no detections, so they hold the closest frames
+        # (after the moment an AEB would fire) that the calibration runs stop before
+        data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
+        t = tracks_of(data)
+        _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
     else:
         chosen, table = choose_model(t, folds=folds, size_ref=size_ref)
         _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)

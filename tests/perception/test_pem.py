@@ -347,7 +347,9 @@ def test_rain_noise_and_misses_when_the_model_has_them():
     # The calibrated detector shows no extra noise or misses in rain (rain_sigma and
     # rain_miss fit to ~0); the model form still supports them, which this checks.
     s = PEMSensor({"bias": 2.0, "noise_sigma": 0.3, "rain_sigma": 1.5, "rain_miss": 0.3,
-                   "rain_gain": 0.0, "noise_tau": 0.0, "noise_run_share": 0.0})  # fmt: skip
+                   "rain_gain": 0.0, "noise_tau": 0.0, "noise_run_share": 0.0,
+                   "noise_frame_share": 0.0, "noise_up_ratio": 1.0, "detect_bias": 8.0,
+                   "detect_gain": 0.0, "detect_ar": 0.0})  # fmt: skip
     actor = car(12.0, 2.0, math.pi / 2)  # close: almost always detected when dry
     _, dry_hits, dry_sd = mean_score(s, actor, CLEAR, n=600)
     wet = conditions_from_values(
@@ -476,7 +478,8 @@ def test_detect_scores_as_features_then_pem_logit(monkeypatch):
     is there) is ``pem_logit(features(...))``: without noise every detection's score is
     the sigmoid of that logit, bit for bit, in fog and darkness, near and far."""
     p = replace(PARAM_SETS["random1"], noise_sigma=0.0, rain_sigma=0.0, jitter=0.0, floor=0.0)
-    p = replace(p, rain_jitter=0.0, rain_miss=0.0)
+    p = replace(p, rain_jitter=0.0, rain_miss=0.0, detect_bias=8.0, detect_gain=0.0)
+    p = replace(p, detect_ar=0.0)  # the actor always output: every frame has its score
     sensor = PEMSensor(p)
     rng = np.random.default_rng(12)
     detected = 0
