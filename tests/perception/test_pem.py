@@ -142,9 +142,16 @@ def feats(sensor, actor, conditions=CLEAR):
 
 @params_ids
 def test_score_grows_with_apparent_size(name):
-    """The same box shape, scaled up: the score never drops."""
+    """The same box shape, scaled up: the score never drops, up to the height where a
+    negative ``size2_gain`` turns the size curve over (the fitted detector's scores fall
+    for cars that fill the image, docs/pem.md)."""
     p = PARAM_SETS[name]
     for f in random_features(np.random.default_rng(1), 200):
+        slope = p.size_gain + p.side_size_gain * math.sin(f.view_angle)
+        if p.size2_gain < 0 and 2.0 * f.height_px > p.size_ref_px * math.exp(
+            -slope / (2.0 * p.size2_gain)
+        ):
+            continue
         scaled = [
             pem_score(f._replace(height_px=f.height_px * k, width_px=f.width_px * k), p)
             for k in (0.5, 0.8, 1.0, 1.3, 2.0)
@@ -362,7 +369,17 @@ def test_rain_noise_and_misses_when_the_model_has_them():
 
 
 def test_box_jitter_grows_with_rain():
-    s = PEMSensor(params={"rain_miss": 0.0, "floor": 0.0, "jitter": 0.03, "rain_jitter": 0.05})
+    s = PEMSensor(
+        params={
+            "rain_miss": 0.0,
+            "floor": 0.0,
+            "jitter": 0.03,
+            "rain_jitter": 0.05,
+            "detect_bias": 8.0,
+            "detect_gain": 0.0,
+            "detect_ar": 0.0,
+        }
+    )
     actor = car(15.0, 0.0, 0.0)
 
     def width_sd(cond):
