@@ -30,9 +30,11 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
    :func:`track_loglik`), maximised over the intercept, a common scale of the other
    coefficients, sigma, up, s, rho, d0, d1 and lam. A camera run recorded with the
    reference stack stops calling its detector when its AEB fires; the sequence
-   likelihood conditions each frame on the earlier ones, so that stopping rule (which
-   depends only on earlier frames) leaves it valid, where a likelihood of independent
-   frames is biased by it.
+   likelihood conditions each frame on the earlier ones, which in principle leaves that
+   stopping rule ignorable, but with the detection term it does not undo the selection
+   (tests/calibration/test_frame_model.py: runs cut at the first score >= 0.5 fit an
+   intercept too low): runs recorded to their end (``--record-frames``) are the data
+   to fit on.
 
 Model choice (:func:`choose_model`): independent frames (``s = 0``) or the AR(1) model, by
 the log-likelihood of held-out tracks over run-grouped folds.

@@ -51,23 +51,27 @@ def _draw(
 def test_sequence_fit_recovers_the_noise_and_its_correlation() -> None:
     data = _draw(1)
     fit = fm.fit_tracks(fm.tracks_of(data), ridge=1.0, ar=True, size_ref=25.0)
-    assert fit.rho == pytest.approx(0.9, abs=0.04)
-    assert fit.share == pytest.approx(0.75, abs=0.08)
-    assert fit.sigma == pytest.approx(0.8, rel=0.1)
+    assert fit.noise.rho == pytest.approx(0.9, abs=0.04)
+    assert fit.noise.share == pytest.approx(0.75, abs=0.08)
+    assert fit.noise.sigma == pytest.approx(0.8, rel=0.12)
     assert fit.beta[0] == pytest.approx(-0.6, abs=0.15)
     indep = fm.fit_tracks(fm.tracks_of(data), ridge=1.0, ar=False, size_ref=25.0)
-    assert indep.share == 0.0 and fit.loglik(fm.tracks_of(data)) > indep.loglik(fm.tracks_of(data))
+    assert indep.noise.share == 0.0 and fit.loglik(fm.tracks_of(data)) > indep.loglik(
+        fm.tracks_of(data)
+    )
 
 
-def test_the_sequence_likelihood_is_not_biased_by_the_aebs_stopping() -> None:
-    """Runs cut at the first score >= 0.5: frames as independent see only the hard
-    frames (intercept too low); the sequence likelihood conditions on the past."""
-    data = _draw(2, stop_at=0.5, bias=-0.4)
-    t = fm.tracks_of(data)
-    seq = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0)
-    indep = fm.fit_tracks(t, ridge=1.0, ar=False, size_ref=25.0)
-    assert abs(seq.beta[0] + 0.4) < 0.15
-    assert indep.beta[0] < seq.beta[0] - 0.1
+def test_runs_cut_at_the_aebs_firing_bias_the_fit_low() -> None:
+    """Runs cut at the first score >= 0.5 (as the reference AEB's runs stop calling the
+    detector) keep only the frames before it: with the detection term, even the sequence
+    likelihood then puts the intercept too low, where runs recorded to their end (the
+    stack given no detections, ``--record-frames``) recover it. Why the shipped fit uses
+    no run that an AEB cut (docs/pem.md)."""
+    stopped = fm.fit_tracks(fm.tracks_of(_draw(2, stop_at=0.5, bias=-0.4)), ridge=1.0,
+                            ar=True, size_ref=25.0)  # fmt: skip
+    full = fm.fit_tracks(fm.tracks_of(_draw(2, bias=-0.4)), ridge=1.0, ar=True, size_ref=25.0)
+    assert abs(full.beta[0] + 0.4) < 0.2
+    assert stopped.beta[0] < full.beta[0] - 0.1
 
 
 def test_model_choice_follows_the_held_out_likelihood() -> None:
@@ -90,7 +94,7 @@ def test_the_fitted_parameters_pass_the_check_on_held_out_runs() -> None:
     params, summary = fm.fit_kind(data, PEMParams(size_ref_px=25.0), folds=2)
     assert summary["model_choice"]["chosen"].startswith("ar1")
     assert params.noise_frame_share == pytest.approx(0.25, abs=0.08)
-    assert params.noise_tau == pytest.approx(-0.1 / math.log(0.9), rel=0.35)
+    assert math.exp(-0.1 / params.noise_tau) == pytest.approx(0.9, abs=0.04)
     rows = fc.check_frames({"car": _draw(6)}, {"car": params})
     judged = [r for r in rows if "ok" in r]
     assert judged and all(r["ok"] for r in judged), fc.table_lines(rows)
