@@ -114,3 +114,30 @@ def test_frames_file_round_trips_and_bad_lines_name_the_line(tmp_path: Path) -> 
     bad.write_text('{"kind": "car", "run": {"index": 0}}\n')
     with pytest.raises(ConfigError, match="line 1"):
         read_frames(bad)
+
+
+def test_check_command_prints_the_table_and_fails_when_off(tmp_path: Path, capsys) -> None:
+    """``sitcov calibrate --check``: the table on stdout, exit 0 within tolerance, 1 off it;
+    bad options are one error line."""
+    from sitcov.cli import main
+
+    data = _draw(5)  # the fit and check of the test above
+    params, _ = fm.fit_kind(data, PEMParams(size_ref_px=25.0), folds=2)
+    good = tmp_path / "pem.yaml"
+    good.write_text(fm.frame_yaml({"car": (params, {"frames": 1})}, "x", [1], classes=False))
+    frames = tmp_path / "frames.jsonl"
+    write_frames(frames, {"car": _draw(6)})
+    args = ["calibrate", "--check", str(frames), "--kinds", "car"]
+    main([*args, "--pem", str(good)])  # returns: exit status 0
+    out = capsys.readouterr().out
+    assert "15/15 cells within" in out
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(good.read_text().replace(f"bias: {params.bias}", f"bias: {params.bias + 1}"))
+    with pytest.raises(SystemExit) as exc:
+        main([*args, "--pem", str(bad)])
+    assert exc.value.code == 1 and " NO" in capsys.readouterr().out
+    for wrong in (["--check-runs", "half"], ["--kinds", "truck"]):
+        with pytest.raises(SystemExit) as exc:
+            main([*args, "--pem", str(good), *wrong])
+        assert exc.value.code == 2
+        assert capsys.readouterr().err.strip().count("\n") == 0
