@@ -763,6 +763,12 @@ def experiment_agreement_cmd(
     pem_classes: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--pem-classes", help="Per-class PEM file (default: shipped pem_classes.yaml)."
     ),
+    stack: Optional[list[str]] = typer.Option(  # noqa: UP045
+        None,
+        "--stack",
+        help="AV stack to run on every side (repeatable or comma-separated; a name "
+        "sitcov run --av takes, e.g. examples.aeb_stacks:RightBlind); default: reference.",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ) -> None:
     """PEM vs camera, camera vs camera, PEM vs PEM: verdict agreement on held-out seeds."""
@@ -773,6 +779,7 @@ def experiment_agreement_cmd(
     from sitcov.campaign import _agreement as ag
 
     seed_list, pair_list = ag.parse_seeds(seeds), ag.parse_pairs(pairs)
+    stacks = ag.parse_stacks(stack)
 
     def plan(jobs: list) -> None:
         camera = sum(j.perception == "camera" for j in jobs)
@@ -787,7 +794,7 @@ def experiment_agreement_cmd(
     columns = (TextColumn("agreement"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                TimeRemainingColumn())  # fmt: skip
     with Progress(*columns, console=err_console, transient=True, disable=as_json) as bar:
-        total = len(ag.plan_jobs(seed_list, situations, pair_list))
+        total = len(ag.plan_jobs(seed_list, situations, pair_list, stacks))
         task = bar.add_task("agreement", total=total)
         summary = ag.run_agreement(
             seeds=seed_list, situations=situations, out=out, pairs=pair_list,
@@ -795,12 +802,13 @@ def experiment_agreement_cmd(
             workers=workers, allow_calibration_seeds=allow_calibration_seeds,
             camera_rows=camera_rows, on_plan=plan, progress=lambda _row: bar.advance(task),
             kind=kind, pem_classes=None if pem_classes is None else str(pem_classes),
+            stacks=stacks,
         )  # fmt: skip
     summary["command"] = ag.command_line(
         seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
         pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
         camera_rows=None if camera_rows is None else str(camera_rows), kind=kind,
-        pem_classes=None if pem_classes is None else str(pem_classes),
+        pem_classes=None if pem_classes is None else str(pem_classes), stacks=stacks,
     )  # fmt: skip
     summary_path = summary_out or out.with_name(out.stem + ".summary.json")
     summary_path.write_text(json.dumps(summary, indent=2) + "\n")
@@ -1159,11 +1167,65 @@ def calibrate_cmd(
         help="Cars: choose the ridge penalty, noise scale and intercept shift by held-out "
         "verdict agreement over this many run-grouped folds (instead of in-sample).",
     ),
+    record_frames: bool = typer.Option(
+        False,
+        "--record-frames",
+        help="Only record camera runs frame by frame per kind (--kinds, --runs, --seed) "
+        "into --samples (a frames file for --frame-model and --check); the stack is given "
+        "no detections, so every frame to each run's end is recorded.",
+    ),
+    kinds: str = typer.Option(
+        "car,pedestrian,cyclist", "--kinds", help="Kinds for --record-frames / --check."
+    ),
+    sweep_frames: int = typer.Option(
+        0, "--sweep", min=0, help="--record-frames: static sweep frames per kind too."
+    ),
+    frames_from: Optional[list[Path]] = typer.Option(  # noqa: UP045
+        None,
+        "--frames-from",
+        help="Fit the frame model (maximum likelihood, model chosen on held-out runs: "
+        "--cv-folds, default 5) to these frames files (repeatable; car recordings and "
+        "per-class samples files are read too); cars to --out, pedestrians and cyclists "
+        "to --classes-out.",
+    ),
+    classes_out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--classes-out", help="--frames-from: write the per-class file here."
+    ),
+    heldout: Optional[list[Path]] = typer.Option(  # noqa: UP045
+        None,
+        "--heldout",
+        help="--frames-from: choose the model on these frames files' even-index runs "
+        "(recorded with another seed) instead of --cv-folds folds.",
+    ),
+    check_runs: str = typer.Option(
+        "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
+    ),
+    check: Optional[Path] = typer.Option(  # noqa: UP045
+        None,
+        "--check",
+        help="Compare the PEM's P(score >= θ) with the detector's on this frames file's "
+        "run frames per class and distance band (θ = 0.3..0.7; ±0.05); exit 1 if a cell "
+        "is off.",
+    ),
+    pem: Optional[Path] = typer.Option(None, "--pem", help="--check: car PEM file."),  # noqa: UP045
+    pem_classes: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--pem-classes", help="--check: per-class PEM file."
+    ),
 ) -> None:
     """Sweep distance, bearing, view and weather through renderer + detector; fit the PEM."""
     import shlex
 
     from rich.progress import Progress
+
+    if check is not None:
+        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs)
+        return
+    if frames_from:
+        _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout)
+        return
+    if record_frames:
+        _record_frames_cmd(kinds, runs, seed, workers, model, samples_out, sweep_frames)
+        return
 
     if classes is not None and cv_folds is not None:
         from sitcov.errors import ConfigError
@@ -1231,6 +1293,116 @@ def calibrate_cmd(
             f"runs (PEM failures {row['failure_rate']:.1%})",
             highlight=False,
         )
+
+
+def _frame_model_cmd(
+    paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
+    workers: int = 1, heldout: list[Path] | None = None,
+) -> None:  # fmt: skip
+    """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
+    import shlex
+    import time
+
+    from sitcov.calibration import _frame_model as fm
+
+    cpu = time.process_time()
+    wall = time.perf_counter()
+    results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or ())
+    wall = time.perf_counter() - wall
+    command = "sitcov calibrate " + " ".join(f"--frames-from {shlex.quote(str(p))}" for p in paths)
+    if heldout:
+        command += "".join(f" --heldout {shlex.quote(str(p))}" for p in heldout)
+    else:
+        command += f" --cv-folds {folds}"
+    command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
+    if out is not None:
+        command += f" --out {shlex.quote(str(out))}"
+    if classes_out is not None:
+        command += f" --classes-out {shlex.quote(str(classes_out))}"
+    texts = []
+    if "car" in results:
+        texts.append((out, fm.frame_yaml(results, command, [seed], classes=False)))
+    if set(results) - {"car"}:
+        texts.append((classes_out, fm.frame_yaml(results, command, [seed], classes=True)))
+    for path, text in texts:
+        if path is not None:
+            path.write_text(text)
+            err_console.print(f"wrote {path}")
+        else:
+            console.print(text, highlight=False, markup=False)
+    for kind, (params, summary) in results.items():
+        choice = summary["model_choice"]
+        err_console.print(
+            f"{kind}: {summary['frames']} frames in {summary['tracks']} tracks; chosen "
+            f"{choice['chosen']} (held-out log-likelihood per frame: "
+            + ", ".join(f"{k} {v['heldout_loglik_per_frame']}" for k, v in choice["table"].items())
+            + f"); noise_sigma {params.noise_sigma}, rho {summary['rho_per_frame']} per frame, "
+            f"AR share {summary['ar_share']}",
+            highlight=False,
+        )
+    err_console.print(
+        f"{wall:.0f} s wall on {workers} worker(s) ({time.process_time() - cpu:.0f} CPU-s in "
+        "the main process)",
+        highlight=False,
+    )
+
+
+def _check_frames_cmd(
+    path: Path, kinds: str, pem: Path | None, pem_classes: Path | None, part: str = "all"
+) -> None:
+    """``sitcov calibrate --check``: the frame model's done-when table (docs/pem.md)."""
+    from sitcov.calibration import _frame_check as fc
+    from sitcov.calibration._frames import parse_kinds, read_frames
+    from sitcov.perception._pem_classes import load_class_params
+    from sitcov.perception._pem_params import load_pem_params
+
+    names = parse_kinds(kinds)
+    from sitcov.calibration._frame_model import split_runs
+    from sitcov.errors import ConfigError
+
+    if part not in ("all", "odd", "even"):
+        raise ConfigError(field="--check-runs", value=part, expected="all | odd | even")
+    frames = {k: split_runs(v, part) for k, v in read_frames(path).items() if k in names}
+    classes = load_class_params(pem_classes)
+    params = {k: load_pem_params(pem) if k == "car" else classes[k][1] for k in frames}
+    rows = fc.check_frames(frames, params)
+    for line in fc.table_lines(rows):
+        console.print(line, highlight=False, markup=False)
+    if not all(r.get("ok", True) for r in rows):
+        raise typer.Exit(1)
+
+
+def _record_frames_cmd(
+    kinds: str, runs: int, seed: int, workers: int, model: Path | None, out: Path | None,
+    sweep: int,
+) -> None:  # fmt: skip
+    """``sitcov calibrate --record-frames``: a frames file (sitcov/calibration/_frames.py)."""
+    import time
+
+    from rich.progress import Progress
+
+    from sitcov.calibration import _frames
+    from sitcov.errors import ConfigError
+
+    names = _frames.parse_kinds(kinds)
+    if out is None:
+        raise ConfigError(field="--samples", expected="the frames file to write")
+    cpu = time.process_time()
+    with Progress(console=err_console, transient=True) as bar:
+        tasks = {k: bar.add_task(f"recording {k}", total=runs) for k in names}
+        frames = _frames.record_frames(
+            names, runs, seed=seed, sweep=sweep, model=None if model is None else str(model),
+            workers=workers, progress=lambda k, i: bar.update(tasks[k], completed=i),
+        )  # fmt: skip
+    _frames.write_frames(out, frames)
+    for kind, data in frames.items():
+        n = sum(len(r.frames) for r in data.runs)
+        spent = sum(r.cpu_s for r in data.runs)
+        err_console.print(
+            f"{kind}: {len(data.runs)} runs, {n} frames, {spent:.0f} CPU-s in the runs",
+            highlight=False,
+        )
+    err_console.print(f"wrote {out} ({time.process_time() - cpu:.0f} CPU-s in this process)")
 
 
 def _calibrate_classes_cmd(

@@ -9,12 +9,14 @@ altogether. F1 is therefore defined by what the threshold *does*, not by its num
     ``F1_ACCEPTANCE_RATIO`` of the true-positive frames that the nominal θ = 0.5 accepts,
     over a reference set of views of the OV at the AEB's decision distance in clear weather.
 
-The acceptance of one view comes from the PEM's event model, ``score = sigmoid(z + σ n)``
-with ``n ~ N(0, 1)``: ``P(score >= θ) = Φ((z - logit θ) / σ)``. The reference views are the
-OV straight ahead of the camera (box centred), seen at relative headings 0° (rear) to 180°
-(front) in 15° steps, each at the distance where its box is exactly as wide as the AEB's
-distance test requires (``aeb_min_box_width`` of the nominal ``distance``). The threshold is
-computed, not typed in, so a recalibrated PEM moves it. The OV's body is :data:`REFERENCE_CAR`.
+The acceptance of one view is the PEM's probability of reporting it with a score >= θ
+(:func:`sitcov.perception._pem.pass_probability`: the detection term times the noisy
+score's tail; ``Φ((z - logit θ) / σ)`` for a normal law that always outputs the car).
+The reference views are the OV straight ahead of the camera (box centred), seen at
+relative headings 0° (rear) to 180° (front) in 15° steps, each at the distance where its
+box is exactly as wide as the AEB's distance test requires (``aeb_min_box_width`` of the
+nominal ``distance``). The threshold is computed, not typed in, so a recalibrated PEM
+moves it. The OV's body is :data:`REFERENCE_CAR`.
 docs/reference-stack.md gives the derivation and the numbers.
 """
 
@@ -91,16 +93,10 @@ def acceptance(
     A score below the detector's output floor is never reported, so the effective
     threshold is ``max(threshold, floor)``.
     """
-    from sitcov.perception._pem import load_pem_params, pem_logit
+    from sitcov.perception._pem import load_pem_params, pass_probability
 
     p = params or load_pem_params()
-    theta = min(max(threshold, p.floor, 1e-12), 1.0 - 1e-12)
-    cut = math.log(theta / (1.0 - theta))
-    total = 0.0
-    for view in views:
-        sigma = max(p.noise_sigma + p.rain_sigma * view.rain_noise, 1e-9)
-        total += 0.5 * math.erfc(-(pem_logit(view, p) - cut) / (sigma * math.sqrt(2.0)))
-    return total / len(views)
+    return sum(pass_probability(view, p, threshold) for view in views) / len(views)
 
 
 def mapped_threshold(

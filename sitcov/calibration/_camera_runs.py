@@ -40,12 +40,19 @@ class RunFrame:
         score: the matched detection's score, 0 if none matched.
         box_error: (dx0, dy0, dx1, dy1) of the matched box over the true box size, or None.
         width_px: width of the OV's true (clipped) box [px].
+        frame: the camera frame's number in the run (simulated time over the frame
+            period; -1 in recordings made before it was stored: consecutive frames).
+        actor: the actor's position among the run's road users in view (0 for one).
+        distance: camera to the actor's centre [m] (-1 when not stored).
     """
 
     features: PEMFeatures
     score: float
     box_error: tuple[float, float, float, float] | None
     width_px: float
+    frame: int = -1
+    actor: int = 0
+    distance: float = -1.0
 
 
 @dataclass(frozen=True)
@@ -81,11 +88,34 @@ def match(truth: Sequence[float], detections: Sequence[Any]) -> tuple[float, Any
     return float(detections[best].score), (d[0] / bw, d[1] / bh, d[2] / bw, d[3] / bh)
 
 
-class _Recorder:
-    """A backend + stack whose detector records what it saw in each frame."""
+def _clocked_stack(detector: Any) -> Any:
+    """A :class:`~sitcov.av.ReferenceStack` that notes the time of each step in ``.t``
+    (the built-in fast path calls ``_step_values`` with it; the decisions are unchanged)."""
+    from sitcov.av import ReferenceStack
 
-    def __init__(self, model: str | None) -> None:
-        from sitcov.av import ReferenceStack
+    class ClockedStack(ReferenceStack):
+        t = 0.0
+
+        def _step_values(self, t, *args):  # type: ignore[no-untyped-def]
+            self.t = t
+            return super()._step_values(t, *args)
+
+    return ClockedStack(detector=detector)
+
+
+#: Camera frame period of the recorded runs [s] (the embedded backend's 10 Hz).
+FRAME_PERIOD = 0.1
+
+
+class _Recorder:
+    """A backend + stack whose detector records what it saw in each frame.
+
+    With ``observe`` the stack is given no detections (its AEB never fires), so a run
+    records every frame the detector sees until the run ends: frames not selected by the
+    stack's own decisions (held-out checks of the frame model, ``--observe``).
+    """
+
+    def __init__(self, model: str | None, observe: bool = False) -> None:
         from sitcov.generation import make_generator
         from sitcov.hyperspace import load_hyperspace
         from sitcov.perception._detector import SSDDetector
@@ -94,7 +124,8 @@ class _Recorder:
         self.detector = SSDDetector(model, min_score=RECORD_MIN_SCORE)
         self.backend = EmbeddedBackend(perception="camera")
         self.backend.frame_observer = self._observe
-        self.stack = ReferenceStack(detector=self._detect)
+        self.observe = bool(observe)
+        self.stack = _clocked_stack(self._detect)
         self.generator = make_generator("random", load_hyperspace())
         self.sensor = PEMSensor()
         self._truth: tuple[Any, ...] = ()
@@ -107,7 +138,8 @@ class _Recorder:
         detections = self.detector(image)
         candidates = self._candidates(detections)
         camera, pose, actors, conditions = self._truth
-        for actor in actors:
+        frame = round(self.stack.t / FRAME_PERIOD)
+        for key, actor in enumerate(actors):
             if not self._records(actor):
                 continue
             feats = self.sensor.features(pose, actor, conditions)
@@ -115,8 +147,9 @@ class _Recorder:
             if feats is None or proj is None:
                 continue
             score, err = match(proj.box, candidates)
-            self.frames.append(RunFrame(feats, score, err, proj.width))
-        return detections
+            dist = round(float(proj.distance), 4)
+            self.frames.append(RunFrame(feats, score, err, proj.width, frame, key, dist))
+        return () if self.observe else detections
 
     def _records(self, actor: Any) -> bool:
         """Whether this actor's frames are recorded (every actor here)."""
@@ -139,14 +172,14 @@ class _Recorder:
                          outcome.aeb_time, tuple(self.frames), cpu, wall)  # fmt: skip
 
 
-_WORKER: dict[str, _Recorder] = {}
+_WORKER: dict[tuple[str | None, bool], _Recorder] = {}
 
 
-def _run_in_worker(job: tuple[str | None, int, int]) -> CameraRun:
-    model, seed, index = job
-    if "recorder" not in _WORKER:
-        _WORKER["recorder"] = _Recorder(model)
-    return _WORKER["recorder"].run(seed, index)
+def _run_in_worker(job: tuple[str | None, int, int, bool]) -> CameraRun:
+    model, seed, index, observe = job
+    if (model, observe) not in _WORKER:
+        _WORKER[model, observe] = _Recorder(model, observe)
+    return _WORKER[model, observe].run(seed, index)
 
 
 def iter_camera_runs(
@@ -155,22 +188,25 @@ def iter_camera_runs(
     seed: int = 0,
     model: str | os.PathLike[str] | None = None,
     workers: int = 1,
+    observe: bool = False,
 ) -> Iterator[CameraRun]:
     """Runs ``0..runs-1`` of seed ``seed`` in camera mode, recorded, as each one finishes.
 
     ``workers > 1`` spreads the runs over that many processes (then they arrive out of
-    index order); every run is the same as with one worker.
+    index order); every run is the same as with one worker. ``observe``: the stack gets
+    no detections (every frame to the run's end is recorded; see :class:`_Recorder`).
     """
     model_arg = None if model is None else str(model)
     if workers <= 1:
-        recorder = _Recorder(model_arg)
+        recorder = _Recorder(model_arg, observe)
         for i in range(runs):
             yield recorder.run(seed, i)
         return
     import multiprocessing as mp
 
+    jobs = [(model_arg, seed, i, observe) for i in range(runs)]
     with mp.get_context("spawn").Pool(workers) as pool:
-        yield from pool.imap_unordered(_run_in_worker, [(model_arg, seed, i) for i in range(runs)])
+        yield from pool.imap_unordered(_run_in_worker, jobs)
 
 
 def camera_runs(
@@ -180,10 +216,11 @@ def camera_runs(
     model: str | os.PathLike[str] | None = None,
     workers: int = 1,
     progress: Callable[[int], None] | None = None,
+    observe: bool = False,
 ) -> list[CameraRun]:
     """:func:`iter_camera_runs`, collected in index order; ``progress`` gets the runs done."""
     out: list[CameraRun] = []
-    for run in iter_camera_runs(runs, seed=seed, model=model, workers=workers):
+    for run in iter_camera_runs(runs, seed=seed, model=model, workers=workers, observe=observe):
         out.append(run)
         if progress is not None:
             progress(len(out))

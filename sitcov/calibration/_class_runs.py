@@ -97,11 +97,13 @@ class ClassRecorder(_Recorder):
     """A camera-mode backend + reference stack over one kind's situations, recording the
     frames of the actors of that kind (detections of the kind's accepted classes only)."""
 
-    def __init__(self, kind: str, model: str | None, map_name: str = DEFAULT_MAP) -> None:
+    def __init__(
+        self, kind: str, model: str | None, map_name: str = DEFAULT_MAP, observe: bool = False
+    ) -> None:
         from sitcov.generation import make_generator
         from sitcov.perception._detector import KIND_LABELS
 
-        super().__init__(model)
+        super().__init__(model, observe)
         self.kind = kind
         self.labels = KIND_LABELS[kind]
         self.generator = make_generator("random", class_hyperspace(kind, map_name))
@@ -113,14 +115,14 @@ class ClassRecorder(_Recorder):
         return [d for d in detections if d.label in self.labels]
 
 
-_WORKER: dict[tuple[str, str | None], ClassRecorder] = {}
+_WORKER: dict[tuple[str, str | None, bool], ClassRecorder] = {}
 
 
-def _run_in_worker(job: tuple[str, str | None, int, int]) -> CameraRun:
-    kind, model, seed, index = job
-    if (kind, model) not in _WORKER:
-        _WORKER[kind, model] = ClassRecorder(kind, model)
-    return _WORKER[kind, model].run(seed, index)
+def _run_in_worker(job: tuple[str, str | None, int, int, bool]) -> CameraRun:
+    kind, model, seed, index, observe = job
+    if (kind, model, observe) not in _WORKER:
+        _WORKER[kind, model, observe] = ClassRecorder(kind, model, observe=observe)
+    return _WORKER[kind, model, observe].run(seed, index)
 
 
 def iter_class_runs(
@@ -130,18 +132,20 @@ def iter_class_runs(
     seed: int,
     model: str | os.PathLike[str] | None = None,
     workers: int = 1,
+    observe: bool = False,
 ) -> Iterator[CameraRun]:
     """Runs ``0..runs-1`` of seed ``seed`` of ``kind``'s situations, as each one finishes
-    (out of index order with ``workers > 1``; every run is the same whatever the workers)."""
+    (out of index order with ``workers > 1``; every run is the same whatever the workers).
+    ``observe``: the stack gets no detections (every frame is recorded, see ``_Recorder``)."""
     model_arg = None if model is None else str(model)
     if workers <= 1:
-        recorder = ClassRecorder(kind, model_arg)
+        recorder = ClassRecorder(kind, model_arg, observe=observe)
         for i in range(runs):
             yield recorder.run(seed, i)
         return
     import multiprocessing as mp
 
-    jobs = [(kind, model_arg, seed, i) for i in range(runs)]
+    jobs = [(kind, model_arg, seed, i, observe) for i in range(runs)]
     with mp.get_context("spawn").Pool(workers) as pool:
         yield from pool.imap_unordered(_run_in_worker, jobs)
 
@@ -154,10 +158,12 @@ def class_camera_runs(
     model: str | os.PathLike[str] | None = None,
     workers: int = 1,
     progress: Callable[[int], None] | None = None,
+    observe: bool = False,
 ) -> list[CameraRun]:
     """:func:`iter_class_runs` collected in index order; ``progress`` gets the runs done."""
     out: list[CameraRun] = []
-    for run in iter_class_runs(kind, runs, seed=seed, model=model, workers=workers):
+    runs_it = iter_class_runs(kind, runs, seed=seed, model=model, workers=workers, observe=observe)
+    for run in runs_it:
         out.append(run)
         if progress is not None:
             progress(len(out))

@@ -25,6 +25,14 @@ situation and a run seed of its own, so "the PEM agrees with the camera as often
 camera agrees with itself" can be checked by comparing their agreements directly. The run
 seed drives wind direction and gusts, rain streaks and the PEM's noise.
 
+Stacks. Every side runs one AV stack (``--stack``, repeatable; default the reference
+stack): the reference AEB, or any stack :func:`sitcov.av.make_stack` can name (e.g. the
+decision rules of ``examples/aeb_stacks.py``). In camera mode a stack that has a
+``detector`` attribute left None is given the SSD detector. Pairs are formed within a
+stack; per stack and side, :func:`side_failures` also compares the failure rates of the
+situations whose conflicting road user comes from the ego's left and from its right (a
+stack blind on one side must fail more from that side, in both modes).
+
 Evaluation seeds must not be calibration seeds (read from the PEM file's ``meta``, see
 :func:`calibration_seeds`); :func:`check_seeds` refuses an overlap.
 """
@@ -67,7 +75,10 @@ ROW_FIELDS = (
     "aeb_time",
     "cpu_s",
     "wall_s",
+    "stack",
 )
+#: The stack of a row that names none (rows files written before stacks were recorded).
+DEFAULT_STACK = "reference"
 #: CPU seconds of one camera-mode run on the reference machine (docs/camera.md), for the
 #: runtime estimate printed before the runs start; PEM runs cost about 1 % of it.
 CAMERA_CPU_S_PER_RUN = 1.9
@@ -101,6 +112,7 @@ class Job:
     index: int
     perception: str
     stream: str
+    stack: str = DEFAULT_STACK
 
 
 def parse_pairs(text: str) -> list[str]:
@@ -126,16 +138,40 @@ def parse_seeds(text: str) -> list[int]:
     return seeds
 
 
-def plan_jobs(seeds: Sequence[int], situations: int, pairs: Sequence[str]) -> list[Job]:
-    """Every simulation the pairs need, each once; camera runs first (they are the slow ones)."""
+def plan_jobs(
+    seeds: Sequence[int], situations: int, pairs: Sequence[str],
+    stacks: Sequence[str] = (DEFAULT_STACK,),
+) -> list[Job]:  # fmt: skip
+    """Every simulation the pairs need, each once per stack; camera runs first (they are
+    the slow ones)."""
     sides = sorted({side for name in pairs for side in PAIRS[name]})
     jobs = [
-        Job(seed, index, perception, stream)
+        Job(seed, index, perception, stream, stack)
+        for stack in stacks
         for perception, stream in sides
         for seed in seeds
         for index in range(situations)
     ]
-    return sorted(jobs, key=lambda j: (j.perception != "camera", j.seed, j.index, j.stream))
+    order = {stack: k for k, stack in enumerate(stacks)}
+    return sorted(
+        jobs, key=lambda j: (j.perception != "camera", order[j.stack], j.seed, j.index, j.stream)
+    )
+
+
+def parse_stacks(values: Sequence[str] | None) -> list[str]:
+    """``--stack`` values (each may hold several, comma-separated), each built once to
+    check it names a stack; default: the reference stack alone.
+
+    Raises:
+        ConfigError / UnknownPluginError: a name that is no stack (one line).
+    """
+    from sitcov.av import make_stack
+
+    names = [n.strip() for v in values or () for n in v.split(",") if n.strip()]
+    names = list(dict.fromkeys(names)) or [DEFAULT_STACK]
+    for name in names:
+        make_stack(name)
+    return names
 
 
 # --- calibration seeds ----------------------------------------------------------------------
@@ -235,31 +271,35 @@ class SideRunner:
 
         self.settings = settings
         self.generator = make_generator("random", _hyperspace(settings.kind))
-        self._sides: dict[str, tuple[Any, Any]] = {}
+        self._sides: dict[tuple[str, str], tuple[Any, Any]] = {}
+        self._detector: Any = None
 
-    def _side(self, perception: str) -> tuple[Any, Any]:
-        if perception not in self._sides:
-            from sitcov.av import ReferenceStack
+    def _side(self, perception: str, name: str = DEFAULT_STACK) -> tuple[Any, Any]:
+        if (perception, name) not in self._sides:
+            from sitcov.av import make_stack
             from sitcov.perception import PEMSensor
             from sitcov.sim.embedded import EmbeddedBackend
 
+            stack = make_stack(name)
             if perception == "pem":
                 sensor = PEMSensor(self.settings.pem_file, classes=self.settings.pem_classes)
                 backend = EmbeddedBackend(perception="pem", sensor=sensor)
-                stack = ReferenceStack()
             else:
                 from sitcov.perception import SSDDetector
 
                 backend = EmbeddedBackend(perception="camera")
-                stack = ReferenceStack(detector=SSDDetector(self.settings.model))
-            self._sides[perception] = (backend, stack)
-        return self._sides[perception]
+                if getattr(stack, "detector", False) is None:
+                    if self._detector is None:
+                        self._detector = SSDDetector(self.settings.model)
+                    stack.detector = self._detector
+            self._sides[perception, name] = (backend, stack)
+        return self._sides[perception, name]
 
     def __call__(self, job: Job) -> dict[str, Any]:
         """Simulate ``job``; its row of the rows file."""
         from sitcov._seeding import ask_rng
 
-        backend, stack = self._side(job.perception)
+        backend, stack = self._side(job.perception, job.stack)
         situation = self.generator.ask(ask_rng(job.seed, job.index))
         seed = stream_seed(job.stream, job.seed, job.index)
         cpu, wall = time.process_time(), time.perf_counter()
@@ -346,14 +386,20 @@ class RowsWriter:
     def write(self, row: Mapping[str, Any]) -> None:
         """One row, flushed."""
         if self._csv is not None:
-            self._csv.writerow({k: "" if row[k] is None else row[k] for k in ROW_FIELDS})
+            self._csv.writerow({k: "" if _field(row, k) is None else _field(row, k)
+                                for k in ROW_FIELDS})  # fmt: skip
         else:
-            self._fh.write(json.dumps({k: row[k] for k in ROW_FIELDS}) + "\n")
+            self._fh.write(json.dumps({k: _field(row, k) for k in ROW_FIELDS}) + "\n")
         self._fh.flush()
 
     def close(self) -> None:
         """Close the file."""
         self._fh.close()
+
+
+def _field(row: Mapping[str, Any], key: str) -> Any:
+    """``row[key]``; the stack of a row that names none is the reference stack."""
+    return row.get(key, DEFAULT_STACK) if key == "stack" else row[key]
 
 
 def write_rows(path: Path, rows: Iterable[Mapping[str, Any]]) -> None:
@@ -369,7 +415,8 @@ def write_rows(path: Path, rows: Iterable[Mapping[str, Any]]) -> None:
 def read_rows(path: Path) -> list[dict[str, Any]]:
     """Rows written by :class:`RowsWriter`, typed back (ints, bools, floats, None)."""
     if rows_format(path) == "jsonl":
-        return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+        rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+        return [{**r, "stack": r.get("stack") or DEFAULT_STACK} for r in rows]
     with open(path, newline="") as fh:
         return [_typed(raw) for raw in csv.DictReader(fh)]
 
@@ -390,13 +437,17 @@ def _typed(raw: Mapping[str, str]) -> dict[str, Any]:
         "aeb_time": num(raw["aeb_time"]),
         "cpu_s": num(raw["cpu_s"]),
         "wall_s": num(raw["wall_s"]),
+        "stack": raw.get("stack") or DEFAULT_STACK,
     }
 
 
 def sort_rows(rows: Iterable[Mapping[str, Any]]) -> list[dict[str, Any]]:
     """Rows in a fixed order (seed, index, perception, stream): reproducible files."""
-    key = ("seed", "index", "perception", "stream")
-    return sorted((dict(r) for r in rows), key=lambda r: tuple(r[k] for k in key))
+    key = ("stack", "seed", "index", "perception", "stream")
+    return sorted(
+        ({**r, "stack": _field(r, "stack")} for r in rows),
+        key=lambda r: tuple(r[k] for k in key),
+    )
 
 
 # --- the summary ----------------------------------------------------------------------------
@@ -483,7 +534,13 @@ def pool_rows_files(paths: Sequence[Path], pairs: Sequence[str]) -> dict[str, An
     seen: dict[tuple, Path] = {}
     for path in paths:
         for row in read_rows(Path(path)):
-            key = (row["seed"], row["index"], row["perception"], row["stream"])
+            key = (
+                row.get("stack", "reference"),
+                row["seed"],
+                row["index"],
+                row["perception"],
+                row["stream"],
+            )
             if key in seen:
                 raise ConfigError(
                     file=str(path),
@@ -506,6 +563,79 @@ def pool_lines(pooled: Mapping[str, Any]) -> list[str]:
     lines = [f"pooled over {', '.join(pooled['files'])} (seeds {pooled['seeds']})"]
     lines.extend(_line(pair, row) for pair, row in pooled["pairs"].items() if row["n"])
     return lines
+
+
+#: T-junction legs: entry leg of the ego -> the leg on its left / on its right (leg B is the
+#: stem; from L the stem is on the right, from R on the left; tests/av/test_plugins.py).
+_ON_LEFT = {"B": "L", "R": "B"}
+_ON_RIGHT = {"B": "R", "L": "B"}
+
+
+def approach_side(bins: Mapping[str, Any], values: Mapping[str, Any]) -> str:
+    """Where the conflicting road user comes from, seen by the ego: ``left``, ``right`` or
+    ``ahead`` (from the situation's ``intsit`` routes, entry legs of the T-junction);
+    ``other`` when the situation names no such routes."""
+    intsit = values.get("intsit")
+    if not isinstance(intsit, Mapping) or "ego" not in intsit or "ov" not in intsit:
+        return "other"
+    ego, ov = str(intsit["ego"])[:1], str(intsit["ov"])[:1]
+    if _ON_LEFT.get(ego) == ov:
+        return "left"
+    if _ON_RIGHT.get(ego) == ov:
+        return "right"
+    return "ahead"
+
+
+def situation_sides(
+    seeds: Sequence[int], situations: int, kind: str | None = None
+) -> dict[tuple[int, int], str]:
+    """(seed, index) -> :func:`approach_side` of the situation (regenerated)."""
+    from sitcov._seeding import ask_rng
+    from sitcov.generation import make_generator
+
+    gen = make_generator("random", _hyperspace(kind))
+    out = {}
+    for s in seeds:
+        for i in range(situations):
+            sit = gen.ask(ask_rng(s, i))
+            out[s, i] = approach_side(sit.bins, sit.values)
+    return out
+
+
+def side_failures(
+    rows: Sequence[Mapping[str, Any]], sides: Mapping[tuple[int, int], str]
+) -> dict[str, Any]:
+    """Per side of the experiment (``camera@A``, ``pem@B``, ...): failures of the
+    situations whose road user comes from the left and from the right, with Wilson 95 %
+    intervals, and the one-sided Fisher exact p-value of "fails more often from the
+    right" (and from the left): a weakness on one side shows as a small p."""
+    from scipy.stats import fisher_exact
+
+    cells: dict[str, dict[str, list[int]]] = {}
+    for r in rows:
+        if r["status"] not in _JUDGED:
+            continue
+        where = sides.get((r["seed"], r["index"]))
+        if where not in ("left", "right"):
+            continue
+        cell = cells.setdefault(f"{r['perception']}@{r['stream']}", {}).setdefault(where, [0, 0])
+        cell[0] += 1
+        cell[1] += bool(r["failed"])
+    out: dict[str, Any] = {}
+    for side, by in sorted(cells.items()):
+        (nl, kl), (nr, kr) = by.get("left", [0, 0]), by.get("right", [0, 0])
+        table = [[kr, nr - kr], [kl, nl - kl]]
+        p_right = float(fisher_exact(table, alternative="greater")[1]) if nl and nr else None
+        p_left = float(fisher_exact(table, alternative="less")[1]) if nl and nr else None
+        out[side] = {
+            "left": {"n": nl, "failures": kl, "failure_rate": round(kl / nl, 4) if nl else None,
+                     "ci95": _interval(kl, nl)},
+            "right": {"n": nr, "failures": kr, "failure_rate": round(kr / nr, 4) if nr else None,
+                      "ci95": _interval(kr, nr)},
+            "p_right_fails_more": None if p_right is None else round(p_right, 6),
+            "p_left_fails_more": None if p_left is None else round(p_left, 6),
+        }  # fmt: skip
+    return out
 
 
 def situation_bins(
@@ -566,6 +696,7 @@ def run_agreement(
     camera_rows: Path | None = None,
     kind: str | None = None,
     pem_classes: str | None = None,
+    stacks: Sequence[str] = (DEFAULT_STACK,),
     run_job: Callable[[Job], dict[str, Any]] | None = None,
     on_plan: Callable[[list[Job]], None] | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
@@ -598,7 +729,7 @@ def run_agreement(
         from sitcov.calibration._class_runs import check_class_seeds
 
         check_class_seeds(seeds, kind, pem_classes, allow=allow_calibration_seeds)
-    jobs = plan_jobs(seeds, situations, pairs)
+    jobs = plan_jobs(seeds, situations, pairs, stacks)
     reused = reusable_camera_rows(camera_rows, jobs) if camera_rows is not None else {}
     jobs = [j for j in jobs if _job_key(j) not in reused]
     if run_job is None and any(j.perception == "camera" for j in jobs):
@@ -627,10 +758,18 @@ def run_agreement(
     wall = time.perf_counter() - start
     rows = sort_rows(rows)
     write_rows(out, rows)
-    summary = summarise(rows, pairs, seeds)
     bins = situation_bins(seeds, situations, kind)
-    for pair in pairs:
-        summary["pairs"][pair]["bin_differences"] = bin_differences(rows, pair, bins)
+    sides = situation_sides(seeds, situations, kind)
+    per_stack: dict[str, Any] = {}
+    for name in stacks:
+        mine = [r for r in rows if r["stack"] == name]
+        result = summarise(mine, pairs, seeds)
+        for pair in pairs:
+            result["pairs"][pair]["bin_differences"] = bin_differences(mine, pair, bins)
+        result["sides"] = side_failures(mine, sides)
+        per_stack[name] = result
+    summary = dict(per_stack[stacks[0]])
+    summary["stacks"] = per_stack
     summary.update(
         construction=CONSTRUCTION,
         seeds=list(seeds),
@@ -654,8 +793,8 @@ def run_agreement(
     return summary
 
 
-def _job_key(job: Job) -> tuple[int, int, str, str]:
-    return (job.seed, job.index, job.perception, job.stream)
+def _job_key(job: Job) -> tuple[int, int, str, str, str]:
+    return (job.seed, job.index, job.perception, job.stream, job.stack)
 
 
 def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[str, Any]]:
@@ -676,7 +815,7 @@ def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[st
     wanted = {_job_key(j): j for j in jobs if j.perception == "camera"}
     out: dict[tuple, dict[str, Any]] = {}
     for row in old:
-        key = (row["seed"], row["index"], row["perception"], row["stream"])
+        key = (row["seed"], row["index"], row["perception"], row["stream"], row["stack"])
         job = wanted.get(key)
         if job is None or row["status"] not in _JUDGED:
             continue
@@ -708,6 +847,7 @@ def command_line(
     camera_rows: str | None = None,
     kind: str | None = None,
     pem_classes: str | None = None,
+    stacks: Sequence[str] = (DEFAULT_STACK,),
 ) -> str:
     """The ``sitcov experiment agreement`` command that reproduces a summary."""
     import shlex
@@ -726,6 +866,9 @@ def command_line(
         parts += ["--kind", kind]
     if pem_classes is not None:
         parts += ["--pem-classes", pem_classes]
+    if list(stacks) != [DEFAULT_STACK]:
+        for name in stacks:
+            parts += ["--stack", name]
     return " ".join(p if i == 0 else shlex.quote(p) for i, p in enumerate(parts))
 
 
@@ -748,7 +891,33 @@ def _line(label: str, row: Mapping[str, Any]) -> str:
 
 
 def table_lines(summary: Mapping[str, Any]) -> list[str]:
-    """The printed table: each pair pooled over the seeds, then per seed; then run costs."""
+    """The printed table: each pair pooled over the seeds, then per seed; then run costs;
+    with several stacks (or another than the reference), one such block per stack with
+    its left/right failure rates."""
+    stacks = summary.get("stacks") or {}
+    if not stacks or list(stacks) == [DEFAULT_STACK]:
+        return _block_lines(summary)
+    lines: list[str] = []
+    for name, result in stacks.items():
+        lines.append(f"== stack {name}")
+        lines += _block_lines({**summary, **result})
+        for side, row in result.get("sides", {}).items():
+            left, right = row["left"], row["right"]
+            lines.append(
+                f"  {side:<9} from the left {_pct(left['failure_rate'], left['ci95'])} "
+                f"(n={left['n']}), from the right {_pct(right['failure_rate'], right['ci95'])} "
+                f"(n={right['n']}); one-sided Fisher p: right fails more "
+                f"{_p(row['p_right_fails_more'])}, left fails more {_p(row['p_left_fails_more'])}"
+            )
+    return lines
+
+
+def _p(value: float | None) -> str:
+    return "-" if value is None else f"{value:.2g}"
+
+
+def _block_lines(summary: Mapping[str, Any]) -> list[str]:
+    """:func:`table_lines` of one stack."""
     head = (
         f"{'pair':<28} {'sides (A vs B)':<22} {'n':>4}  {'agreement [Wilson 95%]':<22} "
         f"{'failure rate A':<22} {'failure rate B':<22} A only / B only"

@@ -17,7 +17,8 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + contrast_gain * contrast + detail_gain * detail                     body colour
         + chroma_gain * chroma + red_green_gain * red_green
         + yellow_blue_gain * yellow_blue                                      body hue
-    score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * n_t)
+    score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * r * n_t)
+    r = noise_up_ratio if n_t > 0 else 1     (the scores spread less upwards)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
 actor's heading relative to the line of sight (+1 rear view, -1 front view), ``offset`` the
@@ -28,10 +29,19 @@ dark parts, ``chroma``, ``red_green`` and ``yellow_blue`` the body colour's CIEL
 and b* over 100 (:mod:`sitcov.perception._colors`), and ``n_t`` a unit-variance noise,
 optionally correlated in time:
 
-    n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share) * u_t
+    n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share - noise_frame_share) * u_t
+          + sqrt(noise_frame_share) * e_t
     a ~ N(0, 1)                 drawn once per run and actor ("this car is hard to see")
     u_t = phi * u_{t-1} + sqrt(1 - phi^2) * N(0, 1),   phi = exp(-frame_dt / noise_tau)
+    e_t ~ N(0, 1)               drawn afresh every frame (the detector's flicker)
 
+(the shipped parameters: the frame model of :mod:`sitcov.calibration._frame_model`,
+fitted by maximum likelihood on recorded detector frames; ``e_t`` is drawn only when
+``noise_frame_share`` > 0, so files without it draw as before)
+
+The detector outputs the actor at all in a frame with probability ``Phi(detect_bias +
+detect_gain * z + detect_ar * u_t)`` (its misses: the frames in which the SSD gives the
+actor no box; one more N(0, 1) draw per frame, only when that probability is not 1).
 A detection is reported when the score reaches the detector's output ``floor``; rain also
 drops whole frames with probability ``rain_miss * rain_noise``, decided by a second
 process of the same form (so misses come in runs too), and the box corners jitter by a
@@ -53,7 +63,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
 from sitcov.perception._camera import _clip_near, _project, _view_angle, project_raw
 from sitcov.perception._colors import chroma_features, color_features
-from sitcov.perception._pem_params import PEMParams, load_pem_params
+from sitcov.perception._pem_params import DETECT_ALWAYS, PEMParams, load_pem_params
 from sitcov.weather._conditions import fog_transmittance
 
 if TYPE_CHECKING:
@@ -222,6 +232,52 @@ def _logit(
 def pem_score(features: PEMFeatures, params: PEMParams) -> float:
     """The noise-free detection score in (0, 1): ``sigmoid(pem_logit(features, params))``."""
     return _sigmoid(pem_logit(features, params))
+
+
+def pass_probability(features: PEMFeatures, params: PEMParams, threshold: float) -> float:
+    """P(the sensor reports this frame's actor with a score >= ``threshold``): the detector
+    outputs it (``Phi(detect_bias + detect_gain z + detect_ar u)``), its noisy score
+    reaches ``max(threshold, floor)``, and rain does not drop the frame; averaged over the
+    noise's AR(1) part ``u`` (Gauss-Hermite, 40 nodes). 0 for a box lower than
+    ``size_min_px``. The noise ``n = sqrt(ar) u + sqrt(1 - ar) e`` enters the logit as
+    ``sigma n`` below 0 and ``sigma noise_up_ratio n`` above (module docstring)."""
+    if features.height_px < params.size_min_px:
+        return 0.0
+    nodes, weights = _hermite()
+    theta = min(max(threshold, params.floor, 1e-12), 1.0 - 1e-12)
+    sigma = params.noise_sigma + params.rain_sigma * features.rain_noise
+    z = pem_logit(features, params)
+    gap = z - math.log(theta / (1.0 - theta))
+    keep = 1.0 - params.rain_miss * features.rain_noise
+    ar = 1.0 - params.noise_run_share - params.noise_frame_share
+    ar = ar if ar > 0.0 else 0.0
+    if sigma <= 0.0:
+        need = -math.inf if gap >= 0.0 else math.inf
+    else:
+        need = -gap / sigma if gap > 0.0 else -gap / (sigma * params.noise_up_ratio)
+    total = 0.0
+    for u, w in zip(nodes, weights, strict=True):
+        out = params.detect_bias + params.detect_gain * z + params.detect_ar * u
+        if ar >= 1.0 or math.isinf(need):
+            passes = 1.0 if math.sqrt(ar) * u >= need else 0.0
+        else:
+            passes = _normal_cdf((math.sqrt(ar) * u - need) / math.sqrt(1.0 - ar))
+        total += w * _normal_cdf(out) * passes
+    return keep * total
+
+
+_HERMITE: tuple[list[float], list[float]] | None = None
+
+
+def _hermite() -> tuple[list[float], list[float]]:
+    """Probabilists' Gauss-Hermite nodes and weights (summing to 1), made once."""
+    global _HERMITE
+    if _HERMITE is None:
+        import numpy as np
+
+        x, w = np.polynomial.hermite_e.hermegauss(40)
+        _HERMITE = (x.tolist(), (w / w.sum()).tolist())
+    return _HERMITE
 
 
 def _sigmoid(z: float) -> float:
@@ -458,7 +514,8 @@ class PEMSensor(Sensor):
         return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
 
     def _noise(self, key: int, normals: NormalStream) -> tuple[float, float]:
-        """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1) each."""
+        """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1)
+        each (the AR(1) part stays in ``self._tracks[key].u``)."""
         p = self.params
         track = self._tracks.get(key)
         if track is None:
@@ -471,7 +528,13 @@ class PEMSensor(Sensor):
             track.u = phi * track.u + keep * e_u
             track.m = phi * track.m + keep * e_m
             track.frame = self._frame
-        share = p.noise_run_share
+        share, fresh = p.noise_run_share, p.noise_frame_share
+        if fresh > 0.0:  # the frame's own part, independent of the AR(1) part
+            (e,) = normals.take(1)
+            ar = 1.0 - share - fresh
+            ar = ar if ar > 0.0 else 0.0
+            n = math.sqrt(share) * track.offset + math.sqrt(ar) * track.u + math.sqrt(fresh) * e
+            return n, track.m
         n = math.sqrt(share) * track.offset + math.sqrt(1.0 - share) * track.u
         return n, track.m
 
@@ -577,7 +640,14 @@ class PEMSensor(Sensor):
             n, m = self._noise(key, normals)
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
-            score = _sigmoid(z + (p.noise_sigma + p.rain_sigma * rain) * n)
+            sig = p.noise_sigma + p.rain_sigma * rain
+            if n > 0.0 and p.noise_up_ratio != 1.0:
+                sig *= p.noise_up_ratio  # the scores' narrower upper spread
+            score = _sigmoid(z + sig * n)
+            if p.detect_gain != 0.0 or p.detect_ar != 0.0 or p.detect_bias < DETECT_ALWAYS:
+                (e,) = normals.take(1)  # whether the detector outputs it at all
+                if p.detect_bias + p.detect_gain * z + p.detect_ar * self._tracks[key].u + e < 0:
+                    continue
             if score < p.floor:
                 continue
             n1, n2, n3, n4 = normals.take(4)

@@ -21,6 +21,10 @@ from sitcov.errors import ConfigError
 PEM_PARAMS_FILE = Path(__file__).parent / "data" / "pem.yaml"
 
 
+#: ``detect_bias`` at which (with no gain) the road user is always output: Phi(8) = 1 - 6e-16.
+DETECT_ALWAYS = 8.0
+
+
 @dataclass(frozen=True)
 class PEMParams:
     """Coefficients of the PEM (see the module docstring for the formula).
@@ -56,6 +60,15 @@ class PEMParams:
             for one actor (between-run share) [-].
         noise_tau: correlation time of the frame-to-frame part of the noise [s]
             (0 = independent frames).
+        noise_frame_share: share of the logit-noise variance drawn afresh every frame,
+            independent of the AR(1) part (the detector's frame-to-frame flicker) [-].
+        detect_bias, detect_gain, detect_ar: whether the detector outputs the road user
+            at all in a frame: probability ``Phi(detect_bias + detect_gain * z +
+            detect_ar * u_t)`` with ``z`` the noise-free logit and ``u_t`` the noise's
+            AR(1) part (unit variance); the default (8, 0, 0) always outputs it [-].
+        noise_up_ratio: the logit noise's scale above its median over the scale below
+            (``noise_sigma``): the detector's scores spread less upwards than downwards
+            (1 = a normal law) [-].
         contrast_gain: logit per unit of the body's luminance contrast against road and
             sky (Michelson, 0..1) [-].
         detail_gain: logit per unit of the body's contrast against the car's dark parts
@@ -83,6 +96,11 @@ class PEMParams:
     floor: float = 0.3
     noise_run_share: float = 0.0
     noise_tau: float = 0.0
+    noise_frame_share: float = 0.0
+    detect_bias: float = DETECT_ALWAYS
+    detect_gain: float = 0.0
+    detect_ar: float = 0.0
+    noise_up_ratio: float = 1.0
     aspect_gain: float = 0.0
     view2_gain: float = 0.0
     edge_gain: float = 0.0
@@ -125,12 +143,17 @@ class PEMParams:
             raise ConfigError(
                 file=file, field="size_max_px", value=self.size_max_px, expected=">= size_min_px"
             )
-        for name in ("noise_sigma", "rain_sigma", "jitter", "rain_jitter"):
+        for name in ("noise_sigma", "rain_sigma", "jitter", "rain_jitter", "noise_up_ratio"):
             if getattr(self, name) < 0:
                 raise ConfigError(file=file, field=name, value=getattr(self, name), expected=">= 0")
         if self.noise_tau < 0:
             raise ConfigError(file=file, field="noise_tau", value=self.noise_tau, expected=">= 0")
-        for name in ("rain_miss", "floor", "noise_run_share"):
+        if self.noise_run_share + self.noise_frame_share > 1.0 + 1e-9:
+            raise ConfigError(
+                file=file, field="noise_frame_share", value=self.noise_frame_share,
+                expected="<= 1 - noise_run_share",
+            )  # fmt: skip
+        for name in ("rain_miss", "floor", "noise_run_share", "noise_frame_share"):
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ConfigError(
                     file=file, field=name, value=getattr(self, name), expected="in [0, 1]"

@@ -243,62 +243,6 @@ def test_choose_tau_finds_the_correlation_time_that_made_the_verdicts() -> None:
     assert min(row["agreement"] for row in table.values()) < 1.0  # the choice matters
 
 
-def test_the_shipped_file_is_calibrate_output_with_its_command() -> None:
-    from sitcov.perception import PEM_PARAMS_FILE
-
-    text = PEM_PARAMS_FILE.read_text()
-    data = yaml.safe_load(text)
-    command = data["meta"]["command"]
-    assert command.startswith("sitcov calibrate ")
-    assert "--runs" in command or "--from-samples" in command
-    assert command.endswith("--out sitcov/perception/data/pem.yaml")
-    assert f"#   {command}" in text.splitlines()
-    params = load_pem_params()
-    # the params block is byte for byte what pem_yaml writes for the loaded values: no
-    # coefficient was edited by hand after calibrate wrote the file (nor lost in loading)
-    emitted = pem_yaml(params, command, {"frames": data["meta"]["frames"]})
-    assert emitted.split("\nparams:\n", 1)[1] == text.split("\nparams:\n", 1)[1]
-    # the camera runs are recorded, and the correlation time is the best-agreeing one
-    runs = data["meta"]["camera_runs"]
-    assert runs["runs"] >= 100 and runs["frames"] >= 20 * runs["runs"]
-    chosen = noise_key(params.noise_tau, runs["noise_scale"], runs["bias_shift"])
-    if "cross_validation" in runs:  # chosen by held-out agreement (calibrate --cv-folds)
-        from sitcov.calibration._cv import parse_key, pick
-
-        cv = runs["cross_validation"]
-        assert cv["chosen"] == pick(cv) and cv["chosen"].endswith(chosen)
-        _, scale, shift = parse_key(cv["chosen"])
-        assert (scale, shift) == (runs["noise_scale"], runs["bias_shift"])
-        assert f"--cv-folds {cv['folds']}" in command and cv["runs"] == runs["runs"]
-    else:
-        table = runs["pem_agreement_by_noise"]
-        assert chosen == pick_noise(table, runs["failure_rate_camera"], runs["runs"])
-    assert params.noise_sigma == round(runs["noise_sigma_fitted"] * runs["noise_scale"], 4)
-    assert params.noise_run_share == 0.0
-
-
-def test_the_shipped_samples_file_holds_what_the_shipped_fit_read() -> None:
-    """``--from-samples F`` in the shipped file's command: F is in the repository and its
-    sweep and runs are the ones the file's meta describes (seed, runs, frames, events)."""
-    from pathlib import Path
-
-    from sitcov.calibration._recording import read_recording
-    from sitcov.perception import PEM_PARAMS_FILE
-
-    meta = yaml.safe_load(PEM_PARAMS_FILE.read_text())["meta"]
-    words = meta["command"].split()
-    assert "--from-samples" in words, "the shipped PEM must be refitted from a samples file"
-    path = Path(__file__).parents[2] / words[words.index("--from-samples") + 1]
-    rec = read_recording(path)
-    runs = meta["camera_runs"]
-    frames = [f for r in rec.runs for f in r.frames]
-    assert meta["calibration_seeds"] == [rec.seed] == [runs["seed"]]
-    assert len(rec.runs) == runs["runs"] and len(frames) == runs["frames"]
-    assert sum(f.score >= 0.5 for f in frames) == runs["events_score_ge_0.5"]
-    assert round(sum(r.failed for r in rec.runs) / len(rec.runs), 3) == runs["failure_rate_camera"]
-    assert summarize_samples(list(rec.samples))["frames"] == meta["frames"]
-
-
 def test_with_camera_runs_the_sweep_only_fills_in_narrower_boxes() -> None:
     from sitcov.calibration._camera_runs import CameraRun, RunFrame
 

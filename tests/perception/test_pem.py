@@ -142,9 +142,16 @@ def feats(sensor, actor, conditions=CLEAR):
 
 @params_ids
 def test_score_grows_with_apparent_size(name):
-    """The same box shape, scaled up: the score never drops."""
+    """The same box shape, scaled up: the score never drops, up to the height where a
+    negative ``size2_gain`` turns the size curve over (the fitted detector's scores fall
+    for cars that fill the image, docs/pem.md)."""
     p = PARAM_SETS[name]
     for f in random_features(np.random.default_rng(1), 200):
+        slope = p.size_gain + p.side_size_gain * math.sin(f.view_angle)
+        if p.size2_gain < 0 and 2.0 * f.height_px > p.size_ref_px * math.exp(
+            -slope / (2.0 * p.size2_gain)
+        ):
+            continue
         scaled = [
             pem_score(f._replace(height_px=f.height_px * k, width_px=f.width_px * k), p)
             for k in (0.5, 0.8, 1.0, 1.3, 2.0)
@@ -324,14 +331,17 @@ N_FRAMES, TOLERANCE = 1500, 0.06
 
 @params_ids
 def test_sampled_frames_reach_the_aeb_threshold_as_often_as_the_model_says(name):
-    """P(score >= 0.5) = Phi(z / sigma) in dry weather (no rain noise or misses)."""
+    """P(score >= 0.5) in dry weather as the frame model says (``pass_probability``: the
+    detection term times the split-normal tail; Phi(z / sigma) for a normal law)."""
+    from sitcov.calibration._frame_check import pass_probability
+
     sensor = PEMSensor(PARAM_SETS[name])
     rng = np.random.default_rng(11)
     for actor in (car(12.0, 1.0, math.pi / 2), car(25.0, -3.0, 0.2)):
         f = sensor.features(EGO, actor, CLEAR)
         if f.height_px < sensor.params.size_min_px:
             continue
-        expected = float(ndtr(pem_logit(f, sensor.params) / sensor.params.noise_sigma))
+        expected = pass_probability(sensor.params, f, 0.5)  # detection term, split normal
         hits = 0
         for _ in range(N_FRAMES):
             # a fresh rng per frame starts a fresh noise track: independent frames
@@ -344,7 +354,9 @@ def test_rain_noise_and_misses_when_the_model_has_them():
     # The calibrated detector shows no extra noise or misses in rain (rain_sigma and
     # rain_miss fit to ~0); the model form still supports them, which this checks.
     s = PEMSensor({"bias": 2.0, "noise_sigma": 0.3, "rain_sigma": 1.5, "rain_miss": 0.3,
-                   "rain_gain": 0.0, "noise_tau": 0.0, "noise_run_share": 0.0})  # fmt: skip
+                   "rain_gain": 0.0, "noise_tau": 0.0, "noise_run_share": 0.0,
+                   "noise_frame_share": 0.0, "noise_up_ratio": 1.0, "detect_bias": 8.0,
+                   "detect_gain": 0.0, "detect_ar": 0.0})  # fmt: skip
     actor = car(12.0, 2.0, math.pi / 2)  # close: almost always detected when dry
     _, dry_hits, dry_sd = mean_score(s, actor, CLEAR, n=600)
     wet = conditions_from_values(
@@ -357,7 +369,17 @@ def test_rain_noise_and_misses_when_the_model_has_them():
 
 
 def test_box_jitter_grows_with_rain():
-    s = PEMSensor(params={"rain_miss": 0.0, "floor": 0.0, "jitter": 0.03, "rain_jitter": 0.05})
+    s = PEMSensor(
+        params={
+            "rain_miss": 0.0,
+            "floor": 0.0,
+            "jitter": 0.03,
+            "rain_jitter": 0.05,
+            "detect_bias": 8.0,
+            "detect_gain": 0.0,
+            "detect_ar": 0.0,
+        }
+    )
     actor = car(15.0, 0.0, 0.0)
 
     def width_sd(cond):
@@ -473,7 +495,8 @@ def test_detect_scores_as_features_then_pem_logit(monkeypatch):
     is there) is ``pem_logit(features(...))``: without noise every detection's score is
     the sigmoid of that logit, bit for bit, in fog and darkness, near and far."""
     p = replace(PARAM_SETS["random1"], noise_sigma=0.0, rain_sigma=0.0, jitter=0.0, floor=0.0)
-    p = replace(p, rain_jitter=0.0, rain_miss=0.0)
+    p = replace(p, rain_jitter=0.0, rain_miss=0.0, detect_bias=8.0, detect_gain=0.0)
+    p = replace(p, detect_ar=0.0)  # the actor always output: every frame has its score
     sensor = PEMSensor(p)
     rng = np.random.default_rng(12)
     detected = 0

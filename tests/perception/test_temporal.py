@@ -14,6 +14,10 @@ from sitcov.sim import conditions_from_values
 EGO = Pose(0.0, 0.0, 0.0)
 CLEAR = conditions_from_values({})
 CAR = ActorView(Pose(15.0, 0.5, 0.3), 4.7, 1.85, 1.5)
+#: The shipped file's noise shape and detection term switched off: these tests set the
+#: noise structure they check (a normal law; the actor always output).
+PLAIN = {"detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "noise_up_ratio": 1.0,
+         "noise_frame_share": 0.0}  # fmt: skip
 
 
 def _noise_series(sensor: PEMSensor, runs: int, frames: int) -> np.ndarray:
@@ -37,8 +41,8 @@ def _pooled_corr(x: np.ndarray, lag: int) -> float:
 
 def test_sensor_noise_has_the_specified_run_share_and_correlation_time() -> None:
     share, tau = 0.3, 0.5
-    sensor = PEMSensor({"noise_run_share": share, "noise_tau": tau, "floor": 0.0, "bias": 0.0,
-                        "noise_sigma": 0.5, "rain_miss": 0.0})  # fmt: skip
+    sensor = PEMSensor({**PLAIN, "noise_run_share": share, "noise_tau": tau, "floor": 0.0,
+                        "bias": 0.0, "noise_sigma": 0.5, "rain_miss": 0.0})  # fmt: skip
     x = _noise_series(sensor, runs=300, frames=40)
     assert x.std() == pytest.approx(1.0, abs=0.08)
     for lag in (1, 5, 20):
@@ -48,16 +52,29 @@ def test_sensor_noise_has_the_specified_run_share_and_correlation_time() -> None
     assert x.mean(axis=1).var() > 0.2
 
 
+def test_frame_share_is_fresh_noise_on_top_of_the_ar1_part() -> None:
+    """The frame model's noise: lag-k correlation ``(1 - frame share) * phi^k``, unit variance."""
+    fresh, tau = 0.25, 1.0
+    sensor = PEMSensor({**PLAIN, "noise_frame_share": fresh, "noise_tau": tau,
+                        "noise_run_share": 0.0, "floor": 0.0, "bias": 0.0,
+                        "noise_sigma": 0.5})  # fmt: skip
+    x = _noise_series(sensor, runs=300, frames=40)
+    assert x.std() == pytest.approx(1.0, abs=0.08)
+    for lag in (1, 3, 10):
+        expected = (1 - fresh) * math.exp(-lag * 0.1 / tau)
+        assert _pooled_corr(x, lag) == pytest.approx(expected, abs=0.07), lag
+
+
 def test_independent_frames_when_the_correlation_is_off() -> None:
-    sensor = PEMSensor({"noise_run_share": 0.0, "noise_tau": 0.0, "floor": 0.0, "bias": 0.0,
-                        "noise_sigma": 0.5, "rain_miss": 0.0})  # fmt: skip
+    sensor = PEMSensor({**PLAIN, "noise_run_share": 0.0, "noise_tau": 0.0, "floor": 0.0,
+                        "bias": 0.0, "noise_sigma": 0.5, "rain_miss": 0.0})  # fmt: skip
     x = _noise_series(sensor, runs=100, frames=30)
     assert abs(_pooled_corr(x, 1)) < 0.06
     assert x.mean(axis=1).var() < 0.08  # ~1/30 for independent frames
 
 
 def test_rain_misses_come_in_runs() -> None:
-    sensor = PEMSensor({"noise_tau": 1.0, "rain_miss": 0.5, "floor": 0.0})
+    sensor = PEMSensor({**PLAIN, "noise_tau": 1.0, "rain_miss": 0.5, "floor": 0.0})
     wet = conditions_from_values({"precipitation": 100, "precipitation_deposits": 100,
                                   "wetness": 100})  # fmt: skip
     hits = np.array(
@@ -75,13 +92,13 @@ def test_rain_misses_come_in_runs() -> None:
 
 
 def test_a_reused_sensor_gives_each_run_its_own_noise() -> None:
-    sensor = PEMSensor({"noise_run_share": 0.5, "noise_tau": 1.0})
+    sensor = PEMSensor({**PLAIN, "noise_run_share": 0.5, "noise_tau": 1.0})
 
     def run(s: PEMSensor, seed: int) -> list:
         rng = np.random.default_rng(seed)
         return [s.detect(EGO, (CAR,), CLEAR, rng) for _ in range(20)]
 
-    fresh = run(PEMSensor({"noise_run_share": 0.5, "noise_tau": 1.0}), 5)
+    fresh = run(PEMSensor({**PLAIN, "noise_run_share": 0.5, "noise_tau": 1.0}), 5)
     run(sensor, 4)  # another run first: its state must not leak
     assert run(sensor, 5) == fresh
     rng = np.random.default_rng(5)

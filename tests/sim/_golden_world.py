@@ -73,7 +73,13 @@ def run_all(stored: list[dict[str, Any]], every: int = 1) -> dict[str, dict[str,
     from sitcov.perception import PEMSensor
     from sitcov.sim.embedded import EmbeddedBackend
 
-    backends = {p: EmbeddedBackend(physics=p, sensor=PEMSensor(params=str(PEM))) for p in PROFILES}
+    # the per-class PEM pinned too (the multi-actor golden's copy: the per-class file these
+    # outcomes were recorded with), so a per-class refit does not move them either
+    classes = str(DATA / "golden_actors_pem_classes.yaml")
+    backends = {
+        p: EmbeddedBackend(physics=p, sensor=PEMSensor(params=str(PEM), classes=classes))
+        for p in PROFILES
+    }
     stacks = make_stacks(STACKS)
     out = {}
     for n, (key, _, situation, stack, physics, seed) in enumerate(cases(stored)):

@@ -1,0 +1,69 @@
+"""Three decision rules besides the reference AEB, for measuring how PEM verdicts carry over.
+
+Each is the reference stack (route following, the paper's three AEB tests on a detection)
+with one change in how it decides to brake:
+
+- :class:`Threshold07`: the score test at θ = 0.7 instead of 0.5;
+- :class:`ThreeFrames`: brakes only when the tests pass in three consecutive camera frames;
+- :class:`RightBlind`: ignores every detection whose box centre is in the right half of
+  the image, so it brakes late (or not at all) for road users coming from its right.
+
+They work in PEM mode (they read the detections) and in camera mode (the reference stack's
+detector, :class:`sitcov.perception.SSDDetector`, unless one is given). The agreement
+experiment runs them by name (from the repository root, so ``examples`` imports)::
+
+    PYTHONPATH=. sitcov experiment agreement --seeds 8 --situations 40 \\
+        --stack reference --stack examples.aeb_stacks:Threshold07 \\
+        --stack examples.aeb_stacks:ThreeFrames --stack examples.aeb_stacks:RightBlind \\
+        --out agreement-stacks.csv
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
+
+from sitcov.av import ReferenceStack
+from sitcov.perception import Detection
+
+
+class Threshold07(ReferenceStack):
+    """The reference stack with the AEB's score threshold at 0.7 (``params`` may override)."""
+
+    name: ClassVar[str] = "threshold-0.7"
+
+    def __init__(self, fault: str | None = None, params: Mapping[str, Any] | None = None) -> None:
+        super().__init__(fault=fault, params={"threshold": 0.7, **(params or {})})
+
+
+class ThreeFrames(ReferenceStack):
+    """The reference stack that brakes only after ``frames`` (3) consecutive camera frames
+    in which some detection passes the three tests; a frame without one starts over."""
+
+    name: ClassVar[str] = "three-frames"
+    frames: ClassVar[int] = 3
+
+    def _reset_state(self) -> None:
+        super()._reset_state()
+        self._streak = 0
+
+    def _perceive(self, detections: Sequence[Detection] | None, image: Any) -> bool:
+        hit = super()._perceive(detections, image)
+        self._streak = self._streak + 1 if hit else 0
+        return self._streak >= self.frames
+
+
+class RightBlind(ReferenceStack):
+    """The reference stack blind in the right half of its camera image: a detection whose
+    box centre is at or right of the image centre is dropped before the AEB's tests."""
+
+    name: ClassVar[str] = "right-blind"
+
+    def _perceive(self, detections: Sequence[Detection] | None, image: Any) -> bool:
+        if detections is None:
+            if image is None:
+                return False
+            detections = self._detect(image)
+        half = 0.5 * self.camera.width
+        left = tuple(d for d in detections if 0.5 * (d.box[0] + d.box[2]) < half)
+        return super()._perceive(left, None)

@@ -1,0 +1,577 @@
+"""The frame model: the detector's score per road user and frame, fitted by maximum likelihood.
+
+The PEM (:mod:`sitcov.perception._pem`) says, for one road user in one frame, whether the
+SSD outputs it and with which top score. With ``m(x_t)`` the PEM's logit of the frame's
+features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain, colour):
+
+- a latent unit noise ``n_t = sqrt(s) a_t + sqrt(1 - s) e_t``, ``a_t`` an AR(1) process
+  over the road user's frames (``a_t = rho^g a_{t-g} + sqrt(1 - rho^(2g)) N(0, 1)``, ``g``
+  frames apart), ``e_t`` fresh every frame;
+- the score ``logit(score_t) = m(x_t) + g(n_t)``, ``g(n) = sigma n`` below 0 and
+  ``sigma * up * n`` above (a split normal: the detector's scores spread less upwards);
+- the detector outputs the road user with probability ``Phi(d0 + d1 m(x_t) + lam a_t)``
+  (its misses, which come in bursts with the same AR state).
+
+In ``pem.yaml``: ``noise_sigma`` = sigma, ``noise_up_ratio`` = up, ``noise_frame_share`` =
+1 - s, ``noise_tau`` = -frame_dt / ln(rho), ``detect_bias/gain/ar`` = d0, d1, lam. It is
+the same model for every stack: no term is chosen on any stack's verdicts.
+
+The data are recorded frames of the real detector (:mod:`sitcov.calibration._frames`):
+camera runs (consecutive frames of one road user form a *track*) and static sweep frames
+(tracks of one frame). A score below :data:`CENSOR` counts as censored (only "below" is
+used): the recording kept boxes down to 0.05, but those weak boxes are the frames the
+detector all but misses, which the detection term covers.
+
+Fit (:func:`fit_tracks`), by maximum likelihood:
+
+1. the coefficients of ``m`` and a starting scale, by ridge least squares of the logit
+   scores above :data:`CENSOR`, for each ``size_max_px`` on a grid (the best by likelihood);
+2. the exact likelihood of every track (a forward filter on a grid of the AR state,
+   :func:`track_loglik`), maximised over the intercept, a common scale of the other
+   coefficients, sigma, up, s, rho, d0, d1 and lam. A camera run recorded with the
+   reference stack stops calling its detector when its AEB fires; the sequence
+   likelihood conditions each frame on the earlier ones, which in principle leaves that
+   stopping rule ignorable, but with the detection term it does not undo the selection
+   (tests/calibration/test_frame_model.py: runs cut at the first score >= 0.5 fit an
+   intercept too low): runs recorded to their end (``--record-frames``) are the data
+   to fit on.
+
+Model choice (:func:`choose_model`): independent frames (``s = 0``) or the AR(1) model, by
+the log-likelihood of held-out tracks over run-grouped folds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from sitcov.calibration._calibrate import _LINEAR, _design, _jitter
+from sitcov.calibration._frames import KindFrames
+from sitcov.errors import SitcovError
+from sitcov.perception._pem import FRAME_DT, PEMFeatures, PEMParams
+
+#: Scores below this count as censored (only "below" is used) [-]: the recording kept
+#: scores down to 0.05, but below ~0.2 the detector's box is a stray weak one (the frames
+#: it all but misses); the model's detection term covers them, its score law the scores
+#: that matter to any stack (>= the output floor 0.3) without being widened by them.
+CENSOR = 0.2
+#: The detector's output floor in use: a road user is reported at this score [-].
+FLOOR = 0.3
+#: ``size_max_px`` candidates [px] (the best by step 1's likelihood).
+SIZE_MAX_GRID = (60.0, 100.0, 150.0, 200.0, 300.0, 450.0)
+#: Nodes of the AR state's grid (standard units, uniformly over +-4).
+GRID_NODES = 17
+#: Largest AR share of the latent noise (the frame part keeps the grid's emissions smooth).
+SHARE_MAX = 0.97
+#: Largest AR(1) coefficient per frame tried (the grid resolves kernels down to this).
+RHO_MAX = 0.98
+#: Percentile of the reported boxes' heights below which the PEM reports nothing [%]
+#: (low: the logit, fitted on every size, already makes small boxes rare).
+MIN_PX_PERCENTILE = 0.5
+#: Model candidates: (name, ridge penalty, AR(1) term).
+CANDIDATES = (
+    ("independent", 1.0, False),
+    ("ar1", 1.0, True),
+)
+
+
+def _logit(p: np.ndarray | float) -> Any:
+    return np.log(p) - np.log1p(-p)
+
+
+@dataclass(frozen=True)
+class Tracks:
+    """Frames as arrays, grouped into tracks (one road user's consecutive frames).
+
+    Attributes:
+        feats: the frames' PEM features. score: recorded score (0 = none >= CENSOR).
+        track: track number per frame (frames of a track are contiguous, in time order).
+        gap: frames since the track's previous frame (0 for its first).
+        group: the run (or sweep frame) a frame belongs to, for run-grouped folds.
+        distance: camera to the road user [m] (-1 when not recorded).
+    """
+
+    feats: tuple[PEMFeatures, ...]
+    score: np.ndarray
+    track: np.ndarray
+    gap: np.ndarray
+    group: np.ndarray
+    distance: np.ndarray
+
+    def subset(self, groups: np.ndarray) -> Tracks:
+        """The frames of the given groups."""
+        keep = np.isin(self.group, groups)
+        idx = np.flatnonzero(keep)
+        return Tracks(
+            tuple(self.feats[i] for i in idx), self.score[keep], self.track[keep],
+            self.gap[keep], self.group[keep], self.distance[keep],
+        )  # fmt: skip
+
+
+def tracks_of(data: KindFrames) -> Tracks:
+    """The tracks of one kind's frames: each sweep frame alone, each run split by actor.
+
+    Runs recorded before frame numbers were stored (``frame`` = -1) count their frames
+    as consecutive (the gated camera frames of one road user are, until its AEB fires).
+    """
+    feats: list[PEMFeatures] = []
+    score, track, gap, group, dist = [], [], [], [], []
+    n_track = 0
+    for i, (f, s, d) in enumerate(data.sweep):
+        if f.height_px < 1.0:
+            continue
+        feats.append(f)
+        score.append(s), track.append(n_track), gap.append(0), group.append(-1 - i)
+        dist.append(d)
+        n_track += 1
+    for r, run in enumerate(data.runs):
+        by_actor: dict[int, list[Any]] = {}
+        for k, fr in enumerate(run.frames):
+            if fr.features.height_px >= 1.0:
+                by_actor.setdefault(fr.actor, []).append((fr.frame if fr.frame >= 0 else k, fr))
+        for frames in by_actor.values():
+            prev = None
+            for number, fr in frames:
+                feats.append(fr.features)
+                score.append(fr.score), track.append(n_track), group.append(r)
+                gap.append(0 if prev is None else max(1, number - prev))
+                dist.append(fr.distance)
+                prev = number
+            n_track += 1
+    return Tracks(tuple(feats), np.asarray(score, dtype=float), np.asarray(track),
+                  np.asarray(gap), np.asarray(group), np.asarray(dist, dtype=float))  # fmt: skip
+
+
+# --- step 1: the detected frames' scores, as independent (ridge least squares) ------------
+
+
+def _ridge_ls(x: np.ndarray, y: np.ndarray, ridge: float) -> tuple[np.ndarray, float, float]:
+    """Ridge least squares of ``y`` on ``x`` (intercept free): (coefficients, residual
+    standard deviation, Gaussian NLL)."""
+    pen = ridge * np.eye(x.shape[1])
+    pen[0, 0] = 0.0
+    beta = np.linalg.solve(x.T @ x + pen, x.T @ y)
+    res = y - x @ beta
+    sigma = float(np.sqrt(np.mean(res * res)))
+    nll = 0.5 * len(y) * (1.0 + math.log(2 * math.pi * sigma * sigma))
+    return beta, sigma, nll
+
+
+def _design_for(t: Tracks, size_max: float, ref: float) -> np.ndarray:
+    return _design(t.feats, 1.0, size_max, ref)
+
+
+def _observed(t: Tracks) -> tuple[np.ndarray, np.ndarray]:
+    """(logit score, observed) per frame; a score >= 1 - 1e-6 counts as 1 - 1e-6."""
+    obs = t.score >= CENSOR
+    y = _logit(np.clip(np.where(obs, t.score, 0.5), CENSOR, 1.0 - 1e-6))
+    return y, obs
+
+
+# --- step 2: tracks as sequences (forward filter on a grid of the AR state) -------------------
+
+
+def _grid(noise: Noise) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and prior weights of the AR state; one node (0) when nothing depends on it
+    (independent frames: no AR share, no detection term on it)."""
+    if noise.share <= 0.0 and noise.lam == 0.0:
+        return np.zeros(1), np.ones(1)
+    u = np.linspace(-4.0, 4.0, GRID_NODES)
+    p = np.exp(-0.5 * u * u)
+    return u, p / p.sum()
+
+
+def _kernel(u: np.ndarray, rho: float) -> np.ndarray:
+    """Row-stochastic transition of the unit AR(1) state over one step of coefficient rho."""
+    sd = math.sqrt(max(1e-12, 1.0 - rho * rho))
+    k = np.exp(-0.5 * ((u[None, :] - rho * u[:, None]) / sd) ** 2)
+    return k / k.sum(axis=1, keepdims=True)
+
+
+@dataclass(frozen=True)
+class Noise:
+    """The model's noise and detection terms (module docstring): ``sigma`` the logit
+    score's noise scale below its median, ``up`` the scale above it over ``sigma``,
+    ``share`` the AR part's share of the unit latent noise, ``rho`` the AR coefficient per
+    frame; detection ``P = Phi(d0 + d1 * m + lam * a_t)``."""
+
+    sigma: float
+    share: float
+    rho: float
+    d0: float = 8.0
+    d1: float = 0.0
+    lam: float = 0.0
+    up: float = 1.0
+
+
+def _ginv(v: np.ndarray, noise: Noise) -> np.ndarray:
+    """The latent unit noise ``n`` whose score offset ``g(n)`` is ``v`` [logit]."""
+    return np.where(v < 0.0, v / noise.sigma, v / (noise.sigma * noise.up))
+
+
+def frame_logliks(
+    m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise
+) -> np.ndarray:
+    """Log-likelihood of each frame (rows) given the AR state at each grid node (columns)."""
+    from scipy.special import log_ndtr
+
+    c = float(_logit(CENSOR))
+    ra, re = math.sqrt(noise.share), math.sqrt(1.0 - noise.share)
+    det = noise.d0 + noise.d1 * m[:, None] + noise.lam * u[None, :]
+    log_det, log_miss = log_ndtr(det), log_ndtr(-det)
+    v = y - m
+    n = _ginv(v, noise)
+    slope = np.where(v < 0.0, noise.sigma, noise.sigma * noise.up)
+    r = (n[:, None] - ra * u[None, :]) / re
+    seen = log_det - 0.5 * r * r - math.log(re) - 0.5 * math.log(2 * math.pi)
+    seen = seen - np.log(slope)[:, None]
+    nc = _ginv(c - m, noise)
+    low = np.logaddexp(log_miss, log_det + log_ndtr((nc[:, None] - ra * u[None, :]) / re))
+    return np.where(obs[:, None], seen, low)
+
+
+def track_loglik(
+    m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, noise: Noise
+) -> np.ndarray:
+    """Log-likelihood of each track (array over tracks, in track order): the forward
+    filter over the AR state's grid; ``m`` the PEM logit per frame, ``y``/``obs`` the
+    logit score and whether one >= CENSOR was recorded."""
+    n_tracks = int(t.track.max()) + 1 if len(t.track) else 0
+    u, prior = _grid(noise)
+    log_e = frame_logliks(m, y, obs, u, noise)
+    starts = np.flatnonzero(np.r_[True, t.track[1:] != t.track[:-1]])
+    lengths = np.diff(np.r_[starts, len(t.track)])
+    order = np.argsort(-lengths, kind="stable")  # longest first: active tracks are a prefix
+    starts, lengths = starts[order], lengths[order]
+    ids = t.track[starts]
+    out = np.zeros(n_tracks)
+    alpha = np.tile(prior, (len(starts), 1))
+    kernels: dict[int, np.ndarray] = {}
+    for step in range(int(lengths.max()) if len(lengths) else 0):
+        active = int(np.sum(lengths > step))
+        idx = starts[:active] + step
+        a = alpha[:active]
+        if step > 0:
+            new = np.empty_like(a)
+            gaps = t.gap[idx]
+            for g in np.unique(gaps):
+                sel = gaps == g
+                if int(g) not in kernels:
+                    kernels[int(g)] = _kernel(u, noise.rho ** int(g))
+                new[sel] = a[sel] @ kernels[int(g)]
+            a = new
+        le = log_e[idx]
+        top = le.max(axis=1, keepdims=True)
+        a = a * np.exp(le - top)
+        total = np.maximum(a.sum(axis=1), 1e-300)
+        out[ids[:active]] += np.log(total) + top[:, 0]
+        alpha[:active] = a / total[:, None]
+    return out
+
+
+@dataclass(frozen=True)
+class FrameFit:
+    """A fitted frame model: the logit's coefficients (``_LINEAR`` order), the size clamp
+    and reference [px], and the noise and detection terms."""
+
+    beta: np.ndarray
+    size_max: float
+    size_ref: float
+    noise: Noise
+
+    def logit(self, t: Tracks) -> np.ndarray:
+        """The PEM logit ``m`` of every frame of ``t``."""
+        return _design_for(t, self.size_max, self.size_ref) @ self.beta
+
+    def loglik(self, t: Tracks) -> float:
+        """Sequence log-likelihood of ``t`` (every track)."""
+        y, obs = _observed(t)
+        return float(track_loglik(self.logit(t), y, obs, t, self.noise).sum())
+
+
+def fit_tracks(t: Tracks, *, ridge: float, ar: bool, size_ref: float) -> FrameFit:
+    """Steps 1 and 2 of the module docstring on ``t``."""
+    from scipy.optimize import minimize
+
+    y, obs = _observed(t)
+    if int(np.sum(t.score >= FLOOR)) < 10:
+        raise SitcovError(f"only {int(np.sum(t.score >= FLOOR))} frames detected at >= {FLOOR}")
+    best: tuple[float, np.ndarray, float, float, np.ndarray] | None = None
+    for size_max in SIZE_MAX_GRID:
+        x = _design_for(t, size_max, size_ref)
+        beta, sigma0, value = _ridge_ls(x[obs], y[obs], ridge)
+        if best is None or value < best[0]:
+            best = (value, beta, sigma0, size_max, x)
+    assert best is not None
+    _, beta, sigma0, size_max, x = best
+    rest = x[:, 1:] @ beta[1:]
+
+    def unpack(p: np.ndarray) -> tuple[float, float, Noise]:
+        up = math.exp(min(3.0, max(-5.0, p[5])))
+        share = SHARE_MAX / (1.0 + math.exp(-p[6])) if ar else 0.0
+        rho = RHO_MAX / (1.0 + math.exp(-p[7])) if ar else 0.0
+        lam = p[8] if ar else 0.0
+        sigma = math.exp(min(3.0, max(-6.0, p[2])))
+        return float(p[0]), float(p[1]), Noise(sigma, share, rho, float(p[3]), float(p[4]),
+                                               float(lam), up)  # fmt: skip
+
+    def nll(p: np.ndarray) -> float:
+        b0, kappa, noise = unpack(p)
+        return -float(track_loglik(b0 + kappa * rest, y, obs, t, noise).sum())
+
+    rate = float(np.clip(np.mean(obs), 0.02, 0.98))
+    # start: no detection slope, a slightly narrower upper spread, an AR share of 0.7
+    # and rho 0.8 (the car fit's neighbourhood: fewer iterations on a loaded machine)
+    start = [beta[0], 1.0, math.log(sigma0), float(_ndtri(rate)), 0.0, -0.2]
+    start += [0.85, 1.5, 0.5] if ar else []
+    res = minimize(nll, np.asarray(start), method="L-BFGS-B",
+                   options={"maxiter": 80, "ftol": 1e-6})  # fmt: skip
+    b0, kappa, noise = unpack(res.x if ar else np.r_[res.x, 0.0, 0.0, 0.0])
+    return FrameFit(np.r_[b0, kappa * beta[1:]], size_max, size_ref, noise)
+
+
+def _ndtri(p: float) -> float:
+    from scipy.special import ndtri
+
+    return float(ndtri(p))
+
+
+def _folds(groups: np.ndarray, k: int, seed: int = 0) -> list[np.ndarray]:
+    """``k`` run-grouped folds of the runs (sweep frames, groups < 0, stay in training)."""
+    runs = np.unique(groups[groups >= 0])
+    perm = np.random.default_rng(seed).permutation(runs)
+    return [perm[i::k] for i in range(k)]
+
+
+def choose_model(
+    t: Tracks,
+    *,
+    folds: int,
+    size_ref: float,
+    candidates: Sequence[tuple[str, float, bool]] = CANDIDATES,
+) -> tuple[str, dict[str, Any]]:
+    """The candidate with the best held-out sequence log-likelihood (per held-out frame),
+    over run-grouped folds: each fold's runs are left out of the fit and scored."""
+    table: dict[str, Any] = {}
+    parts = _folds(t.group, folds)
+    all_groups = np.unique(t.group)
+    for name, ridge, ar in candidates:
+        total, frames = 0.0, 0
+        for held in parts:
+            train = t.subset(np.setdiff1d(all_groups, held))
+            test = t.subset(held)
+            fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref)
+            total += fit.loglik(test)
+            frames += len(test.score)
+        table[name] = {"heldout_loglik_per_frame": round(total / max(1, frames), 4),
+                       "heldout_frames": frames}  # fmt: skip
+    chosen = max(table, key=lambda k: table[k]["heldout_loglik_per_frame"])
+    return chosen, table
+
+
+def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) -> PEMParams:
+    """The fit as PEM parameters (other fields from ``base``; jitter from the runs'
+    matched boxes; ``size_min_px`` the :data:`MIN_PX_PERCENTILE` percentile of the box
+    heights reported: below it the sensor reports nothing, above it the fitted logit,
+    fitted down to 1 px, decides)."""
+    values = {name: round(float(v), 4) for name, v in zip(_LINEAR, fit.beta, strict=True)}
+    heights = np.asarray([f.height_px for f in t.feats])
+    seen = heights[t.score >= FLOOR]
+    size_min = float(np.percentile(seen, MIN_PX_PERCENTILE)) if seen.size else base.size_min_px
+    jitter = _jitter([f for r in runs for f in r.frames])
+    nz = fit.noise
+    tau = -FRAME_DT / math.log(nz.rho) if nz.share > 0.0 and nz.rho > 0.0 else 0.0
+    return replace(
+        base,
+        **values,
+        size_ref_px=round(fit.size_ref, 4),
+        size_min_px=round(max(1.0, size_min), 2),
+        size_max_px=fit.size_max,
+        noise_sigma=round(nz.sigma, 4),
+        noise_tau=round(tau, 4),
+        noise_run_share=0.0,
+        noise_frame_share=round(1.0 - nz.share, 4) if nz.share > 0.0 else 0.0,
+        detect_bias=round(nz.d0, 4),
+        detect_gain=round(nz.d1, 4),
+        detect_ar=round(nz.lam, 4),
+        noise_up_ratio=round(nz.up, 4),
+        rain_sigma=0.0,
+        rain_miss=0.0,
+        rain_jitter=0.0,
+        jitter=round(jitter, 4) if jitter is not None else base.jitter,
+        floor=FLOOR,
+    )
+
+
+def held_out_choice(
+    t: Tracks, held: Tracks, *, size_ref: float,
+    candidates: Sequence[tuple[str, float, bool]] = CANDIDATES,
+) -> tuple[str, dict[str, Any], dict[str, FrameFit]]:  # fmt: skip
+    """Each candidate fitted on ``t`` and scored by its sequence log-likelihood on the
+    held-out tracks ``held`` (per frame): (the best, the table, the fits)."""
+    table: dict[str, Any] = {}
+    fits: dict[str, FrameFit] = {}
+    for name, ridge, ar in candidates:
+        fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+        table[name] = {
+            "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
+            "heldout_frames": len(held.score),
+        }
+    chosen = max(table, key=lambda k: table[k]["heldout_loglik_per_frame"])
+    return chosen, table, fits
+
+
+def split_runs(data: KindFrames, part: str) -> KindFrames:
+    """The runs of even (``even``) or odd (``odd``) index, or all (``all``); no sweep frames
+    unless ``all``. Held-out files are split so that the model is chosen on one half and
+    checked on the other."""
+    if part == "all":
+        return data
+    want = 0 if part == "even" else 1
+    return KindFrames(runs=[r for r in data.runs if r.index % 2 == want])
+
+
+def fit_kind(
+    data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None
+) -> tuple[PEMParams, dict[str, Any]]:
+    """Choose the model on held-out runs and fit it on every frame of the kind; the
+    parameters and a summary (frames, tracks, the choice table, the fitted noise).
+
+    With ``held`` (frames recorded with another seed) the candidates are fitted on
+    ``data`` and chosen by their log-likelihood on ``held``'s even-index runs, and the
+    chosen one is refitted on ``data`` and those runs (the odd ones are left for the
+    check, :mod:`sitcov.calibration._frame_check`); else by ``folds`` run-grouped folds
+    of ``data`` and the chosen one refitted on all of it."""
+    t = tracks_of(data)
+    size_ref = base.size_ref_px
+    if held is not None:
+        even = split_runs(held, "even")
+        chosen, table, _ = held_out_choice(t, tracks_of(even), size_ref=size_ref)
+        # then the chosen model on every frame but the check's: the held-out runs are
+        # recorded with the stack given no detections, so they hold the closest frames
+        # (after the moment an AEB would fire) that the calibration runs stop before
+        data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
+        t = tracks_of(data)
+        _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+    else:
+        chosen, table = choose_model(t, folds=folds, size_ref=size_ref)
+        _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+    params = to_params(fit, base, t, data.runs)
+    nz = fit.noise
+    lag1 = nz.share * nz.rho
+    summary = {
+        "frames": len(t.score),
+        "sweep_frames": len(data.sweep),
+        "runs": len(data.runs),
+        "tracks": int(t.track.max()) + 1 if len(t.track) else 0,
+        "detected_ge_floor": round(float(np.mean(t.score >= FLOOR)), 4),
+        "model_choice": {
+            "on": "held-out runs (even index)" if held is not None else f"{folds} folds",
+            "chosen": chosen,
+            "table": table,
+        },
+        "rho_per_frame": round(nz.rho, 4),
+        "ar_share": round(nz.share, 4),
+        "lag1_autocorrelation_of_logit_noise": round(lag1, 4),
+        "loglik_per_frame": round(fit.loglik(t) / max(1, len(t.score)), 4),
+    }
+    return params, summary
+
+
+def _fit_job(
+    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None],
+) -> tuple[PEMParams, dict[str, Any]]:
+    kind, data, base, folds, held = job
+    return fit_kind(data, base, folds=folds, held=held)
+
+
+def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
+    from sitcov.calibration._frames import read_frames
+
+    merged: dict[str, KindFrames] = {}
+    for path in paths:
+        for kind, data in read_frames(path).items():
+            into = merged.setdefault(kind, KindFrames())
+            into.sweep.extend(data.sweep)
+            into.runs.extend(data.runs)
+    return merged
+
+
+def fit_files(
+    paths: Sequence[Any], *, folds: int = 5, workers: int = 1, held: Sequence[Any] = ()
+) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
+    """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
+    kind -> (parameters, summary). Cars start from the shipped car parameters, the other
+    kinds from the shipped per-class ones (their size reference [px] is kept).
+    ``workers`` > 1 fits the kinds in that many processes (the same results). ``held``:
+    frames files recorded with another seed, to choose the model on (:func:`fit_kind`)."""
+    from sitcov.perception._pem_classes import load_class_params
+    from sitcov.perception._pem_params import load_pem_params
+
+    merged = _merged(paths)
+    other = _merged(held) if held else {}
+    classes = load_class_params()
+    jobs = [
+        (kind, data, load_pem_params() if kind == "car" else classes[kind][1], folds,
+         other.get(kind) if held else None)
+        for kind, data in merged.items()
+    ]  # fmt: skip
+    if workers <= 1 or len(jobs) <= 1:
+        return {job[0]: _fit_job(job) for job in jobs}
+    import multiprocessing as mp
+
+    with mp.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
+        return dict(zip([j[0] for j in jobs], pool.map(_fit_job, jobs), strict=True))
+
+
+def frame_yaml(
+    results: dict[str, tuple[PEMParams, dict[str, Any]]], command: str, seeds: Sequence[int],
+    *, classes: bool,
+) -> str:  # fmt: skip
+    """The text of ``pem.yaml`` (cars, ``classes`` False) or ``pem_classes.yaml``
+    (pedestrians and cyclists), headed by the command, with provenance in ``meta``."""
+    import datetime
+
+    import yaml
+
+    from sitcov.calibration._frames import KIND_LABEL
+
+    date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
+    meta: dict[str, Any] = {
+        "source": "sitcov calibrate --frames-from (frame model, maximum likelihood)",
+        "command": command,
+        "date": date,
+        "calibration_seeds": sorted(set(seeds)),
+    }
+    if classes:
+        head = "# Per-class PEM parameters (pedestrians, cyclists): the frame model of\n"
+        head += "# sitcov/calibration/_frame_model.py (docs/pem.md). Made by:\n"
+        meta.update({k: s for k, (_, s) in results.items() if k != "car"})
+        body = {k: {"label": KIND_LABEL[k], "params": p.to_dict()}
+                for k, (p, _) in results.items() if k != "car"}  # fmt: skip
+        doc = {"meta": meta, "classes": body}
+    else:
+        head = "# Perception error model (PEM) parameters: the frame model of\n"
+        head += "# sitcov/calibration/_frame_model.py, documented in docs/pem.md. Made by:\n"
+        params, summary = results["car"]
+        meta["frames"] = summary["frames"]
+        meta["car"] = summary
+        doc = {"meta": meta, "params": params.to_dict()}
+    return head + f"#   {command}\n" + yaml.safe_dump(_plain(doc), sort_keys=False)
+
+
+def _plain(value: Any) -> Any:
+    """``value`` with numpy scalars as Python numbers (what ``yaml.safe_dump`` writes)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value

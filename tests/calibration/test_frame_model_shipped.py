@@ -1,0 +1,86 @@
+"""The shipped PEM files are the frame model's output, with their provenance, and pass the
+held-out check."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from sitcov.perception._pem_classes import PEM_CLASSES_FILE, load_class_params
+from sitcov.perception._pem_params import PEM_PARAMS_FILE, load_pem_params
+
+ROOT = Path(__file__).resolve().parents[2]
+HELD_OUT = ROOT / "docs" / "data" / "pem-frames-seed2.jsonl.gz"
+
+
+def _files(command: str, flag: str) -> list[Path]:
+    words = command.split()
+    return [ROOT / words[i + 1] for i, w in enumerate(words) if w == flag]
+
+
+@pytest.mark.parametrize("path", [PEM_PARAMS_FILE, PEM_CLASSES_FILE], ids=["cars", "classes"])
+def test_shipped_file_is_the_frame_model_with_its_provenance(path: Path) -> None:
+    text = path.read_text()
+    data = yaml.safe_load(text)
+    meta = data["meta"]
+    command = meta["command"]
+    assert command.startswith("sitcov calibrate --frames-from ")
+    assert f"#   {command}" in text.splitlines()
+    assert "--out sitcov/perception/data/pem.yaml" in command
+    assert "--classes-out sitcov/perception/data/pem_classes.yaml" in command
+    assert meta["calibration_seeds"] == [1] and len(meta["date"]) == 10
+    assert all(p.is_file() for p in _files(command, "--frames-from") + _files(command, "--heldout"))
+    kinds = ["car"] if path == PEM_PARAMS_FILE else ["pedestrian", "cyclist"]
+    for kind in kinds:
+        summary = meta[kind]
+        table = summary["model_choice"]["table"]
+        best = max(table, key=lambda k: table[k]["heldout_loglik_per_frame"])
+        assert summary["model_choice"]["chosen"] == best
+        assert summary["frames"] > 1000
+    # no number edited by hand: the params are what the loader reads back
+    if path == PEM_PARAMS_FILE:
+        assert data["params"] == load_pem_params().to_dict()
+    else:
+        loaded = load_class_params()
+        for kind, entry in data["classes"].items():
+            assert loaded[kind] == (entry["label"], load_pem_params().__class__(**entry["params"]))
+
+
+def test_no_term_is_chosen_on_a_stacks_verdicts() -> None:
+    """The frame model has no intercept shift or noise scale picked on run verdicts."""
+    meta = yaml.safe_load(PEM_PARAMS_FILE.read_text())["meta"]
+    assert "camera_runs" not in meta and "bias_shift" not in str(meta)
+
+
+def _check_rows() -> list[dict]:
+    from sitcov.calibration import _frame_check as fc
+    from sitcov.calibration._frame_model import split_runs
+    from sitcov.calibration._frames import read_frames
+
+    frames = {k: split_runs(v, "odd") for k, v in read_frames(HELD_OUT).items()}
+    classes = load_class_params()
+    params = {k: load_pem_params() if k == "car" else classes[k][1] for k in frames}
+    return fc.check_frames(frames, params)
+
+
+def test_held_out_check_from_10_m_on() -> None:
+    """On the held-out runs the model was neither fitted nor chosen on (odd runs of seed
+    2), from 10 m on: every judged cell within 0.1 and at least 80 % within ±0.05."""
+    rows = [r for r in _check_rows() if "ok" in r and not r["band"].startswith("0-")]
+    assert len(rows) >= 15
+    assert all(abs(r["difference"]) <= 0.1 for r in rows), rows
+    assert sum(r["ok"] for r in rows) >= 0.8 * len(rows)
+
+
+@pytest.mark.xfail(strict=True, reason="closer than 10 m the detector misses far more often "
+                   "than the PEM (docs/pem.md, held-out check): not met yet")  # fmt: skip
+def test_held_out_check_done_when() -> None:
+    """The done-when check: P(score >= θ), θ = 0.3..0.7, within ±0.05 of the detector's
+    per class and distance band, on the held-out runs."""
+    from sitcov.calibration import _frame_check as fc
+
+    rows = _check_rows()
+    judged = [r for r in rows if "ok" in r]
+    assert judged and all(r["ok"] for r in judged), fc.table_lines(rows)

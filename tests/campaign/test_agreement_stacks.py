@@ -1,0 +1,88 @@
+"""The agreement experiment per stack: rows per stack, pairs within a stack, left/right sides."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from pathlib import Path
+
+import pytest
+
+from sitcov.campaign import _agreement as ag
+from sitcov.errors import SitcovError
+
+ROOT = Path(__file__).resolve().parents[2]
+#: From tests/av/test_plugins.py: where the OV comes from in each intsit bin.
+OV_FROM_LEFT = ("IntSit-5", "IntSit-8", "IntSit-9", "IntSit-10")
+OV_FROM_RIGHT = ("IntSit-3", "IntSit-4", "IntSit-6", "IntSit-7")
+SIDES = ag.situation_sides([3], 200)
+
+
+def fake_run(job: ag.Job) -> dict:
+    """A verdict from the run seed; the stack ``blind`` also fails every situation whose
+    road user comes from the right."""
+    seed = ag.stream_seed(job.stream, job.seed, job.index)
+    failed = seed % 100 < 30 or (job.stack == "blind" and SIDES[job.seed, job.index] == "right")
+    return {
+        **asdict(job), "situation_id": f"sit-{job.seed}-{job.index}", "run_seed": seed,
+        "status": "fail" if failed else "pass", "failed": failed, "aeb_time": None,
+        "cpu_s": 0.5, "wall_s": 0.5,
+    }  # fmt: skip
+
+
+def test_approach_side_agrees_with_the_intsit_bins() -> None:
+    from sitcov.hyperspace import load_hyperspace
+
+    hs = load_hyperspace()
+    for b in hs.element("intsit").bins:
+        side = ag.approach_side({}, {"intsit": b.draw()})
+        expected = (
+            "left" if b.label in OV_FROM_LEFT else "right" if b.label in OV_FROM_RIGHT else "ahead"
+        )
+        assert side == expected, b.label
+    assert ag.approach_side({}, {}) == "other"
+
+
+def test_every_stack_gets_its_rows_pairs_and_sides(tmp_path: Path) -> None:
+    out = tmp_path / "rows.csv"
+    summary = ag.run_agreement(
+        seeds=[3], situations=200, out=out, run_job=fake_run, stacks=["reference", "blind"],
+        pairs=["pem-camera", "camera-camera"],
+    )  # fmt: skip
+    rows = ag.read_rows(out)
+    assert {r["stack"] for r in rows} == {"reference", "blind"}
+    assert len(rows) == 2 * 200 * 3  # per stack: camera@A, camera@B, pem@B
+    assert set(summary["stacks"]) == {"reference", "blind"}
+    assert summary["pairs"] == summary["stacks"]["reference"]["pairs"]
+    ref, blind = summary["stacks"]["reference"], summary["stacks"]["blind"]
+    for side in ("camera@A", "camera@B", "pem@B"):
+        # the blind stack fails every right-side situation, significantly more than left
+        assert blind["sides"][side]["right"]["failure_rate"] == 1.0
+        assert blind["sides"][side]["p_right_fails_more"] < 1e-6
+        assert ref["sides"][side]["p_right_fails_more"] > 0.01
+    lines = ag.table_lines(summary)
+    assert "== stack blind" in lines and any("from the right 100.0%" in x for x in lines)
+
+
+def test_camera_rows_are_reused_per_stack(tmp_path: Path) -> None:
+    ag.run_agreement(seeds=[3], situations=10, out=tmp_path / "a.csv", run_job=fake_run,
+                     stacks=["blind"], pairs=["camera-camera"])  # fmt: skip
+    calls = []
+
+    def counting(job: ag.Job) -> dict:
+        calls.append(job)
+        return fake_run(job)
+
+    ag.run_agreement(seeds=[3], situations=10, out=tmp_path / "b.csv", run_job=counting,
+                     stacks=["reference", "blind"], pairs=["pem-camera"],
+                     camera_rows=tmp_path / "a.csv")  # fmt: skip
+    assert {(j.perception, j.stack) for j in calls} == {("pem", "reference"), ("pem", "blind"),
+                                                        ("camera", "reference")}  # fmt: skip
+
+
+def test_stack_names_are_checked(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.syspath_prepend(str(ROOT))
+    assert ag.parse_stacks(None) == ["reference"]
+    names = ag.parse_stacks(["reference,examples.aeb_stacks:RightBlind", "reference"])
+    assert names == ["reference", "examples.aeb_stacks:RightBlind"]
+    with pytest.raises(SitcovError):
+        ag.parse_stacks(["no-such-stack"])
