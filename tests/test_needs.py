@@ -41,13 +41,19 @@ SKIP_FORMS = re.compile(
 )
 
 
+#: The one expected-failure form allowed: a *strict* xfail with its reason on the same line.
+#: It cannot vanish: it is reported as xfailed, and it FAILS the run the day the criterion it
+#: documents is met (XPASS), so the test must be turned into a plain one.
+STRICT_XFAIL = re.compile(r"mark\.xfail\(strict=True, reason=")
+
+
 def _offenders(root: Path, skip: tuple[str, ...]) -> list[str]:
     return [
         f"{path.relative_to(root)}:{n}"
         for path in root.rglob("*.py")
         if path.name not in skip
         for n, line in enumerate(path.read_text().splitlines(), 1)
-        if SKIP_FORMS.search(line)
+        if SKIP_FORMS.search(line) and not STRICT_XFAIL.search(line)
     ]
 
 
@@ -85,6 +91,9 @@ def test_the_guard_catches_every_skip_form(tmp_path, line):
 
 
 def test_the_guard_lets_ordinary_code_through(tmp_path):
-    text = "skipped = 0\nresult = run(skip_empty_frames=True)\nxfail_count = 3\n"
+    text = (
+        "skipped = 0\nresult = run(skip_empty_frames=True)\nxfail_count = 3\n"
+        "@pytest.mark.xfail(strict=True, reason='criterion X not met yet (docs)')\n"
+    )
     (tmp_path / "test_y.py").write_text(text)
     assert _offenders(tmp_path, ()) == []
