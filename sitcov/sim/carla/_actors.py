@@ -371,6 +371,7 @@ class Scene:
     def observe(self, t: float, ego: VehicleState, record: bool) -> None:
         """Read every twin back from CARLA; move the embedded ego; update the metrics."""
         view = self.view
+        view.ego_decel = (view.ego_speed - ego.speed) / view.dt if t > 0.0 else 0.0
         view.t, view.ego_speed = t, ego.speed
         me = view.ego
         body = me.body

@@ -32,7 +32,15 @@ import numpy as np
 
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit, timing_law
 from sitcov.sim.embedded._path import _bisect_right, _point_at
-from sitcov.sim.embedded._yielding import EGO_ALL, EGO_NEVER, EGO_STANDING, SLOW, STANDING, limit
+from sitcov.sim.embedded._yielding import (
+    EGO_ALL,
+    EGO_NEVER,
+    EGO_STANDING,
+    SLOW,
+    STANDING,
+    STOP_HORIZON,
+    limit,
+)
 
 if TYPE_CHECKING:
     from sitcov.sim.embedded._actors import Actor
@@ -41,6 +49,9 @@ if TYPE_CHECKING:
 #: with the name bound to its correctly rounded version: the same bits).
 hypot = math.hypot
 
+#: An ego braking harder than this [m/s^2] may stand within ``STOP_HORIZON`` of ``SLOW``:
+#: a timed car after its switch looks whether it stands in its path.
+EGO_BRAKING = SLOW / STOP_HORIZON
 #: Speed P-gain of scripted and pedestrian controllers [1/(m/s)].
 SPEED_GAIN = 0.5
 
@@ -197,7 +208,7 @@ def react(
     w = actor.watcher
     if w is None or not w.entries:
         return thr, brk
-    accel = w.accel(v0, ego)
+    accel = w.accel(v0, ego, world.ego_decel)
     if accel == math.inf:
         return thr, brk
     spec = actor.spec
@@ -241,6 +252,7 @@ class TimingController:
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
         self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
+        self._others = False  # road users besides the ego meet its route (set with _car)
         # AdversaryController.lookahead's constants, read every step
         self._la_min, self._la_time = params.lookahead_min, params.lookahead_time
 
@@ -269,19 +281,19 @@ class TimingController:
         """:meth:`command` of a car: the law and the steering in one :func:`_timed_car`."""
         if self._car is None:
             self._car = self._bind_car(actor)
+            self._others = actor.watcher is not None and actor.watcher.others
         kernel, pts, k = self._car
         law, b, s_ego = self.law, actor.body, world.ego.s
         phase, thr, brk, steer = kernel(
             pts, k, law.phase_index, s_ego, world.ego_speed, actor.s, b.x, b.y, b.yaw, b.vx, b.vy
         )
         law.phase_index = phase
-        w = actor.watcher
         if phase == 2:  # cruise
             if self.switch_time is None:
                 self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
-            if w is not None and (w.others or world.ego_speed < SLOW):
+            if self._others or world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING:
                 thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
-        elif phase == 1 and w is not None and w.others:
+        elif phase == 1 and self._others:
             thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_NEVER)
         self.brake = brk
         return thr, brk, steer

@@ -75,6 +75,8 @@ ZONE_MARGIN = 0.3
 SLOW = 1.0
 #: Speed below which a road user stands [m/s] (``_controllers.STANDING``).
 STANDING = 0.05
+#: An ego braking so hard that it stands within this time [s] counts as standing.
+STOP_HORIZON = 1.5
 #: Speed floor in arrival-time estimates [m/s] (the timing law's ``min_speed``).
 V_FLOOR = 0.5
 #: How far ahead an actor yields to another road user's arrival [s], per kind, for another
@@ -93,6 +95,9 @@ REACH: dict[str, float] = {"car": 40.0, "cyclist": 25.0, "pedestrian": 8.0}
 EGO_ALL, EGO_STANDING, EGO_NEVER = 0, 1, 2
 #: Zone relations: the routes cross, run the same way, or meet head-on.
 CROSS, SAME, OPPOSITE = 0, 1, 2
+#: Headings within this angle run the same way; beyond ``HEAD_ON`` they meet head-on [rad]
+#: (a left turn across the opposing lane, ~150 degrees, crosses it).
+SAME_WAY, HEAD_ON = math.radians(45.0), math.radians(165.0)
 
 
 @dataclass(frozen=True)
@@ -140,7 +145,7 @@ def route_zones(a: Path, b: Path, gap: float) -> tuple[Zone, ...]:
         mid = run[len(run) // 2]
         j = ib[np.argmax(close[mid])]
         turn = abs(wrap_angle(a.point_at(float(ia[mid]) * step_a)[2] - b.point_at(j * step_b)[2]))
-        relation = SAME if turn < math.pi / 4 else (OPPOSITE if turn > 3 * math.pi / 4 else CROSS)
+        relation = SAME if turn < SAME_WAY else (OPPOSITE if turn > HEAD_ON else CROSS)
         zones.append(Zone(sa0, sa1, sb0, sb1, relation))
         start = k
     return tuple(zones)
@@ -168,10 +173,12 @@ class Watcher:
         #: whether any road user but the ego meets this actor's route
         self.others = any(not is_ego for *_, is_ego in others)
 
-    def obstacle(self, ego: int = EGO_ALL) -> tuple[float, float, Any]:
+    def obstacle(self, ego: int = EGO_ALL, decel: float = 0.0) -> tuple[float, float, Any]:
         """The nearest obstacle on the path: (net gap [m], its speed along [m/s], the road
         user); (inf, 0, None) if none. ``ego``: how the ego counts (:data:`EGO_ALL`,
-        :data:`EGO_STANDING`, :data:`EGO_NEVER`)."""
+        :data:`EGO_STANDING`, :data:`EGO_NEVER`); ``decel``: the ego's deceleration over
+        the last step [m/s^2] (an ego braking to a stop within :data:`STOP_HORIZON`
+        counts as standing)."""
         a = self.actor
         s, half = a.s, a.half_l
         front, rear = s + half, s - half
@@ -182,24 +189,38 @@ class Watcher:
             if not other.active:
                 continue
             vb = other.body.speed
-            if is_ego and ego != EGO_ALL and (ego == EGO_NEVER or vb >= SLOW):
+            if (
+                is_ego
+                and ego != EGO_ALL
+                and (ego == EGO_NEVER or (vb >= SLOW and vb > decel * STOP_HORIZON))
+            ):
                 continue
             bs, bh = other.s, other.half_l
             bf, br = bs + bh, bs - bh
+            shift = 0.0
+            if is_ego and ego == EGO_STANDING and decel > 0.5:
+                shift = vb * vb / (2.0 * decel)  # how far it goes on before it stands
+                bf += shift
             for z in zones:
                 if rear > z.sa1 or z.sa0 - front > self.reach or br > z.sb1:
                     continue  # passed it, too far ahead, or the other has passed it
                 inside = bf > z.sb0
                 if z.relation == SAME and inside:
-                    pos = z.sa0 + (bs - z.sb0)  # the other's place on this route
-                    if pos <= s:
+                    # the other's place on this route (arc lengths run alike on a shared
+                    # stretch; where routes merge, its box may be ahead all the same)
+                    pos = z.sa0 + (bs - z.sb0)
+                    gap = pos - s - half - bh if pos > s else math.inf
+                    box = self._ahead(other, shift)
+                    if box < gap:
+                        gap = box
+                    if gap == math.inf:
                         continue  # behind
-                    gap, lead = pos - s - half - bh, vb
+                    lead = vb
                 elif inside:
                     if front <= z.sa0:
                         gap, lead = z.sa0 - front, 0.0
                     else:  # both inside: only if it is ahead
-                        gap = self._ahead(other)
+                        gap = self._ahead(other, shift)
                         if gap == math.inf:
                             continue
                         lead = 0.0
@@ -218,20 +239,26 @@ class Watcher:
                     best, best_v, who = gap, lead, other
         return best, best_v, who
 
-    def _ahead(self, other: Any) -> float:
-        """Net distance to ``other`` along this actor's heading if it is ahead, else inf."""
+    def _ahead(self, other: Any, shift: float = 0.0) -> float:
+        """Net distance to ``other``'s box (moved ``shift`` metres along its heading) along
+        this actor's heading if it is ahead and across its path, else inf."""
         b, o = self.actor.body, other.body
         c, sn = math.cos(b.yaw), math.sin(b.yaw)
-        dx, dy = o.x - b.x, o.y - b.y
+        dx = o.x + shift * math.cos(o.yaw) - b.x
+        dy = o.y + shift * math.sin(o.yaw) - b.y
         ahead = dx * c + dy * sn
-        if ahead <= 0.0 or abs(dy * c - dx * sn) > self.actor.half_w + other.radius:
+        rel = o.yaw - b.yaw
+        rc, rs = abs(math.cos(rel)), abs(math.sin(rel))
+        along = other.half_l * rc + other.half_w * rs  # the other box's extent along the heading
+        across = other.half_l * rs + other.half_w * rc
+        if ahead <= 0.0 or abs(dy * c - dx * sn) > self.actor.half_w + across:
             return math.inf
-        return max(0.0, ahead - self.actor.half_l - other.half_w)
+        return max(0.0, ahead - self.actor.half_l - along)
 
-    def accel(self, v0: float, ego: int = EGO_ALL) -> float:
+    def accel(self, v0: float, ego: int = EGO_ALL, decel: float = 0.0) -> float:
         """IDM acceleration [m/s^2] for the nearest obstacle at desired speed ``v0``; inf
-        when nothing is ahead."""
-        gap, lead, _ = self.obstacle(ego)
+        when nothing is ahead (``ego``, ``decel``: :meth:`obstacle`)."""
+        gap, lead, _ = self.obstacle(ego, decel)
         if gap == math.inf:
             return math.inf
         v = self.actor.body.speed
