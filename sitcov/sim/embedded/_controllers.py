@@ -36,6 +36,7 @@ from sitcov.sim.embedded._yielding import (
     EGO_ALL,
     EGO_NEVER,
     EGO_STANDING,
+    REACH,
     SLOW,
     STANDING,
     STOP_HORIZON,
@@ -52,6 +53,8 @@ hypot = math.hypot
 #: An ego braking harder than this [m/s^2] may stand within ``STOP_HORIZON`` of ``SLOW``:
 #: a timed car after its switch looks whether it stands in its path.
 EGO_BRAKING = SLOW / STOP_HORIZON
+#: ... if the ego is this close (centre to centre) [m]: a car looks this far ahead
+NEAR = REACH["car"] + 10.0
 #: Speed P-gain of scripted and pedestrian controllers [1/(m/s)].
 SPEED_GAIN = 0.5
 
@@ -291,7 +294,9 @@ class TimingController:
         if phase == 2:  # cruise
             if self.switch_time is None:
                 self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
-            if self._others or world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING:
+            if self._others or (
+                (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING) and actor.gap < NEAR
+            ):
                 thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
         elif phase == 1 and self._others:
             thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_NEVER)
@@ -330,6 +335,36 @@ class TimingController:
         return stands or (w is not None and w.blocked(ego))
 
 
+#: The speed an accelerating ego is assumed to reach [m/s] (the reference stack's 25 km/h)
+#: in :func:`ego_arrival`.
+EGO_CRUISE = 25.0 / 3.6
+
+
+def ego_arrival(d: float, v: float, a: float, floor: float) -> float:
+    """The ego's arrival time [s] over ``d`` [m] at speed ``v`` [m/s] (floored at ``floor``)
+    when it goes on accelerating at ``a`` [m/s^2] (if > 0) up to :data:`EGO_CRUISE` (or
+    its speed, if faster), then holds it. Without the acceleration an ego that speeds up
+    looks slower than it will be, and a road user timed on it starts late and must rush."""
+    v = v if v > floor else floor
+    cap = v if v > EGO_CRUISE else EGO_CRUISE
+    if a <= 0.0 or v >= cap:
+        return d / v
+    t1 = (cap - v) / a
+    d1 = (v + 0.5 * a * t1) * t1
+    if d1 >= d:
+        return (math.sqrt(v * v + 2.0 * a * d) - v) / a
+    return t1 + (d - d1) / cap
+
+
+def catch_speed(d: float, t: float, u: float, a: float) -> float:
+    """The speed [m/s] to change to (from ``u``, at ``a`` [m/s^2]) and hold so as to cover
+    ``d`` [m] in ``t`` [s]: ``d = v t - (v - u)^2 / (2 a)``, the smaller root; the fastest
+    change (``u + a t``) if none does."""
+    at = a * t
+    disc = at * at - 2.0 * a * (d - t * u)
+    return u + at - math.sqrt(disc) if disc > 0.0 else u + at
+
+
 class PacedController:
     """A timed pedestrian or cyclist: meets the ego by when it starts, at a speed people go.
 
@@ -337,12 +372,13 @@ class PacedController:
     arrival-time estimate, so a walker synchronised from 2 m out crawls at 0.5 m/s):
 
     1. ``wait``: stands until the ego moves and the ego's arrival time at the conflict (its
-       distance over its speed floored at ``min_speed``, as in the law) has dropped to the
-       actor's own: its distance to the conflict at ``speed`` plus the time to reach that
-       speed from standing (``speed / (2 a_max)``);
-    2. ``regulate``: goes at the speed that would arrive with the ego, kept within
-       [``low``, ``high``] (what people do), until the ego or the actor reaches the
-       conflict;
+       distance over its speed floored at ``min_speed``, as in the law, taking into account
+       that it still speeds up: :func:`ego_arrival`) has dropped to the actor's own: its
+       distance to the conflict at ``speed`` plus the time to reach that speed from
+       standing (``speed / (2 a_max)``);
+    2. ``regulate``: goes at the speed that would arrive with the ego (:func:`catch_speed`:
+       from its speed now, getting there at ``a_max``), kept within [``low``, ``high``]
+       (what people do), until the ego or the actor reaches the conflict;
     3. ``cruise``: on at ``speed``.
 
     From its start it stops short of a road user standing in its path (the ego only while
@@ -386,7 +422,7 @@ class PacedController:
         if self.phase_index == 0:
             if v_ego <= p.start_speed:
                 return 0.0
-            t_ego = max(d_ego, 0.0) / max(v_ego, p.min_speed)
+            t_ego = ego_arrival(max(d_ego, 0.0), v_ego, -world.ego_decel, p.min_speed)
             t_self = max(d_self, 0.0) / self.speed + self.speed / (2.0 * actor.spec.a_max)
             if math.isfinite(d_ego) and t_self < t_ego:
                 return 0.0
@@ -397,8 +433,9 @@ class PacedController:
                 self.phase_index = 2
                 self.switch_time, self.switch_gap = world.t, d_ego
             else:
-                t_ego = d_ego / max(v_ego, p.min_speed)
-                return min(max(d_self / t_ego, self.low), self.high)
+                t_ego = ego_arrival(d_ego, v_ego, -world.ego_decel, p.min_speed)
+                v = catch_speed(d_self, t_ego, actor.body.speed, actor.spec.a_max)
+                return min(max(v, self.low), self.high)
         return self.speed
 
     def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:

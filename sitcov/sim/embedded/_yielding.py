@@ -156,22 +156,23 @@ class Watcher:
 
     Args:
         actor: the road user that looks.
-        others: ``(index, other actor, zones, is_ego)`` for every other road user whose route
-            meets this one's (index: its place in the scene, the ego first).
+        others: ``(index, other actor, zones, is_ego, last)`` for every other road user whose
+            route meets this one's (index: its place in the scene, the ego first; last: where
+            the last zone ends on this route [m]).
         index: this actor's place in the scene.
     """
 
     __slots__ = ("actor", "entries", "index", "horizon", "horizon_ego", "reach", "idm", "others")
 
     def __init__(
-        self, actor: Any, others: list[tuple[int, Any, tuple[Zone, ...], bool]], index: int
+        self, actor: Any, others: list[tuple[int, Any, tuple[Zone, ...], bool, float]], index: int
     ) -> None:
         self.actor, self.entries, self.index = actor, others, index
         self.horizon, self.horizon_ego = HORIZON[actor.kind]
         self.reach = REACH[actor.kind]
         self.idm = IDM[actor.kind]
         #: whether any road user but the ego meets this actor's route
-        self.others = any(not is_ego for *_, is_ego in others)
+        self.others = any(not is_ego for *_, is_ego, _ in others)
 
     def obstacle(self, ego: int = EGO_ALL, decel: float = 0.0) -> tuple[float, float, Any]:
         """The nearest obstacle on the path: (net gap [m], its speed along [m/s], the road
@@ -182,12 +183,11 @@ class Watcher:
         a = self.actor
         s, half = a.s, a.half_l
         front, rear = s + half, s - half
-        v = a.body.speed
-        va = v if v > V_FLOOR else V_FLOOR
+        va = -1.0  # its speed floored at V_FLOOR, once needed
         best, best_v, who = math.inf, 0.0, None
-        for index, other, zones, is_ego in self.entries:
-            if not other.active:
-                continue
+        for index, other, zones, is_ego, last in self.entries:
+            if not other.active or rear > last:
+                continue  # gone, or every zone with it is behind this actor
             vb = other.body.speed
             if (
                 is_ego
@@ -230,6 +230,8 @@ class Watcher:
                     tb = (z.sb0 - bf) / (vb if vb > V_FLOOR else V_FLOOR)
                     if tb > (self.horizon_ego if is_ego else self.horizon):
                         continue
+                    if va < 0.0:
+                        va = max(a.body.speed, V_FLOOR)
                     ta = (z.sa0 - front) / va
                     first = tb < ta or (tb == ta and index < self.index)
                     if not first and (not is_ego or tb > (z.sa1 - rear) / va):
@@ -283,7 +285,7 @@ def watch(actors: list[Any], ego: Any) -> None:
                 continue
             zones = route_zones(a.route, o.route, a.half_w + o.half_w + ZONE_MARGIN)
             if zones:
-                entries.append((j, o, zones, j == 0))
+                entries.append((j, o, zones, j == 0, max(z.sa1 for z in zones)))
         a.watcher = Watcher(a, entries, i)
 
 
