@@ -255,7 +255,8 @@ class TimingController:
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
         self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
-        self._others = False  # road users besides the ego meet its route (set with _car)
+        self._looks = False  # any road user meets its route (set with _car)
+        self._others = False  # road users besides the ego do
         # AdversaryController.lookahead's constants, read every step
         self._la_min, self._la_time = params.lookahead_min, params.lookahead_time
 
@@ -284,7 +285,9 @@ class TimingController:
         """:meth:`command` of a car: the law and the steering in one :func:`_timed_car`."""
         if self._car is None:
             self._car = self._bind_car(actor)
-            self._others = actor.watcher is not None and actor.watcher.others
+            w = actor.watcher
+            self._looks = w is not None and bool(w.entries)
+            self._others = self._looks and w.others
         kernel, pts, k = self._car
         law, b, s_ego = self.law, actor.body, world.ego.s
         phase, thr, brk, steer = kernel(
@@ -294,8 +297,10 @@ class TimingController:
         if phase == 2:  # cruise
             if self.switch_time is None:
                 self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
-            if self._others or (
-                (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING) and actor.gap < NEAR
+            if self._looks and (
+                self._others
+                or (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING)
+                and actor.gap < NEAR
             ):
                 thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
         elif phase == 1 and self._others:
