@@ -2,21 +2,25 @@
 
 A controller turns the world's state into ``(throttle, brake, steer)`` for its actor's body
 (``_bodies.py``); lateral control follows the actor's route (:func:`steer_on_route`).
+Every controller brakes for what its actor's watcher sees on its path (:func:`react`, the
+IDM of ``_yielding``); how it sees the ego is the controller's choice.
 
-- :class:`TimingController`: the paper's timing law (``sitcov.sim._adversary``) for ANY
-  actor that shares a conflict with the ego: wait until the ego moves, regulate the arrival
-  time at the conflict to the ego's, then cruise on ("arrive when the ego arrives, then
-  continue"). The cruise speed is the kind's (15 km/h for cars as in the paper; a
-  pedestrian walks, a cyclist rides at its ``walk_speed``).
+- :class:`TimingController`: the paper's timing law (``sitcov.sim._adversary``) for a car
+  that shares a conflict with the ego: wait until the ego moves, regulate the arrival
+  time at the conflict to the ego's, then cruise on at 15 km/h ("arrive when the ego
+  arrives, then continue"). Before its switch it ignores the ego, after it it brakes for
+  an ego standing in its path; it yields to other road users throughout.
+- :class:`PacedController`: a timed pedestrian or cyclist: starts when, at its own speed,
+  it arrives with the ego, and keeps to speeds people go.
 - :class:`ScriptedController`: background traffic: cruise at a speed, optionally stop at
-  an arc length for a while (or for good), then go on; keeps a time gap to any road user
-  ahead on its path.
+  an arc length for a while (or for good), then go on; yields to and follows everyone.
 - :class:`CrossingController`: pedestrian behaviours on a crosswalk: ``cross`` (start to
   cross when the ego is ``time`` seconds from the crosswalk), ``kerb`` (walk up to the kerb
   then and stop there for good), ``hesitate`` (walk up to the kerb, pause, then cross).
 
 Controllers read the world through the :class:`~sitcov.sim.embedded._actors.Actor` they
-drive and the world (``world.ego``, ``world.ego_speed``, ``world.actors``, ``world.t``).
+drive and the world (``world.ego``, ``world.ego_speed``, ``world.ego_decel``,
+``world.actors``, ``world.t``).
 """
 
 from __future__ import annotations

@@ -271,17 +271,13 @@ def _switch_distance(
     ego: Path,
     actor: Actor,
 ) -> float | None:
-    """Where a timed actor stops synchronising: the ego's distance to the conflict [m].
+    """Where a timed car stops synchronising: the ego's distance to the conflict [m].
 
-    A car keeps the paper's switch (the map's table for the paper's car-car situations,
-    else the ego's distance at its leg's mouth, capped): after it the car cruises at
-    15 km/h, about the speed it was synchronised at. A cyclist or pedestrian synchronises
-    up to the conflict (0): its cruise speed is far from the speed the law gave it (a
-    pedestrian 2 m from the kerb creeps at 0.5 m/s, then walks at 1.4 m/s; a cyclist
-    circling to a far entry at its 8 m/s top speed slows to 4.5 m/s), so an early switch
-    makes it arrive well before or after the ego: on the skewed cross a pedestrian switched
-    27.5 m out crossed the ego's lane 1.1 s early, on the roundabout a cyclist switched
-    5 m out arrived 0.8 s late where the routes cross (issue 12's blind-ego check).
+    The paper's switch (the map's table for the paper's car-car situations, else the
+    ego's distance at its leg's mouth, capped): after it the car cruises at 15 km/h,
+    about the speed it was synchronised at. Timed pedestrians and cyclists do not use the
+    law (``PacedController``: with it they crept, and a switch before the conflict made
+    them arrive early or late, issue 12's blind-ego check); for them this is 0.
     """
     if plan.kind != "car":
         return 0.0
