@@ -39,7 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from sitcov.sim.embedded._map import CONFLICT_STEP, overlap_matrix
+from sitcov.sim.embedded._map import overlap_matrix
 from sitcov.sim.embedded._path import Path, wrap_angle
 
 
@@ -93,6 +93,11 @@ REACH: dict[str, float] = {"car": 40.0, "cyclist": 25.0, "pedestrian": 8.0}
 #: its synchronisation, a pedestrian stepping out as its behaviour says); not at all (an
 #: adversary still synchronising: the timing law is the test).
 EGO_ALL, EGO_STANDING, EGO_NEVER = 0, 1, 2
+#: Where two routes merge their arc lengths do not line up: a road user mapped up to this
+#: much [m] (plus both half lengths) behind is checked box to box.
+MERGE_SLACK = 3.0
+#: Spacing of the route points compared for zones [m].
+ZONE_STEP = 0.5
 #: Zone relations: the routes cross, run the same way, or meet head-on.
 CROSS, SAME, OPPOSITE = 0, 1, 2
 #: Headings within this angle run the same way; beyond ``HEAD_ON`` they meet head-on [rad]
@@ -126,8 +131,8 @@ def route_zones(a: Path, b: Path, gap: float) -> tuple[Zone, ...]:
     """Every stretch of route ``a`` whose centre line comes within ``gap`` [m] of route
     ``b``'s, with the matching arc lengths on ``b`` and the relation of the headings there
     (cached: routes are shared by every run of a situation)."""
-    pa = np.asarray(a.resampled(CONFLICT_STEP))
-    pb = np.asarray(b.resampled(CONFLICT_STEP))
+    pa = np.asarray(a.resampled(ZONE_STEP))
+    pb = np.asarray(b.resampled(ZONE_STEP))
     _, close, ia, ib = overlap_matrix(pa, pb, gap)
     rows = np.flatnonzero(close.any(axis=1))
     if rows.size == 0:
@@ -209,11 +214,13 @@ class Watcher:
                     # the other's place on this route (arc lengths run alike on a shared
                     # stretch; where routes merge, its box may be ahead all the same)
                     pos = z.sa0 + (bs - z.sb0)
-                    gap = pos - s - half - bh if pos > s else math.inf
-                    box = self._ahead(other, shift)
-                    if box < gap:
-                        gap = box
-                    if gap == math.inf:
+                    if pos > s:
+                        gap = pos - s - half - bh
+                    elif s - pos < half + bh + MERGE_SLACK:
+                        gap = self._ahead(other, shift)  # alongside: is its box ahead?
+                        if gap == math.inf:
+                            continue
+                    else:
                         continue  # behind
                     lead = vb
                 elif inside:
