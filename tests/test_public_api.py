@@ -51,8 +51,10 @@ PACKAGES = (
     "sim",
     "sim.embedded",
     "sim.carla",
+    "sim.esmini",
     "weather",
     "report",
+    "evidence",
 )
 
 

@@ -86,6 +86,7 @@ class World:
         #: the ego's deceleration over the last step [m/s^2] (negative: it sped up)
         self.ego_decel = 0.0
         self.collision: Actor | None = None  # the actor the ego hit (CollisionMonitor)
+        self.end_reason: str | None = None  # why the run ended (set by the backend)
 
     def bodies_except(self, actor: Actor) -> Iterator[Actor]:
         """Every active actor (the ego included) but ``actor``."""
