@@ -260,6 +260,8 @@ class TimingController:
         self._steer: Callable[[float], float] | None = None
         self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
         self._looks = False  # any road user meets its route (set with _car)
+        self._still: Any = None  # (s, ego s, law's command) of a standoff step, and
+        self._still_cmd = (0.0, 0.0)  # what react answered then
         self._others = False  # road users besides the ego do
         # AdversaryController.lookahead's constants, read every step
         self._la_min, self._la_time = params.lookahead_min, params.lookahead_time
@@ -306,7 +308,16 @@ class TimingController:
                 or (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING)
                 and actor.gap < NEAR
             ):
-                thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
+                # both standing where they stood last step: the same answer (a standoff
+                # with the ego lasts long; nothing else can have moved without others)
+                still = not self._others and b.vx == b.vy == 0.0 and world.ego_speed == 0.0
+                if still and self._still == (actor.s, s_ego, thr, brk):
+                    thr, brk = self._still_cmd
+                else:
+                    key = (actor.s, s_ego, thr, brk)
+                    thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
+                    if still:
+                        self._still, self._still_cmd = key, (thr, brk)
         elif phase == 1 and self._others:
             thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_NEVER)
         self.brake = brk
