@@ -21,7 +21,11 @@ app = typer.Typer(
 hyperspace_app = typer.Typer(help="Inspect situation hyperspaces.", no_args_is_help=True)
 experiment_app = typer.Typer(help="Run predefined experiments.", no_args_is_help=True)
 models_app = typer.Typer(help="Manage detector models.", no_args_is_help=True)
+map_app = typer.Typer(
+    help="Road networks: import OpenDRIVE junctions as maps.", no_args_is_help=True
+)
 app.add_typer(hyperspace_app, name="hyperspace")
+app.add_typer(map_app, name="map")
 app.add_typer(experiment_app, name="experiment")
 app.add_typer(models_app, name="models")
 
@@ -42,6 +46,22 @@ JUDGE_OPT = typer.Option(
     " comma-separated (collision, ego_stationary, road_departure, lane_departure, blocked,"
     " route_incomplete).",
 )
+
+
+def _warm_up(config: object, quiet: bool = False) -> None:
+    """Compile or load numba's kernels before a campaign, saying so (first use: 10-20 s)."""
+    from sitcov.campaign._build import warm_up
+    from sitcov.campaign._console import StageBar
+
+    with StageBar(err_console, "preparing", disable=quiet) as bar:
+        bar.stage("the simulation kernels (numba: compiled on first use, then cached)", 0, None)
+        took = warm_up(config)
+    if took > 3.0 and not quiet and err_console.is_terminal:  # logs and pipes: no extra line
+        err_console.print(
+            f"compiled the simulation kernels in {took:.0f} s (numba); later runs load them "
+            "from its cache",
+            highlight=False,
+        )
 
 
 # --- hyperspace & generation (owner: foundation) -------------------------------------------
@@ -91,7 +111,9 @@ def hyperspace_show_cmd(
 
 @hyperspace_app.command("derive")
 def hyperspace_derive_cmd(
-    map_name: str = typer.Option("t-junction", "--map", help="Built-in map name or map YAML."),
+    map_name: str = typer.Option(
+        "t-junction", "--map", help="Built-in map name, map YAML or FILE.xodr[#JUNCTION]."
+    ),
     actors: str = typer.Option(
         "car", "--actors", help="Kinds besides the ego, comma-separated: car,cyclist,pedestrian."
     ),
@@ -141,6 +163,84 @@ def hyperspace_scenario_cmd(
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(text, encoding="utf-8")
     err_console.print(f"wrote {out}", highlight=False, soft_wrap=True)
+
+
+@map_app.command("import")
+def map_import_cmd(
+    file: Path = typer.Argument(..., help="OpenDRIVE file (.xodr)."),
+    list_only: bool = typer.Option(False, "--list", help="List every junction and its legs."),
+    junction: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--junction", help="Junction id (default: the file's only junction)."
+    ),
+    near: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--near", help="X,Y [m, file coordinates]: the junction nearest this point."
+    ),
+    legs: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--legs", help="Keep only these legs, comma-separated (e.g. B,L,R)."
+    ),
+    extension: float = typer.Option(
+        100.0, "--extension", min=20.0, help="How far routes run along the legs [m]."
+    ),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the map YAML here (default: stdout)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="With --list: print JSON."),
+    mouth_crosswalks: bool = typer.Option(
+        False,
+        "--mouth-crosswalks",
+        help="Add a crossing at each leg mouth with sidewalks on both sides (no object there).",
+    ),
+) -> None:
+    """Import one junction of an OpenDRIVE file as a map (--map, hyperspace derive --map)."""
+    from sitcov.roads._cli import import_map, junction_table
+
+    if list_only:
+        print(junction_table(file, as_json=as_json), end="")
+        return
+    leg_names = [n.strip() for n in legs.split(",") if n.strip()] if legs else None
+    text, summary = import_map(file, junction, near, leg_names, extension, mouth_crosswalks)
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {out}: {summary}", highlight=False, soft_wrap=True)
+
+
+@map_app.command("compare")
+def map_compare_cmd(
+    map_a: str = typer.Argument(..., help="Map A: name, YAML or FILE.xodr[#ID]."),
+    map_b: str = typer.Argument(..., help="Map B: name, YAML or FILE.xodr[#ID]."),
+    at_a: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--at-a", help="X,Y,DEG: where map A's frame lies (default: its own frame)."
+    ),
+    at_b: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--at-b", help="X,Y,DEG: where map B's frame lies (default: its own frame)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Compare two maps: legs, spawns, goals, routes and conflict points, in metres."""
+    import json
+
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._compare import compare_maps, comparison_text
+
+    def place(text: str | None, option: str) -> tuple[float, float, float] | None:
+        if text is None:
+            return None
+        try:
+            x, y, deg = (float(v) for v in text.split(","))
+        except ValueError:
+            raise SitcovError(f"{option}: expected X,Y,DEG, got {text!r}") from None
+        return x, y, deg
+
+    result = compare_maps(
+        load_map(map_a), load_map(map_b), place(at_a, "--at-a"), place(at_b, "--at-b")
+    )
+    print(
+        json.dumps(result, sort_keys=True) if as_json else comparison_text(result),
+        end="\n" if as_json else "",
+    )
 
 
 @app.command("generate")
@@ -239,7 +339,10 @@ def run_cmd(
         None, "--executor", help="serial | processes | ray (default: processes)."
     ),
     workers: Optional[int] = typer.Option(  # noqa: UP045
-        None, "--workers", help="Parallel workers (default: CPU count)."
+        None,
+        "--workers",
+        help="Parallel workers (default: CPU count; local processes: at most 4 per core; never "
+        "more than runs left).",
     ),
     ray_address: Optional[str] = typer.Option(None, "--ray-address", help="Ray cluster."),  # noqa: UP045
     run_timeout: Optional[float] = typer.Option(  # noqa: UP045
@@ -335,6 +438,7 @@ def run_cmd(
     )
     cfg = load_config(config, overrides)
     check_parts(cfg)  # a bad part fails before the database file is created
+    _warm_up(cfg)
     store = open_store(db)
     try:
         with ProgressView(err_console) as view:
@@ -430,12 +534,14 @@ def explain_cmd(
 ) -> None:
     """Which elements and pairs change the failure rate, and rules for where it fails."""
     from sitcov.analysis import explain, explain_lines
-    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._console import StageBar, existing_store
     from sitcov.campaign._summary import FINISHED, campaign_hyperspace
 
-    with existing_store(db) as store:
+    with existing_store(db) as store, StageBar(err_console, "explain", disable=as_json) as bar:
         hs = campaign_hyperspace(store, campaign)
-        result = explain(hs, store.runs(campaign, FINISHED), seed=seed, bootstrap=bootstrap)
+        bar.stage("reading runs", 0, None)
+        runs = store.runs(campaign, FINISHED)
+        result = explain(hs, runs, seed=seed, bootstrap=bootstrap, progress=bar.stage)
     result["campaign"] = campaign
     if as_json:
         import json
@@ -473,7 +579,7 @@ def shrink_cmd(
 ) -> None:
     """Re-run a failing run with elements moved to benign bins: the necessary ones."""
     from sitcov.campaign._config import run_overrides
-    from sitcov.campaign._console import existing_store
+    from sitcov.campaign._console import StageBar, existing_store
     from sitcov.campaign._replay import parse_run_id
     from sitcov.campaign._shrink import shrink_lines, shrink_run
 
@@ -481,10 +587,12 @@ def shrink_cmd(
                               av_step_timeout=av_step_timeout, av=av, fault=fault,
                               backend=backend, physics=physics, judge=judge)  # fmt: skip
     kept = [k.strip() for k in keep.split(",") if k.strip()] if keep is not None else None
-    with existing_store(db) as store:
+    with existing_store(db) as store, StageBar(err_console, "shrink", disable=as_json) as bar:
         campaign, index = parse_run_id(store, run)
+        bar.stage("simulated runs", 0, None)
         result = shrink_run(store, campaign, index, overrides=overrides, repeats=repeats,
-                            min_rate=min_rate, confirm=confirm, keep=kept)  # fmt: skip
+                            min_rate=min_rate, confirm=confirm, keep=kept,
+                            progress=bar.advance)  # fmt: skip
     if as_json:
         import json
 
@@ -555,7 +663,7 @@ def experiment_faults_cmd(
     seeds: int = typer.Option(5, "--seeds", min=1, help="Number of seeds."),
     seed: int = typer.Option(0, "--seed", min=0, help="Base seed (seed index s uses seed+s)."),
     workers: Optional[int] = typer.Option(  # noqa: UP045
-        None, "--workers", min=1, help="Parallel processes (default: CPU count)."
+        None, "--workers", min=1, help="Parallel processes (default: CPU count; at most 4/core)."
     ),
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     as_json: bool = typer.Option(False, "--json", help="Print Table 2 as JSON."),
@@ -572,6 +680,11 @@ def experiment_faults_cmd(
     ),
     physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
     judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None,
+        "--map",
+        help="Embedded map: name, YAML or FILE.xodr[#ID] (default: the hyperspace's).",
+    ),
 ) -> None:
     """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
     import json
@@ -589,8 +702,14 @@ def experiment_faults_cmd(
         raise ConfigError(field="--executor", value=executor, expected="serial | processes | ray")
     split_runs(runs, seeds)  # a clear error before the database file is created
     from sitcov.campaign import load_config
+    from sitcov.campaign._config import check_workers
+
+    check_workers(workers, executor)
 
     checked = load_config(overrides={"physics": physics, "judge": judge})  # before the DB too
+    _warm_up(checked.model_copy(update={"backend": backend, "av": av,
+                                        "hyperspace": hyperspace or "t-junction"}),
+             quiet=as_json)  # fmt: skip
     progress_bar = Progress(console=err_console, transient=True, disable=as_json)
     with created_store(db) as store, progress_bar as bar:
         task = bar.add_task("fault experiment", total=4 * runs * len(names))
@@ -608,6 +727,7 @@ def experiment_faults_cmd(
             executor=executor,
             workers=workers,
             batch_size=batch_size,
+            backend_options={"map": map_name} if map_name else None,
             progress=lambda _name, n: bar.advance(task, n),
         )
     if as_json:
@@ -698,6 +818,25 @@ def experiment_agreement_cmd(
     )
 
 
+@experiment_app.command("agreement-pool")
+def experiment_agreement_pool_cmd(
+    files: list[Path] = typer.Argument(..., help="Rows files of `experiment agreement` runs."),
+    pairs: str = typer.Option("all", "--pairs", help="all, or a comma-separated subset."),
+    as_json: bool = typer.Option(False, "--json", help="Print the pooled result as JSON."),
+) -> None:
+    """Each pair's verdict agreement pooled over the rows files of several agreement runs."""
+    import json
+
+    from sitcov.campaign import _agreement as ag
+
+    pooled = ag.pool_rows_files(files, ag.parse_pairs(pairs))
+    if as_json:
+        print(json.dumps(pooled, sort_keys=True))
+        return
+    for line in ag.pool_lines(pooled):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
 # --- flakiness, runs needed, generator race (owner: race) -----------------------------------
 
 
@@ -716,7 +855,7 @@ def experiment_flakiness_cmd(
     judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     workers: Optional[int] = typer.Option(  # noqa: UP045
-        None, "--workers", min=1, help="Parallel workers (default: CPU count)."
+        None, "--workers", min=1, help="Parallel workers (default: CPU count; at most 4/core)."
     ),
     as_json: bool = typer.Option(False, "--json", help="Print the flakiness table as JSON."),
 ) -> None:
@@ -725,7 +864,7 @@ def experiment_flakiness_cmd(
 
     from sitcov.campaign import load_config
     from sitcov.campaign._build import check_parts
-    from sitcov.campaign._console import created_store
+    from sitcov.campaign._console import StageBar, created_store
     from sitcov.campaign._flaky import base_config, flakiness_lines, run_flakiness_experiment
 
     checked = load_config(overrides={"physics": physics, "judge": judge, "executor": executor,
@@ -736,8 +875,13 @@ def experiment_flakiness_cmd(
                 "executor": checked.executor, "workers": checked.workers}  # fmt: skip
     base = base_config(name, settings)
     check_parts(base)
-    with created_store(db) as store:
-        table = run_flakiness_experiment(store, base, repeats=repeats)
+    _warm_up(base, quiet=as_json)
+    bar = StageBar(err_console, "flakiness", disable=as_json)
+    with created_store(db) as store, bar:
+        bar.stage("runs", 0, situations * repeats)
+        table = run_flakiness_experiment(
+            store, base, repeats=repeats, progress=lambda _name, n: bar.advance(n)
+        )
     if as_json:
         print(json.dumps(table, sort_keys=True))
         return
@@ -792,7 +936,9 @@ def experiment_race_cmd(
         3000, "--reference-runs", min=1, help="Random runs defining the failure regions."
     ),
     batch_size: int = typer.Option(30, "--batch-size", min=1, help="Runs between tells."),
-    workers: int = typer.Option(2, "--workers", min=1, help="Parallel campaign processes."),
+    workers: int = typer.Option(
+        2, "--workers", min=1, help="Parallel campaign processes (at most 4/core)."
+    ),
     av: str = typer.Option("reference", "--av", help="AV stack under test."),
     backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
@@ -812,17 +958,20 @@ def experiment_race_cmd(
     from rich.progress import Progress
 
     from sitcov.campaign import load_config
+    from sitcov.campaign._config import check_workers
     from sitcov.campaign._console import created_store
     from sitcov.campaign._race import race_configs, race_lines, run_race
     from sitcov.report._race_figure import race_figure
 
     checked = load_config(overrides={"physics": physics, "judge": judge})
+    check_workers(workers)
     settings = {"av": av, "backend": backend, "hyperspace": hyperspace or "t-junction",
                 "physics": checked.physics, "judge": checked.judge, "executor": "serial",
                 "workers": 1}  # fmt: skip
     names = [g.strip() for g in generators.split(",") if g.strip()]
     configs = race_configs(names, runs=runs, seeds=seeds, seed=seed, batch_size=batch_size,
                            reference_runs=reference_runs, settings=settings)  # fmt: skip
+    _warm_up(configs[0], quiet=as_json)
     bar = Progress(console=err_console, transient=True, disable=as_json)
     with created_store(db) as store, bar:
         task = bar.add_task("race", total=sum(c.runs for c in configs))
@@ -855,13 +1004,17 @@ def bench_cmd(
         "machine's speed drifts) and check every round gives the same outcomes.",
     ),
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--map", help="Embedded map: name, YAML or FILE.xodr[#ID] (default: t-junction)."
+    ),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
 ) -> None:
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
     import json
 
     from sitcov.campaign._bench import bench
 
-    result = bench(runs, seed, fault=fault, rounds=rounds)
+    result = bench(runs, seed, fault=fault, rounds=rounds, map=map_name, hyperspace=hyperspace)
     if json_out:
         console.print_json(json.dumps(result))
         return
@@ -1041,7 +1194,11 @@ def calibrate_cmd(
     if samples_out is not None:
         write_recording(samples_out, recording)
         err_console.print(f"wrote {samples_out}")
-    params, summary = cal.fit_recording(recording, cv_folds=cv_folds)
+    from sitcov.campaign._console import StageBar
+
+    with StageBar(err_console, "calibrate") as bar:
+        bar.stage("fitting the PEM to the recording", 0, None)
+        params, summary = cal.fit_recording(recording, cv_folds=cv_folds)
     if cv_folds is not None:
         command += f" --cv-folds {cv_folds}"
     if out is not None:

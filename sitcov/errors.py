@@ -5,6 +5,7 @@ The CLI catches SitcovError and prints its message on one line; anything else is
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 
@@ -32,10 +33,20 @@ class ConfigError(SitcovError, ValueError):
         if message is None:
             parts = [p for p in (file, field) if p]
             head = ": ".join(parts) + ": " if parts else ""
-            got = f", got {value!r}" if value is not None else ""
+            got = f", got {_plain(value)!r}" if value is not None else ""
             message = f"{head}expected {expected}{got}"
         # keys and values come from users' files: a line break in one must not split the line
         super().__init__(message.replace("\r", "\\r").replace("\n", "\\n"))
+
+
+def _plain(value: Any) -> Any:
+    """``value`` as the user wrote it: frozen mappings (``mappingproxy``) and tuples of a
+    hyperspace's category values shown as plain dicts and lists."""
+    if isinstance(value, Mapping):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, tuple):
+        return [_plain(v) for v in value]
+    return value
 
 
 class UnknownPluginError(ConfigError):

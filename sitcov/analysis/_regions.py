@@ -20,7 +20,7 @@ this ordering contains the best subset split (Breiman et al. 1984, section 9.4).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -244,20 +244,25 @@ def explain(
     seed: int = 0,
     alpha: float = 0.05,
     bootstrap: int | None = None,
+    progress: Callable[[str, int, int], None] | None = None,
 ) -> dict[str, Any]:
     """``sitcov explain``'s object: the interaction analysis plus the failure regions.
 
     Keys: those of :func:`~sitcov.analysis._explain.interaction_analysis` and ``regions``
-    (:func:`failure_regions`).
+    (:func:`failure_regions`). ``progress(stage, done, total)`` is told how far it is.
     """
     from sitcov.analysis._explain import BOOTSTRAP, interaction_analysis
 
     runs = list(runs)
     out = interaction_analysis(
         hyperspace, runs, alpha=alpha, seed=seed,
-        bootstrap=BOOTSTRAP if bootstrap is None else bootstrap,
+        bootstrap=BOOTSTRAP if bootstrap is None else bootstrap, progress=progress,
     )  # fmt: skip
+    if progress:
+        progress("failure regions", 0, 1)
     out["regions"] = failure_regions(hyperspace, runs, seed=seed)
+    if progress:
+        progress("failure regions", 1, 1)
     return out
 
 

@@ -470,6 +470,44 @@ def summarise(
     return result
 
 
+def pool_rows_files(paths: Sequence[Path], pairs: Sequence[str]) -> dict[str, Any]:
+    """Each pair's agreement pooled over the rows files of several runs of the experiment
+    (e.g. seeds 2, 4 and seeds 8, 9, measured with different ``--situations``).
+
+    Raises:
+        ConfigError: no file, or two files holding the same (seed, index, side) row.
+    """
+    if not paths:
+        raise ConfigError(field="FILES", value="", expected="at least one rows file")
+    rows: list[dict[str, Any]] = []
+    seen: dict[tuple, Path] = {}
+    for path in paths:
+        for row in read_rows(Path(path)):
+            key = (row["seed"], row["index"], row["perception"], row["stream"])
+            if key in seen:
+                raise ConfigError(
+                    file=str(path),
+                    field="rows",
+                    value=list(key),
+                    expected=f"rows not already in {seen[key]} (the same run twice)",
+                )
+            seen[key] = Path(path)
+            rows.append(row)
+    seeds = sorted({r["seed"] for r in rows})
+    return {
+        "files": [str(p) for p in paths],
+        "seeds": seeds,
+        "pairs": {pair: compare(rows, pair) for pair in pairs},
+    }
+
+
+def pool_lines(pooled: Mapping[str, Any]) -> list[str]:
+    """The printed pooled table (same columns as :func:`table_lines`)."""
+    lines = [f"pooled over {', '.join(pooled['files'])} (seeds {pooled['seeds']})"]
+    lines.extend(_line(pair, row) for pair, row in pooled["pairs"].items() if row["n"])
+    return lines
+
+
 def situation_bins(
     seeds: Sequence[int], situations: int, kind: str | None = None
 ) -> dict[tuple[int, int], dict]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from sitcov._plugins import import_path, load
@@ -176,16 +177,28 @@ def build_stack(config: CampaignConfig) -> AVStack:
     return make_stack(config.av, fault=config.fault, params=config.av_params)
 
 
-def check_backend_hyperspace(backend: Any, hyperspace: Any) -> None:
-    """Let a backend refuse a hyperspace it cannot play (its optional ``check_hyperspace``,
-    e.g. the esmini backend: elements that are no parameter of the user's scenario).
+def check_backend_hyperspace(backend: Any, hyperspace: Any, spec: str | None = None) -> None:
+    """Let a backend refuse a hyperspace it cannot play (its optional ``check_hyperspace``:
+    the esmini backend's scenario parameters, the embedded and CARLA backends' routes and
+    actor keys); an error that names no file names the hyperspace ``spec`` (file or
+    built-in name) the values came from.
 
     Raises:
         ConfigError: the backend's one-line reason.
     """
     check = getattr(backend, "check_hyperspace", None)
-    if callable(check):
+    if not callable(check):
+        return
+    try:
         check(hyperspace)
+    except ConfigError as exc:
+        if exc.file is not None or exc.field is None:
+            raise
+        where = spec or "t-junction"
+        file = where if Path(where).exists() else f"hyperspace {where!r}"
+        raise ConfigError(
+            file=file, field=exc.field, value=exc.value, expected=exc.expected
+        ) from None
 
 
 def check_parts(config: CampaignConfig) -> None:
@@ -202,7 +215,42 @@ def check_parts(config: CampaignConfig) -> None:
     make_generator(config, hyperspace)
     backend = build_backend(config)
     try:
-        check_backend_hyperspace(backend, hyperspace)
+        check_backend_hyperspace(backend, hyperspace, config.hyperspace)
     finally:
         backend.close()
     build_stack(config).close()
+
+
+def warm_up(config: CampaignConfig) -> float:
+    """Run one situation of ``config`` in this process and throw the outcome away, so that
+    numba's kernels are compiled (first use after an install: 10-20 s) or loaded from its
+    disk cache before a campaign starts: the caller can say so while it happens, and the
+    worker processes then load the cached kernels instead of each compiling them.
+
+    Only the embedded backend with PEM perception is warmed (other backends have no
+    kernels to compile, camera mode would load the detector twice). Nothing is stored and
+    no campaign state is touched. Returns the seconds it took (0.0 when skipped).
+    """
+    import time
+
+    from sitcov._jit import enabled
+    from sitcov._seeding import ask_rng, run_seed
+    from sitcov.generation import make_generator as _make
+
+    if not enabled() or config.backend != "embedded":
+        return 0.0
+    if config.backend_options.get("perception", "pem") != "pem":
+        return 0.0
+    start = time.perf_counter()
+    hyperspace = resolve_hyperspace(config.hyperspace)
+    config = with_hyperspace_map(config, hyperspace)
+    situation = _make("random", hyperspace).ask(ask_rng(config.seed, 0))
+    backend, stack = build_backend(config), build_stack(config)
+    try:
+        backend.run(situation, stack, run_seed(config.seed, 0))
+    except Exception:  # noqa: BLE001 - a run's own error is the campaign's to store
+        pass
+    finally:
+        stack.close()
+        backend.close()
+    return time.perf_counter() - start

@@ -136,6 +136,32 @@ def _config_error(exc: ValidationError, file: str | None) -> ConfigError:
     return ConfigError(file=file, field=loc, value=value, expected=message.lower())
 
 
+#: Local worker processes per CPU core at most: a run is CPU-bound, so more processes than
+#: cores only add memory (each holds a backend and a stack) and time slicing.
+WORKERS_PER_CORE = 4
+
+
+def max_workers() -> int:
+    """The most local worker processes a campaign may ask for on this machine."""
+    return WORKERS_PER_CORE * (os.cpu_count() or 1)
+
+
+def check_workers(
+    workers: int | None, executor: str = "processes", *, file: str | None = None
+) -> None:
+    """Refuse more local worker processes than :func:`max_workers` (one line naming the
+    bound). Ray workers live on a cluster this machine cannot count: not bounded here."""
+    if workers is None or executor == "ray" or workers <= max_workers():
+        return
+    raise ConfigError(
+        file=file,
+        field="workers",
+        value=workers,
+        expected=f"at most {max_workers()} ({WORKERS_PER_CORE} per CPU core of this machine: "
+        "runs are CPU-bound, more processes only add memory)",
+    )
+
+
 def load_config(
     file: str | Path | None = None, overrides: Mapping[str, Any] | None = None
 ) -> CampaignConfig:
@@ -170,9 +196,12 @@ def load_config(
         else:
             data[key] = value
     try:
-        return CampaignConfig(**data)
+        config = CampaignConfig(**data)
     except ValidationError as exc:
         raise _config_error(exc, where) from None
+    if "workers" in data:  # the default (the CPU count) is within the bound
+        check_workers(config.workers, config.executor, file=where)
+    return config
 
 
 def config_differences(stored: Mapping[str, Any], new: CampaignConfig) -> list[str]:

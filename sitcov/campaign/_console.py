@@ -106,6 +106,53 @@ class ProgressView:
         )
 
 
+class StageBar:
+    """A transient rich progress bar for the long commands that are not campaigns
+    (``explain``, ``shrink``, ``experiment flakiness``, ``calibrate``): one task whose
+    description is the current stage; a stage of unknown length shows a count.
+
+    Used as a context manager; :meth:`stage` is the ``progress(stage, done, total)``
+    callback of the library functions, :meth:`advance` counts units (runs) done.
+    """
+
+    def __init__(self, console: Any, title: str, *, disable: bool = False) -> None:
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            SpinnerColumn,
+            TextColumn,
+            TimeElapsedColumn,
+        )
+
+        self._bar = Progress(
+            SpinnerColumn(),
+            TextColumn(f"[bold]{title}[/]" + " {task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            console=console,
+            transient=True,
+            disable=disable,
+        )
+        self._task = self._bar.add_task("", total=None)
+
+    def __enter__(self) -> StageBar:
+        self._bar.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._bar.stop()
+
+    def stage(self, stage: str, done: int, total: int | None) -> None:
+        """Show ``stage`` at ``done`` of ``total`` (None: unknown)."""
+        self._bar.update(self._task, description=stage, completed=done, total=total)
+
+    def advance(self, units: int = 1) -> None:
+        """Count ``units`` more done (e.g. simulated runs)."""
+        self._bar.advance(self._task, units)
+
+
 def print_end_of_run(console: Any, store: Store, db: Path, result: CampaignResult) -> None:
     """The summary table and a paste-ready replay line for the first failing runs."""
     from sitcov.campaign._summary import summarize_store, summary_table

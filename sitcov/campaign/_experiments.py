@@ -16,6 +16,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
+from sitcov.campaign._judged import require_judged
 from sitcov.errors import ConfigError
 
 #: Table 2's columns: label -> fault passed to the AV stack (None = no fault).
@@ -138,6 +139,7 @@ def _chain_in_process(db: str, base_json: dict[str, Any]) -> str:
 
     base = CampaignConfig(**base_json)
     store = open_store(db)
+    store.mark_checked()  # the parent process checked the file before starting workers
     try:
         _run_chain(store, base, None)
     finally:
@@ -217,6 +219,7 @@ def run_fault_experiment(
     _check_parts(bases)
     if parallel:  # the workers open their own connections to the same file
         db = store.location
+        store.check()  # once here: the workers' own connections skip it
         with ProcessPoolExecutor(max_workers=min(workers, len(bases))) as pool:
             futures = [pool.submit(_chain_in_process, db, b.model_dump(mode="json")) for b in bases]
             for base, future in zip(bases, futures, strict=True):
@@ -224,9 +227,11 @@ def run_fault_experiment(
                 if progress:
                     for label in FAULT_LABELS:
                         progress(base.name.rsplit("/", 1)[0] + "/" + label, base.runs)
-        return fault_table(store, generators=generators)
-    for base in bases:
-        _run_chain(store, base, progress)
+    else:
+        for base in bases:
+            _run_chain(store, base, progress)
+    chains = [b.name.rsplit("/", 1)[0] for b in bases]
+    require_judged(store, [f"{c}/{label}" for c in chains for label in FAULT_LABELS], EXPERIMENT)
     return fault_table(store, generators=generators)
 
 
@@ -280,9 +285,9 @@ def fault_table(store: Any, generators: Sequence[str] | None = None) -> dict[str
                     base = nf.get(index)
                     if base is None or status == "pending" or base == "pending":
                         continue
-                    if status == "fail" and base != "fail":
+                    if status == "fail" and base == "pass":
                         newly[label] += 1
-                    elif status != "fail" and base == "fail":
+                    elif status == "pass" and base == "fail":
                         cured[label] += 1
         ci95 = {}
         for label, k in counts.items():

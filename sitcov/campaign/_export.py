@@ -22,13 +22,13 @@ and collisions by the road user hit, as ``sitcov summary``) and its ``route_comp
 from __future__ import annotations
 
 import csv
-import json
 import shlex
 from collections.abc import Iterator
 from typing import IO, Any
 from xml.sax.saxutils import escape, quoteattr
 
 from sitcov.analysis._breakdown import HIT_UNSTORED, run_hit, run_roles
+from sitcov.campaign import _json
 from sitcov.campaign._export_actors import (
     ACTOR_COLUMNS,
     BOOL_COLUMNS,
@@ -88,7 +88,7 @@ def _elements(store: Store, campaign: str | None) -> list[str]:
 
 
 def _cell(value: Any) -> Any:
-    return json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
+    return _json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
 
 
 def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Iterator[dict]]:
@@ -185,29 +185,30 @@ def export_json(store: Store, out: IO[str], campaign: str | None = None) -> int:
     """Write ``{"campaigns": [...], "runs": [...]}`` (full outcomes, no traces)."""
     infos = [store.campaign(campaign)] if campaign else store.campaigns()
     out.write('{"campaigns": ')
-    json.dump(
-        [
-            {
-                "name": c.name,
-                "config": c.config,
-                "sitcov_version": c.sitcov_version,
-                "created": c.created,
-                "generator": c.generator,
-                "tags": c.tags,
-                **campaign_setup(c),
-                "breakdowns": _breakdowns(store, c),
-                "route_completion": _completion(store, c.name),
-            }
-            for c in infos
-        ],
-        out,
-        sort_keys=True,
+    out.write(
+        _json.dumps(
+            [
+                {
+                    "name": c.name,
+                    "config": c.config,
+                    "sitcov_version": c.sitcov_version,
+                    "created": c.created,
+                    "generator": c.generator,
+                    "tags": c.tags,
+                    **campaign_setup(c),
+                    "breakdowns": _breakdowns(store, c),
+                    "route_completion": _completion(store, c.name),
+                }
+                for c in infos
+            ],
+            sort_keys=True,
+        )
     )
     out.write(', "runs": [')
     n = 0
     for run in store.iter_runs(campaign):
         out.write(",\n" if n else "\n")
-        json.dump(run_to_json(run), out, sort_keys=True)
+        out.write(_json.dumps(run_to_json(run), sort_keys=True))
         n += 1
     out.write("\n]}\n")
     return n
@@ -336,7 +337,7 @@ def _testcase(run: RunRecord, name: str, db: str) -> str:
     if run.status == "pending":
         body = '      <skipped message="not run yet"/>\n'
     elif run.status == "fail" and outcome is not None:
-        detail = json.dumps(outcome.to_dict(), sort_keys=True)
+        detail = _json.dumps(outcome.to_dict(), sort_keys=True)
         body = (
             f"      <failure message={quoteattr(failure_message(run))} "
             f"type={quoteattr(run.failure_kind or outcome.kind)}>"
@@ -463,7 +464,7 @@ def parquet_metadata(store: Store, campaign: str | None = None) -> dict[bytes, b
         }
         for c in infos
     ]
-    meta = {"sitcov.campaigns": json.dumps(campaigns, sort_keys=True)}
+    meta = {"sitcov.campaigns": _json.dumps(campaigns, sort_keys=True)}
     for key, field in (
         ("generator", "generator"),
         ("judge", "judge"),
@@ -471,9 +472,9 @@ def parquet_metadata(store: Store, campaign: str | None = None) -> dict[bytes, b
         ("world_model", "world_model"),
         ("version", "sitcov_version"),
     ):
-        distinct = list(dict.fromkeys(json.dumps(c[field]) for c in campaigns))
+        distinct = list(dict.fromkeys(_json.dumps(c[field]) for c in campaigns))
         meta[f"sitcov.{key}"] = (
-            str(json.loads(distinct[0])) if len(distinct) == 1 else f"[{', '.join(distinct)}]"
+            str(_json.loads(distinct[0])) if len(distinct) == 1 else f"[{', '.join(distinct)}]"
         )
     meta["sitcov.exported_by"] = __version__
     return {k.encode(): v.encode() for k, v in meta.items()}
@@ -492,7 +493,7 @@ def _typed(value: Any, kind: str | None, column: str, store: Store) -> Any:
         return float(value) if kind == "float" else int(value)
     if kind == "bool":
         return bool(value)
-    return value if isinstance(value, str) else json.dumps(value, sort_keys=True)
+    return value if isinstance(value, str) else _json.dumps(value, sort_keys=True)
 
 
 def export(

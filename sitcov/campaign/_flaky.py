@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.campaign._judged import require_judged
 from sitcov.errors import ConfigError
 
 EXPERIMENT = "flakiness"
@@ -92,6 +93,8 @@ def run_flakiness_experiment(
         run_campaign(config, store)
         if progress:
             progress(config.name, config.runs)
+    names = [base.name] + [f"{group}/r{r}" for r in range(1, repeats)]
+    require_judged(store, names, EXPERIMENT)
     return flakiness_table(store, group)
 
 

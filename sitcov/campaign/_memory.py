@@ -7,10 +7,10 @@ tells its generator) is identical whichever store holds it.
 from __future__ import annotations
 
 import copy
-import json
 from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
+from sitcov.campaign import _json
 from sitcov.campaign._records import RunRecord
 from sitcov.campaign._store import CampaignInfo, PlannedRun, Store, StoreError, _statuses
 from sitcov.hyperspace import Situation
@@ -18,7 +18,7 @@ from sitcov.sim import Outcome
 
 
 def _roundtrip(obj: Any) -> Any:
-    return json.loads(json.dumps(obj))
+    return _json.loads(_json.dumps(obj))
 
 
 class MemoryStore(Store):

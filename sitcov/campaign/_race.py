@@ -18,6 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
+from sitcov.campaign._judged import require_judged
 from sitcov.errors import ConfigError
 
 EXPERIMENT = "race"
@@ -75,6 +76,7 @@ def _run_in_process(db: str, config_json: dict[str, Any]) -> str:
 
     config = CampaignConfig(**config_json)
     store = open_store(db)
+    store.mark_checked()  # the parent process checked the file before starting workers
     try:
         run_campaign(config, store)
     finally:
@@ -101,7 +103,8 @@ def run_race(
     for config in {c.generator: c for c in configs}.values():  # bad names fail here
         make_generator(config, hyperspace)
     if workers > 1 and store.location != ":memory:":
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        store.check()  # once here: the workers' own connections skip it
+        with ProcessPoolExecutor(max_workers=min(workers, len(configs))) as pool:
             futures = {
                 pool.submit(_run_in_process, store.location, c.model_dump(mode="json")): c
                 for c in configs
@@ -115,6 +118,7 @@ def run_race(
             run_campaign(config, store)
             if progress:
                 progress(config.name, config.runs)
+    require_judged(store, [c.name for c in configs], EXPERIMENT)
     return race_result(store)
 
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import json
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from typing import Any
@@ -220,6 +220,20 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
             replays,
         )
         return generator, False, len(replays)
+    _check_stored(config, store, info, hs_data)
+    _check_runs(store, info, config)
+    generator = restore_generator(config, hyperspace, dict(info.generator_state or {}))
+    replays = store.count_runs(config.name) and sum(
+        1 for r in store.iter_runs(config.name) if r.replay_of
+    )
+    return generator, True, int(replays)
+
+
+def _check_stored(
+    config: CampaignConfig, store: Store, info: CampaignInfo, hs_data: Mapping[str, Any]
+) -> None:
+    """Refuse (one line, nothing written) to resume a stored campaign with another world
+    model, another defining config, hyperspace content, fewer runs or another f1 threshold."""
     _refuse_other_world(store, info)
     where = f"{store.location}: campaign {config.name!r}"
     diffs = config_differences(stored_map_as_given(info.config, config, where), config)
@@ -232,17 +246,6 @@ def _open_campaign(config: CampaignConfig, store: Store, hyperspace: Any) -> tup
             field="name",
             value=config.name,
         )
-    _check_runs(store, info, config)
-    check_fault_tags(config.name, dict(info.tags or {}), config)
-    generator = restore_generator(config, hyperspace, dict(info.generator_state or {}))
-    replays = store.count_runs(config.name) and sum(
-        1 for r in store.iter_runs(config.name) if r.replay_of
-    )
-    return generator, True, int(replays)
-
-
-def _check_runs(store: Store, info: CampaignInfo, config: CampaignConfig) -> None:
-    """Extend the stored ``runs`` if ``config`` asks for more; refuse fewer (one line)."""
     stored = int(info.config.get("runs", 0))
     if config.runs < stored:
         raise ConfigError(
@@ -251,6 +254,27 @@ def _check_runs(store: Store, info: CampaignInfo, config: CampaignConfig) -> Non
             field="runs",
             value=config.runs,
         )
+    check_fault_tags(config.name, dict(info.tags or {}), config)
+
+
+def _check_before_writing(config: CampaignConfig, store: Store) -> None:
+    """Everything that can refuse a campaign without a write: the store reads back whole
+    (:meth:`Store.check`), and a stored campaign matches ``config``. Taking the lock is the
+    first write, so a damaged or mismatched database is left byte-identical (issue 26)."""
+    store.check()
+    info = store.find_campaign(config.name)
+    if info is None:
+        return
+    config = _runs_as_stored(config, store)
+    hyperspace = resolve_hyperspace(config.hyperspace)
+    config = with_hyperspace_map(config, hyperspace)
+    _check_stored(config, store, info, json.loads(json.dumps(hyperspace.to_dict())))
+
+
+def _check_runs(store: Store, info: CampaignInfo, config: CampaignConfig) -> None:
+    """Extend the stored ``runs`` if ``config`` asks for more (fewer was refused by
+    :func:`_check_stored`)."""
+    stored = int(info.config.get("runs", 0))
     if config.runs > stored:
         store.update_config(config.name, {**info.config, "runs": config.runs})
 
@@ -290,6 +314,7 @@ def run_campaign(
             ``runs``, or a part (hyperspace, generator, backend, stack) cannot be built.
         CampaignBusyError: another live process is running this campaign.
     """
+    _check_before_writing(config, store)
     with store.lock_campaign(config.name):
         return _run_locked(config, store, progress, executor)
 
@@ -306,7 +331,7 @@ def _run_locked(
     hyperspace = resolve_hyperspace(config.hyperspace)
     config = with_hyperspace_map(config, hyperspace)
     backend = build_backend(config)
-    check_backend_hyperspace(backend, hyperspace)
+    check_backend_hyperspace(backend, hyperspace, config.hyperspace)
     build_stack(config).close()  # a bad stack or fault must fail before anything is stored
     no_effect = no_effect_elements(hyperspace, backend)
     generator, resumed, replayed = _open_campaign(config, store, hyperspace)
@@ -346,7 +371,10 @@ def _run_locked(
     if idle:
         report("end")
         return _result(store, name, state["executed"], start, no_effect, resumed, replayed)
-    runner = executor or make_executor(config, backend)
+    # never more workers than runs left to do (a 1-run resume starts one worker)
+    to_run = len(pending) + max(config.runs - store.count_runs(name), 0)
+    started = config.model_copy(update={"workers": max(1, min(config.workers, to_run))})
+    runner = executor or make_executor(started, backend)
     judge = judge_of(config)
     try:
 

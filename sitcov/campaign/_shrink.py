@@ -172,8 +172,10 @@ class _Trial:
 
     def __init__(self, hs: Hyperspace, run: Any, benign: Mapping[str, str], sim: Any, stack: Any,
                  seeds: list[int], min_rate: float, config: CampaignConfig,
-                 config_data: Mapping[str, Any]) -> None:  # fmt: skip
+                 config_data: Mapping[str, Any],
+                 progress: Callable[[int], None] | None = None) -> None:  # fmt: skip
         self.hs, self.run, self.benign = hs, run, benign
+        self.progress = progress
         self.sim, self.stack = sim, stack
         self.seeds, self.min_rate = seeds, min_rate
         self.cache: dict[frozenset[str], bool] = {}
@@ -203,10 +205,13 @@ class _Trial:
         if sit is None:
             return None
         task_sit = sit.to_dict()
-        return sum(
-            self.judge(execute(self.sim, self.stack, (0, task_sit, s), False)[1]).status == "fail"
-            for s in seeds
-        )
+        failed = 0
+        for s in seeds:
+            outcome = execute(self.sim, self.stack, (0, task_sit, s), False)[1]
+            failed += self.judge(outcome).status == "fail"
+            if self.progress is not None:
+                self.progress(1)
+        return failed
 
     def __call__(self, kept: frozenset[str]) -> bool:
         """Still fails: >= min_rate of the first seeds, then also of twice as many."""
@@ -262,6 +267,7 @@ def shrink_run(
     min_rate: float = MIN_RATE,
     confirm: int = CONFIRM,
     keep: Sequence[str] | None = None,
+    progress: Callable[[int], None] | None = None,
 ) -> ShrinkResult:
     """Shrink the failing run ``campaign:index`` to the bins necessary for its failure.
 
@@ -274,6 +280,8 @@ def shrink_run(
         confirm: runs of the shrunk situation on fresh seeds for its failure rate.
         keep: skip the search and only confirm: these elements keep their failing bins,
             the others move to benign (the replay of an earlier shrink).
+        progress: called with 1 after every simulated run (the search's length is not
+            known in advance).
 
     Raises:
         StoreError: no such run. ConfigError: the run did not fail, or bad arguments.
@@ -298,7 +306,7 @@ def shrink_run(
     min_failures = math.ceil(min_rate * 2 * repeats)
     seeds = [run.seed, *derived_seeds(run.seed, _DECIDE_STREAM, 2 * repeats - 1)]
     given = {**run.config, **{k: v for k, v in (overrides or {}).items() if v is not None}}
-    trial = _Trial(hs, run, benign, sim, stack, seeds, min_rate, config, given)
+    trial = _Trial(hs, run, benign, sim, stack, seeds, min_rate, config, given, progress)
     try:
         result = ShrinkResult(campaign, index, run.seed, dict(run.bins), benign, candidates,
                               [], {}, repeats, min_rate, min_failures, 0,

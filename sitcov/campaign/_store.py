@@ -119,6 +119,15 @@ class Store(abc.ABC):
     def update_config(self, name: str, config: Mapping[str, Any]) -> None:
         """Replace a campaign's stored config (e.g. when ``runs`` extends it)."""
 
+    def check(self) -> None:  # noqa: B027
+        """Read back everything stored, once per store object, before the first write of a
+        campaign: a damaged store is refused (StoreError) while it is still unchanged.
+        This default is for stores that cannot be damaged (in memory)."""
+
+    def mark_checked(self) -> None:  # noqa: B027
+        """Skip :meth:`check`: another connection of this command checked the same file
+        (the parent of worker processes that open their own connections)."""
+
     def lock_campaign(self, name: str) -> contextlib.AbstractContextManager[Any]:
         """Mark ``name`` as run by this process until the returned context exits.
 

@@ -150,25 +150,20 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     from rich.console import Group
     from rich.table import Table
 
-    from sitcov.analysis import wilson_interval
-
-    runs, failures, errors = summary["runs"], summary["failures"], summary["errors"]
-    judged = max(runs - errors, 0)
+    # Every number comes from the JSON summary (``sitcov summary --json``), never recomputed
+    # here: the failure rate is over judged runs (pass + fail), errors and time-outs apart.
+    runs, failures = summary["runs"], summary["failures"]
+    errors, timeouts = summary["errors"], summary.get("timeouts", 0)
+    judged = summary.get("passes", 0) + failures
     totals = Table(title=title, show_header=False, title_justify="left")
     totals.add_column(style="bold")
     totals.add_column(justify="right")
-    totals.add_row("runs", str(runs))
+    totals.add_row("runs", f"{runs}  ({judged} judged)")
     totals.add_row("failures", str(failures))
-    if judged:
-        lo, hi = wilson_interval(failures, judged)
-        rate = f"{failures / judged:.1%}  (95% CI {lo:.1%} - {hi:.1%})"
-    else:
-        rate = "n/a"
-    totals.add_row("failure rate", rate)
+    totals.add_row("failure rate", _rate_text(summary["failure_rate"], summary["ci95"], judged))
     for kind, k in summary.get("failures_by_kind", {}).items():
         if k["failures"]:
-            lo, hi = k["ci95"]
-            text = f"{k['failures']}  {k['failure_rate']:.1%}  (95% CI {lo:.1%} - {hi:.1%})"
+            text = f"{k['failures']}  {_rate_text(k['failure_rate'], k['ci95'], judged)}"
             totals.add_row(f"  {kind.replace('_', ' ')}", text)
     for kind, n in summary.get("not_counted", {}).items():
         totals.add_row(f"  not counted: {kind.replace('_', ' ')}", _uncounted_text(n, judged))
@@ -183,7 +178,7 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
         totals.add_row("route completion", head)
         if dist:
             totals.add_row("  distribution", dist)
-    totals.add_row("errors + timeouts", str(errors))
+    totals.add_row("errors + timeouts", f"{errors} + {timeouts}")
     for key, label in (("physics", "physics"), ("judge", "judge"), ("world_model", "world model")):
         if key in summary:
             totals.add_row(label, _setup_text(summary, key))
@@ -259,6 +254,13 @@ def hit_table(rows: Mapping[str, Any]) -> Any:
         share = "n/a" if r["share"] is None else f"{r['share']:.0%}"
         table.add_row(name, str(r["generated"]), str(r["collisions"]), rate, ci, share)
     return table
+
+
+def _rate_text(rate: float | None, ci95: Any, judged: int) -> str:
+    """``r%  (95% CI lo% - hi%) of N judged`` as the JSON summary states it; n/a if none."""
+    if rate is None or not ci95:
+        return "n/a (no judged run)"
+    return f"{rate:.1%}  (95% CI {ci95[0]:.1%} - {ci95[1]:.1%}) of {judged} judged"
 
 
 def _uncounted_text(n: int, judged: int) -> str:

@@ -41,6 +41,20 @@ def _heat_pair(names: Sequence[str], heatmap: tuple[str, str] | None) -> tuple[s
     return heatmap
 
 
+def _check_out_dir(out: Path) -> None:
+    """Refuse (one line, before any work) an output path that is, or lies under, a file."""
+    for path in (out, *out.parents):
+        if path.exists():
+            if not path.is_dir():
+                what = "names" if path == out else f"lies under {str(path)!r}, which is"
+                raise ConfigError(
+                    field="--out",
+                    value=str(out),
+                    expected=f"a directory for the report (it {what} an existing file)",
+                )
+            return
+
+
 def build_report(
     db_path: str | Path,
     out_dir: str | Path,
@@ -75,6 +89,7 @@ def build_report(
     if not db.is_file():
         raise ConfigError(field="--db", value=str(db), expected="an existing sitcov database")
     out = Path(out_dir)
+    _check_out_dir(out)
     store = open_store(db)
     try:
         views = load_campaigns(store, campaigns)

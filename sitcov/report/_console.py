@@ -24,6 +24,7 @@ def table2_rich(table: Mapping[str, Any]) -> Any:
     out.add_column("triggered", justify="right")
     out.add_column("newly failing", justify="right")
     out.add_column("cured", justify="right")
+    out.add_column("errors + timeouts", justify="right")
     for gen, row in table["generators"].items():
         runs = row["runs"]
         for fault in _FAULTS:
@@ -41,9 +42,11 @@ def table2_rich(table: Mapping[str, Any]) -> Any:
             name = gen if fault == "NF" else ""
             if fault == "NF" and not row.get("complete", True):
                 name += " [yellow](incomplete)[/]"
-            out.add_row(name, fault, f"{k}/{runs}", rate, *extra, end_section=fault == "F3")
+            errors = str(row.get("errors", {}).get(fault, 0))
+            out.add_row(name, fault, f"{k}/{runs}", rate, *extra, errors, end_section=fault == "F3")
     out.caption = (
         "triggered = F − NF (the paper's measure); newly failing / cured = runs that fail with "
-        "the fault and not without it / the reverse (same situations and seeds)"
+        "the fault and pass without it / the reverse (same situations and seeds; runs that "
+        "errored or timed out are neither)"
     )
     return out

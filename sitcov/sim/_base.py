@@ -149,5 +149,10 @@ class Backend(abc.ABC):
         """
         return {}
 
+    def check_hyperspace(self, hyperspace: Any) -> None:  # noqa: B027
+        """Refuse (ConfigError, its field naming the element, bin and key) a category value
+        this backend could never run, e.g. a route its map does not have: called once when
+        a campaign is built, so the mistake is one error, not every run an ``error``."""
+
     def close(self) -> None:  # noqa: B027
         """Release resources (server connections, processes)."""

@@ -195,3 +195,39 @@ def test_separated_fit_stays_finite():
     y = np.r_[np.ones(20), np.zeros(20)]  # the column predicts y perfectly
     fit = fit_logit(x, y)
     assert np.all(np.isfinite(fit.coef)) and fit.deviance < 2.0
+
+
+def test_a_bin_that_never_fails_gets_the_penalised_finite_estimate():
+    """The ridge penalty (0.01, documented in _logit) is what keeps a never-failing bin's
+    coefficient finite: the fit is the penalised optimum, where the gradient of the
+    penalised likelihood vanishes. Without the penalty (a surviving mutant of issue 26) the
+    coefficient runs off towards the clip and that gradient is far from zero."""
+    rng = np.random.default_rng(3)
+    n = 60
+    ref = (rng.random(n) < 0.4).astype(float)  # the reference bin: fails ~40 %
+    x = np.column_stack([np.ones(2 * n), np.r_[np.zeros(n), np.ones(n)]])
+    y = np.r_[ref, np.zeros(n)]  # the second bin never fails
+    fit = fit_logit(x, y)
+    penalty = np.array([0.0, 0.01])
+    grad = x.T @ (fit.prob - y) + penalty * fit.coef
+    assert np.abs(grad).max() < 1e-4
+    # the estimate itself, from the stationarity conditions written out: the intercept's
+    # n sigmoid(a) + n sigmoid(a + b) = failures, the bin's n sigmoid(a + b) = -0.01 b
+    a, b = fit.coef
+    p0, p1 = 1 / (1 + math.exp(-a)), 1 / (1 + math.exp(-(a + b)))
+    assert n * (p0 + p1) == pytest.approx(ref.sum(), rel=1e-4)
+    assert -9.0 < b < -4.0 and n * p1 == pytest.approx(-0.01 * b, rel=1e-3)
+
+
+def test_explain_reports_its_progress_stage_by_stage():
+    """``sitcov explain`` shows a bar (issue 26: 90-134 s without output): every stage is
+    announced, the bootstrap counts each replicate up to its total, and the progress
+    callback changes nothing in the result."""
+    runs = synthetic_runs(400, lambda a, b, c: -1.0 + 1.5 * (a == 2), seed=5)
+    seen: list[tuple[str, int, int]] = []
+    told = explain(HS, runs, seed=1, bootstrap=19, progress=lambda *t: seen.append(t))
+    assert told == explain(HS, runs, seed=1, bootstrap=19)
+    stages = list(dict.fromkeys(s for s, _, _ in seen))
+    assert stages == ["element tests", "pair tests (bootstrap)", "failure regions"]
+    boot = [(d, t) for s, d, t in seen if s == "pair tests (bootstrap)"]
+    assert boot == [(i, 19) for i in range(20)]

@@ -140,3 +140,10 @@ class FakeGenerator(Generator):
         gen.fails = {e: dict(c) for e, c in state["fails"].items()}
         gen.told = state["told"]
         return gen
+
+
+class RaisingBackend(FakeBackend):
+    """A FakeBackend whose every run raises (a broken backend: nothing can be judged)."""
+
+    def __init__(self, **options: Any) -> None:
+        super().__init__(**{**options, "raise_rate": 1.0})

@@ -44,7 +44,7 @@ class HogBackend(FakeBackend):
 
     def _hog(self) -> None:
         if self.cgroup:
-            Path(self.cgroup, "tasks").write_text(str(os.getpid()))
+            Path(self.cgroup, "cgroup.procs").write_text(str(os.getpid()))  # v1 and v2
             _allocate(10 * self.limit_mb)  # the OOM killer ends this process here
         soft, hard = resource.getrlimit(resource.RLIMIT_AS)
         in_use = int(Path("/proc/self/statm").read_text().split()[0]) * os.sysconf("SC_PAGE_SIZE")

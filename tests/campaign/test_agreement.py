@@ -281,3 +281,19 @@ def test_camera_rows_of_an_earlier_file_are_reused_not_rerun(tmp_path: Path) -> 
             seeds=[2], situations=2, out=tmp_path / "c.csv", run_job=fake_run,
             camera_rows=tmp_path / "missing.csv",
         )  # fmt: skip
+
+
+def test_agreement_pool_of_the_published_rows_files(tmp_path: Path, capsys) -> None:
+    """README's pooled figure is printed by a command: PEM vs camera over the 600 situations
+    of seeds 2, 4 and 8, 9 (docs/data) agree on 512 = 85.3 % [82.3, 87.9]."""
+    data = Path(__file__).parents[2] / "docs" / "data"
+    files = [str(data / "agreement-seeds-8-9.csv"), str(data / "agreement-seeds-2-4.csv")]
+    main(["experiment", "agreement-pool", *files, "--json"])
+    pooled = json.loads(capsys.readouterr().out)
+    row = pooled["pairs"]["pem-camera"]
+    assert (row["n"], row["agree"], row["agreement"]) == (600, 512, 0.8533)
+    assert row["agreement_ci95"] == [0.8228, 0.8794]
+    main(["experiment", "agreement-pool", *files, "--pairs", "pem-camera"])
+    assert "85.3% [82.3, 87.9]" in capsys.readouterr().out
+    with pytest.raises(ConfigError, match="the same run twice"):
+        ag.pool_rows_files([Path(files[0]), Path(files[0])], ["pem-camera"])

@@ -139,7 +139,7 @@ def test_fault_table_arithmetic_on_hand_made_statuses(tmp_path):
         "NF": ["fail", "pass", "pass", "fail", "error"],
         "F1": ["fail", "fail", "fail", "pass", "fail"],
         "F2": ["pass", "pass", "pass", "pass", "pass"],
-        "F3": ["fail", "pass", "pass", "fail", "pass"],
+        "F3": ["fail", "pass", "pass", "error", "pass"],
     }
     store = open_store(tmp_path / "t.db")
     try:
@@ -167,11 +167,13 @@ def test_fault_table_arithmetic_on_hand_made_statuses(tmp_path):
         row = fault_table(store)["generators"]["g"]
     finally:
         store.close()
-    assert (row["NF"], row["F1"], row["F2"], row["F3"], row["runs"]) == (2, 4, 0, 2, 5)
-    assert row["triggered"] == {"F1": 2, "F2": -2, "F3": 0}
-    assert row["newly_failing"] == {"F1": 3, "F2": 0, "F3": 0}  # indices 1, 2, 4 (4 was error)
+    assert (row["NF"], row["F1"], row["F2"], row["F3"], row["runs"]) == (2, 4, 0, 1, 5)
+    assert row["triggered"] == {"F1": 2, "F2": -2, "F3": -1}
+    # paired counts are over runs judged on both sides: index 4 (NF error) is not newly
+    # failing, and F3's errored index 3 (NF fail) is not cured (issue 26)
+    assert row["newly_failing"] == {"F1": 2, "F2": 0, "F3": 0}  # indices 1, 2
     assert row["cured"] == {"F1": 1, "F2": 2, "F3": 0}
-    assert row["errors"] == {"NF": 1, "F1": 0, "F2": 0, "F3": 0}
+    assert row["errors"] == {"NF": 1, "F1": 0, "F2": 0, "F3": 1}
     assert row["complete"]
     # Wilson 95% for 2/5, computed independently
     z = 1.959963984540054

@@ -146,18 +146,81 @@ def test_sigkill_of_a_worker_stores_its_run_as_error_and_the_campaign_completes(
 # -- a worker out of memory -------------------------------------------------------------------
 
 
-def memory_cgroup(tmp_path: Path) -> Path | None:
-    """A cgroup-v1 memory group limited to 64 MiB (root only), or None."""
-    base = Path("/sys/fs/cgroup/memory")
-    if os.geteuid() != 0 or not base.is_dir():
-        return None
-    group = base / f"sitcov-test-{os.getpid()}-{tmp_path.name}"
-    try:
-        group.mkdir()
-        (group / "memory.limit_in_bytes").write_text(str(64 << 20))
-    except OSError:
-        return None
-    return group
+#: Where the unified (v2) hierarchy is mounted: alone, or beside v1 controllers (hybrid).
+CGROUP2_MOUNTS = (Path("/sys/fs/cgroup"), Path("/sys/fs/cgroup/unified"))
+MEMORY_LIMIT = 64 << 20
+
+
+def memory_cgroup(
+    name: str, v1: Path = Path("/sys/fs/cgroup/memory"), v2: tuple[Path, ...] = CGROUP2_MOUNTS
+) -> tuple[Path | None, str]:
+    """A memory cgroup limited to 64 MiB that a worker can join by writing its pid to
+    ``cgroup.procs``: cgroup v1's memory controller (``memory.limit_in_bytes``), else a
+    cgroup v2 hierarchy whose root offers the memory controller (``memory.max``, no swap).
+    Returns (group, "") or (None, why not: what this machine lacks)."""
+    if os.geteuid() != 0:
+        return None, "needs root to create a memory cgroup"
+    if (v1 / "memory.limit_in_bytes").is_file():
+        group = v1 / name
+        try:
+            group.mkdir()
+            (group / "memory.limit_in_bytes").write_text(str(MEMORY_LIMIT))
+        except OSError as exc:
+            return None, f"cannot create a cgroup-v1 memory group under {v1}: {exc}"
+        return group, ""
+    for root in v2:
+        controllers = root / "cgroup.controllers"
+        if not controllers.is_file():
+            continue
+        if "memory" not in controllers.read_text().split():
+            continue  # a hybrid unified tree whose memory controller is bound to v1
+        group = root / name
+        try:
+            enabled = (root / "cgroup.subtree_control").read_text().split()
+            if "memory" not in enabled:
+                (root / "cgroup.subtree_control").write_text("+memory")
+            group.mkdir()
+            (group / "memory.max").write_text(str(MEMORY_LIMIT))
+            if (group / "memory.swap.max").exists():
+                (group / "memory.swap.max").write_text("0")  # killed, not swapped out
+        except OSError as exc:
+            return None, f"cannot create a cgroup-v2 memory group under {root}: {exc}"
+        return group, ""
+    mounts = ", ".join(str(m) for m in (v1, *v2))
+    return None, f"no writable memory controller (cgroup v1 or v2) at {mounts}"
+
+
+def test_a_cgroup_v2_memory_group_is_made_where_the_controller_is(tmp_path, monkeypatch):
+    """The v2 branch of memory_cgroup on a stand-in hierarchy (files as the kernel shows
+    them): memory enabled for children, the limit and no swap written."""
+    monkeypatch.setattr(os, "geteuid", lambda: 0)
+    root = tmp_path / "cgroup2"
+    root.mkdir()
+    (root / "cgroup.controllers").write_text("cpuset cpu io memory pids\n")
+    (root / "cgroup.subtree_control").write_text("cpu\n")
+    real_mkdir = Path.mkdir
+
+    def mkdir(self, *args, **kw):  # the kernel creates a new group's interface files
+        real_mkdir(self, *args, **kw)
+        for f in ("memory.max", "memory.swap.max", "cgroup.procs"):
+            (self / f).write_text("max\n")
+
+    monkeypatch.setattr(Path, "mkdir", mkdir)
+    group, why = memory_cgroup("g", v1=tmp_path / "no-v1", v2=(root,))
+    assert why == "" and group == root / "g"
+    assert (root / "cgroup.subtree_control").read_text() == "+memory"
+    assert (group / "memory.max").read_text() == str(64 << 20)
+    assert (group / "memory.swap.max").read_text() == "0"
+    hybrid = tmp_path / "unified"
+    hybrid.mkdir()
+    (hybrid / "cgroup.controllers").write_text("\n")  # memory bound to v1
+    group, why = memory_cgroup("g", v1=tmp_path / "no-v1", v2=(hybrid,))
+    assert group is None and "no writable memory controller" in why
+    monkeypatch.setattr(os, "geteuid", lambda: 1000)
+    assert memory_cgroup("g", v1=tmp_path, v2=(root,)) == (
+        None,
+        "needs root to create a memory cgroup",
+    )
 
 
 @pytest.mark.slow
@@ -165,12 +228,14 @@ def memory_cgroup(tmp_path: Path) -> Path | None:
 def test_a_run_exceeding_a_memory_limit_is_an_error_and_the_campaign_goes_on(
     tmp_path, capsys, limit
 ):
-    """``oom-killer``: the worker joins a 64 MiB memory cgroup and the kernel SIGKILLs it
-    (root with cgroup v1 only); ``rlimit``: an address-space limit makes the allocation
-    fail inside the worker, which keeps serving."""
-    group = memory_cgroup(tmp_path) if limit == "oom-killer" else None
-    if limit == "oom-killer" and group is None:
-        not_on_this_machine("needs root and a cgroup-v1 memory controller (the rlimit case runs)")
+    """``oom-killer``: the worker joins a 64 MiB memory cgroup (v1 or v2) and the kernel
+    SIGKILLs it (root only); ``rlimit``: an address-space limit makes the allocation fail
+    inside the worker, which keeps serving."""
+    group, why = (None, "")
+    if limit == "oom-killer":
+        group, why = memory_cgroup(f"sitcov-test-{os.getpid()}-{tmp_path.name}")
+        if group is None:
+            not_on_this_machine(f"{why} (the rlimit case runs)")
     options = {"hog_rate": 0.1, "cgroup": str(group) if group else None, "limit_mb": 200}
     changes = {**PROCESSES, "runs": 40, "backend": "reliability_fakes:HogBackend"}
     cfg = write_config(tmp_path / "c.yaml", **changes, backend_options=options)

@@ -53,9 +53,13 @@ def test_shrink_keeps_exactly_the_two_necessary_elements(db):
 
 def test_a_seed_dependent_failure_is_reported_not_shrunk(db):
     run = failing_run(db, cell=False)  # a 2 % fluke: fails on its own seed only
+    counted: list[int] = []
     with open_store(db) as store:
-        result = shrink_run(store, "default", run.index, confirm=0)
+        result = shrink_run(store, "default", run.index, confirm=0, progress=counted.append)
     assert result.message and "depends on the seed" in result.message
+    # the progress bar counts every simulated run: here the first stage (10 seeds) only,
+    # or both stages (20) when the first had enough failures
+    assert set(counted) == {1} and len(counted) in (10, 20)
 
 
 def test_ddmin_is_one_minimal():

@@ -285,6 +285,15 @@ class CarlaBackend(Backend):
         """Drop the connection (the server keeps running)."""
         self._client = self._world = self._cmap = None
 
+    def check_hyperspace(self, hyperspace: Any) -> None:
+        """The extra road users' values (``actorN``) against the embedded map whose routes
+        they follow (as :func:`plan_scene` reads them in every run); ``intsit`` routes are
+        CARLA's own spawns and goals, checked when the server is reached."""
+        from sitcov.sim.embedded._map import load_map
+        from sitcov.sim.embedded._scene import check_scene_values
+
+        check_scene_values(load_map(self.map.embedded_map), hyperspace, intsit=False)
+
     def effects(self) -> dict[str, str]:
         """What each element does in CARLA."""
         out = {

@@ -40,7 +40,12 @@ from sitcov.sim.embedded._monitors import (  # noqa: F401 - constants re-exporte
     default_monitors,
 )
 from sitcov.sim.embedded._progress import BLOCKED_TIME, STILL_SPEED  # noqa: F401
-from sitcov.sim.embedded._scene import DEFAULT_INTSIT, build_actors, parse_scene  # noqa: F401
+from sitcov.sim.embedded._scene import (  # noqa: F401
+    DEFAULT_INTSIT,
+    build_actors,
+    check_scene_values,
+    parse_scene,
+)
 from sitcov.sim.embedded._world import Wind, World
 from sitcov.weather._conditions import (
     AIR_DENSITY,
@@ -202,6 +207,11 @@ class EmbeddedBackend(Backend):
     def effects(self) -> dict[str, str]:
         """Every element this backend uses, and how (in this backend's physics profile)."""
         return dict(ELEMENT_EFFECTS[self.physics])
+
+    def check_hyperspace(self, hyperspace: Any) -> None:
+        """Every ``intsit`` and ``actorN`` bin parses and names routes of this map (a key
+        typo such as ``behavior:`` or an unknown route is refused here, not in each run)."""
+        check_scene_values(self.map, hyperspace)
 
     # --- helpers ----------------------------------------------------------------------------
 

@@ -172,6 +172,58 @@ def parse_slot(name: str, value: Any) -> ActorPlan | None:
     )
 
 
+def check_value(map: JunctionMap, name: str, value: Any) -> None:  # noqa: A002
+    """One ``intsit`` or ``actorN`` value as a hyperspace bin gives it: it parses, and each
+    route it names exists on ``map`` for its kind (before any run, not in every run).
+
+    Raises:
+        ConfigError: with the field inside the value (``intsit.ov``, ``actor2.behavior``).
+    """
+    if name == "intsit":
+        intsit = parse_intsit(value)
+        routes = (("ego", "car", intsit["ego"]), ("ov", intsit["kind"], intsit["ov"]))
+    else:
+        plan = parse_slot(name, value)
+        routes = () if plan is None else (("route", plan.kind, plan.route),)
+    for key, kind, route in routes:
+        try:
+            actor_route(map, kind, route)
+        except ConfigError as exc:
+            raise ConfigError(field=f"{name}.{key}", value=route, expected=exc.expected) from None
+
+
+def check_scene_values(
+    map: JunctionMap,  # noqa: A002
+    hyperspace: Any,
+    *,
+    intsit: bool = True,
+) -> None:
+    """Every ``intsit`` (unless ``intsit`` is False) and ``actorN`` bin of ``hyperspace``
+    through :func:`check_value`; the error's field names the element, bin and key
+    (``actor2.bins[1] (car:B-L).value.behavior``)."""
+    for element in hyperspace.elements:
+        if not is_scene_element(element.name) or (element.name == "intsit" and not intsit):
+            continue
+        for i, bin_ in enumerate(element.bins):
+            if bin_.range is not None:
+                continue
+            try:
+                check_value(map, element.name, bin_.value)
+            except ConfigError as exc:
+                inner = (exc.field or element.name).partition(".")[2]
+                field = f"{element.name}.bins[{i}] ({bin_.label}).value"
+                raise ConfigError(
+                    field=f"{field}.{inner}" if inner else field,
+                    value=exc.value,
+                    expected=exc.expected,
+                ) from None
+
+
+def is_scene_element(name: str) -> bool:
+    """Whether an element's values say who is on the map (``intsit``, ``actorN``)."""
+    return name == "intsit" or _SLOT.match(name) is not None
+
+
 def parse_scene(values: Mapping[str, Any]) -> ScenePlan:
     """The :class:`ScenePlan` of a situation's values (raises ConfigError on bad values)."""
     intsit = parse_intsit(values.get("intsit"))

@@ -85,7 +85,9 @@ def test_launch_command_gets_host_and_port_and_is_validated(tmp_path) -> None:
 
 
 @pytest.mark.slow
-def test_campaign_goes_on_when_the_server_dies_mid_campaign(tmp_path) -> None:
+def test_campaign_goes_on_when_the_server_dies_mid_campaign(tmp_path, ssd_model_dir) -> None:
+    """The reference stack brakes on its camera detector: the model comes from the fixture
+    (issue 26: without it this test failed on every machine with an empty user cache)."""
     flag = tmp_path / "server-up"
     options = {
         "map": str(small_map(tmp_path)),
