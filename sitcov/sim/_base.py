@@ -18,8 +18,9 @@ STATUSES = ("pass", "fail", "error", "timeout")
 #: campaign; campaigns made with another version cannot be extended. Version 1 ("legacy")
 #: is everything before physics profiles and failure kinds; version 3 added the route
 #: progress facts (route completion, blocked, route incomplete, stationary collisions)
-#: and the reference stack's releasing AEB.
-WORLD_MODEL_VERSION = 3
+#: and the reference stack's releasing AEB; version 4 road users that yield and follow
+#: (``embedded._yielding``) and pedestrians and cyclists at drawn human speeds.
+WORLD_MODEL_VERSION = 4
 
 
 @dataclass(frozen=True)

@@ -63,7 +63,10 @@ def test_the_reference_stack_brakes_for_a_pedestrian_and_f4_does_not() -> None:
     from sitcov.sim.embedded import EmbeddedBackend
 
     backend = EmbeddedBackend(sensor=PersonPEM())
-    values = {"intsit": {"ego": "L-B", "ov": "XBL", "conflict": "p", "kind": "pedestrian"}}
+    # from the far kerb (XBR): the pedestrian crosses the oncoming lane first, in view of
+    # the camera; from the near kerb (XBL), at a walking speed (issue 23), it steps into the
+    # ego's lane about 2 s before the ego, too late for the AEB's box
+    values = {"intsit": {"ego": "L-B", "ov": "XBR", "conflict": "p", "kind": "pedestrian"}}
     s = Situation(bins={"intsit": "ped"}, values=values)
     nominal = [backend.run(s, ReferenceStack(), seed=k) for k in range(4)]
     faulty = [backend.run(s, ReferenceStack(fault="f4"), seed=k) for k in range(4)]

@@ -60,10 +60,18 @@ def test_golden_file_covers_every_map_kind_and_extra_slot(golden) -> None:
 def test_golden_f4_differs_from_the_reference_stack_and_the_blind_ego_is_always_hit(
     golden,
 ) -> None:
-    """The recorded stacks discriminate: ignoring pedestrians changes verdicts."""
+    """The recorded stacks discriminate: ignoring pedestrians changes verdicts. The blind
+    ego is hit in every ``carla``-profile run; in ``physical`` a timed pedestrian or
+    cyclist paces at a human speed (issue 23) and may miss an ego that slides off its route
+    on a slippery road (2 of 88 when recorded: the roundabout at mu 0.11 and 0.33, wind
+    100, near misses of 0.03 m and 16.8 m)."""
     outcomes = golden["outcomes"]
-    blind = [o for k, o in outcomes.items() if k.split("/")[2] == "blind"]
-    assert blind and all(o["end_reason"] == "collision" for o in blind)
+    blind = {k: o for k, o in outcomes.items() if k.split("/")[2] == "blind"}
+    assert blind and all(
+        o["end_reason"] == "collision" for k, o in blind.items() if k.split("/")[1] == "carla"
+    )
+    physical = [o for k, o in blind.items() if k.split("/")[1] == "physical"]
+    assert sum(o["end_reason"] == "collision" for o in physical) >= 0.97 * len(physical)
     changed = [
         k
         for k, o in outcomes.items()

@@ -46,11 +46,11 @@ from sitcov.sim.embedded._scene import (
     ActorPlan,
     ScenePlan,
     _controller,
-    _kerb,
     build_actors,
     parse_scene,
 )
 from sitcov.sim.embedded._world import World
+from sitcov.sim.embedded._yielding import watch
 
 #: Spawn height [m] above the map's ground (walkers are placed by their centre).
 SPAWN_Z = {"pedestrian": 1.0, "cyclist": 0.5, "car": 0.5}
@@ -209,6 +209,9 @@ def plan_scene(
     if ego_route is not None:
         path = Path.from_points([frame.to_map(x, -y, 0.0)[:2] for x, y in ego_route])
         follow_carla_route(jmap, plan.ego, ego, path, pairs)
+    # each twin watches the ego and the other twins (CARLA moves them; a car OV that the
+    # paper's OV driver drives has no twin, so it is not among them)
+    watch([actor for _, actor in pairs], ego)
     return ScenePlanned(plan, ego, [actor for _, actor in pairs], frame)
 
 
@@ -239,8 +242,8 @@ def follow_carla_route(
             continue
         gap = 0.5 * (car.width + actor.spec.width)
         actor.conflict = find_conflict(path, actor.route, gap)
-        kerb = _kerb(jmap, actor.route) if actor.kind == "pedestrian" else 0.0
-        actor.controller = _controller(jmap, plan, actor, ego_move, path, AdversaryParams(), kerb)
+        own = getattr(actor.controller, "speed", None) if actor.kind != "car" else None
+        actor.controller = _controller(jmap, plan, actor, ego_move, path, AdversaryParams(), own)
 
 
 def conflict_point(spec: CarlaMap, values: Mapping[str, Any], label: str) -> tuple[float, float]:
@@ -368,6 +371,7 @@ class Scene:
     def observe(self, t: float, ego: VehicleState, record: bool) -> None:
         """Read every twin back from CARLA; move the embedded ego; update the metrics."""
         view = self.view
+        view.ego_decel = (view.ego_speed - ego.speed) / view.dt if t > 0.0 else 0.0
         view.t, view.ego_speed = t, ego.speed
         me = view.ego
         body = me.body

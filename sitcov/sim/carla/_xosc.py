@@ -154,7 +154,7 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     intsit = values.get("intsit")
     if not isinstance(intsit, Mapping) or not {"ego", "ov"} <= set(intsit):
         raise ConfigError(field="intsit", value=intsit, expected="a mapping with ego, ov, conflict")
-    scene = plan_scene(spec, values, seed=0)  # the seed only picks colours
+    scene = plan_scene(spec, values, seed=0)  # the seed picks colours and VRU speeds
     car_ov = scene is None or scene.car_ov
     if car_ov and "conflict" not in intsit:
         raise ConfigError(field="intsit", value=intsit, expected="a mapping with ego, ov, conflict")

@@ -36,6 +36,7 @@ from sitcov.sim.embedded._actors import Actor
 from sitcov.sim.embedded._bodies import body_spec
 from sitcov.sim.embedded._controllers import (
     CrossingController,
+    PacedController,
     ScriptedController,
     TimingController,
 )
@@ -170,7 +171,7 @@ def actor_init(xosc: Any, init: Any, name: str, frame: Frame, actor: Actor) -> N
 def actor_events(xosc: Any, name: str, frame: Frame, actor: Actor, hero: Hero) -> list[Any]:
     """The events of one actor (see the module docstring)."""
     ctrl = actor.controller
-    if isinstance(ctrl, TimingController):
+    if isinstance(ctrl, TimingController | PacedController):
         return _timed_events(xosc, name, frame, actor, hero)
     if isinstance(ctrl, CrossingController):
         return _crossing_events(xosc, name, frame, actor, hero)
@@ -207,7 +208,7 @@ def _timed_events(xosc: Any, name: str, frame: Frame, actor: Actor, hero: Hero) 
     """A car: the OV's form (constant approach speed from the hero's start, cruise at the
     switch). A pedestrian or cyclist: it starts at its cruise speed when the hero (at
     25 km/h) is as many seconds from the conflict as the actor needs to reach it."""
-    ctrl: TimingController = actor.controller
+    ctrl: TimingController | PacedController = actor.controller
     point = _conflict_point(frame, actor)
     where = world_position(xosc, *point)
     s_self = actor.conflict.s_ov if actor.conflict is not None else 0.5 * actor.route.length

@@ -39,7 +39,8 @@ class Actor:
     its route), ``dx``, ``dy``, ``gap`` (position relative to the ego and centre
     distance; ``gap`` is inf while inactive; ``prev_gap`` one step earlier), ``active``
     (False once it left the map at the end of its route), ``crashed`` (it hit another
-    actor: it brakes to a stop).
+    actor: it brakes to a stop). ``watcher``: the road users whose routes meet its own
+    (``_yielding.Watcher``, set by the scene; None for the ego).
     """
 
     __slots__ = (
@@ -67,6 +68,7 @@ class Actor:
         "dy",
         "gap",
         "prev_gap",
+        "watcher",
     )
 
     def __init__(
@@ -99,6 +101,7 @@ class Actor:
         self.dx = self.dy = 0.0  # position relative to the ego [m]
         self.gap = math.inf  # centre distance to the ego [m] (inf while inactive)
         self.prev_gap = math.inf  # the same one step earlier [m]
+        self.watcher: Any = None  # what it sees on its path (_yielding.Watcher), set by the scene
 
     def box(self) -> tuple[float, float, float, float, float]:
         """The footprint box (x, y, yaw, half length, half width)."""

@@ -24,7 +24,7 @@ from sitcov.errors import ConfigError
 from sitcov.perception._base import CameraSpec, Sensor
 from sitcov.sim._adversary import AdversaryParams
 from sitcov.sim._base import Backend, Outcome, Trace
-from sitcov.sim.embedded._controllers import TimingController
+from sitcov.sim.embedded._controllers import PacedController, TimingController
 from sitcov.sim.embedded._dynamics import default_params
 from sitcov.sim.embedded._ego import EgoDriver
 from sitcov.sim.embedded._map import MAPS_DIR, JunctionMap, load_map
@@ -360,7 +360,8 @@ class EmbeddedBackend(Backend):
             m.report(run, per_actor, world)
         ov = world.actors[0]
         primary = per_actor[ov.name]
-        timing = ov.controller if isinstance(ov.controller, TimingController) else None
+        timed = isinstance(ov.controller, TimingController | PacedController)
+        timing = ov.controller if timed else None
         collided = reason == "collision"
         t = world.t
         metrics = {

@@ -19,6 +19,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from sitcov.errors import ConfigError
 from sitcov.sim.embedded._dynamics import G, Vehicle, default_params
 
@@ -75,6 +77,44 @@ BODY_SPECS: dict[str, BodySpec] = {
     "pedestrian": BodySpec(
         "pedestrian", 0.5, 0.5, 1.75, 3.0, 1.5, 2.0, turn_rate=4.0, walk_speed=1.4
     ),
+}
+
+
+@dataclass(frozen=True)
+class SpeedDistribution:
+    """A normal distribution of cruising speeds truncated to a plausible range [m/s]."""
+
+    mean: float
+    sd: float
+    low: float
+    high: float
+
+    def draw(self, rng: np.random.Generator) -> float:
+        """One speed [m/s]: normal draws until one falls in [low, high] (a fixed number of
+        draws per value, so the stream stays reproducible)."""
+        for _ in range(64):
+            v = float(rng.normal(self.mean, self.sd))
+            if self.low <= v <= self.high:
+                return v
+        return self.mean
+
+
+#: How fast people walk and ride, drawn per actor and run (``_scene``), so timed road users
+#: meet the ego by when and where they start, not by creeping. Sources:
+#: - pedestrian: free walking speed, mean 1.34 m/s, standard deviation 0.26 m/s (Weidmann
+#:   1993, "Transporttechnik der Fussgaenger", ETH Zuerich IVT Schriftenreihe 90, the
+#:   meta-analysis of 58 studies), kept within 1.0-1.8 m/s: Knoblauch, Pietrucha & Nitzburg
+#:   1996 (TRR 1538) measured mean crossing speeds 1.27 m/s (over 65) to 1.51 m/s (younger),
+#:   15th percentiles 0.97-1.25 m/s; HCM 2010 designs crosswalks for 1.07-1.2 m/s.
+#: - cyclist: mean 4.8 m/s (17 km/h), standard deviation 0.9 m/s, kept within 3-7 m/s: the
+#:   bulk of free-flow bicycle speeds in the studies compiled by Allen et al. 1998
+#:   ("Operational analysis of uninterrupted bicycle facilities", TRR 1636) lies between
+#:   7.5 and 12.4 mph (3.4-5.5 m/s); regular bicycles in mixed urban traffic average 3.7 m/s
+#:   (Hangzhou; Adv. Mech. Eng. 2015, doi:10.1177/1687814015616918); commuters on the flat
+#:   ride faster, ~6 m/s (Parkin & Rotheram 2010, Transport Policy 17).
+SPEEDS: dict[str, SpeedDistribution] = {
+    "pedestrian": SpeedDistribution(1.34, 0.26, 1.0, 1.8),
+    "cyclist": SpeedDistribution(4.8, 0.9, 3.0, 7.0),
 }
 
 

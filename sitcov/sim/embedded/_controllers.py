@@ -2,21 +2,25 @@
 
 A controller turns the world's state into ``(throttle, brake, steer)`` for its actor's body
 (``_bodies.py``); lateral control follows the actor's route (:func:`steer_on_route`).
+Every controller brakes for what its actor's watcher sees on its path (:func:`react`, the
+IDM of ``_yielding``); how it sees the ego is the controller's choice.
 
-- :class:`TimingController`: the paper's timing law (``sitcov.sim._adversary``) for ANY
-  actor that shares a conflict with the ego: wait until the ego moves, regulate the arrival
-  time at the conflict to the ego's, then cruise on ("arrive when the ego arrives, then
-  continue"). The cruise speed is the kind's (15 km/h for cars as in the paper; a
-  pedestrian walks, a cyclist rides at its ``walk_speed``).
+- :class:`TimingController`: the paper's timing law (``sitcov.sim._adversary``) for a car
+  that shares a conflict with the ego: wait until the ego moves, regulate the arrival
+  time at the conflict to the ego's, then cruise on at 15 km/h ("arrive when the ego
+  arrives, then continue"). Before its switch it ignores the ego, after it it brakes for
+  an ego standing in its path; it yields to other road users throughout.
+- :class:`PacedController`: a timed pedestrian or cyclist: starts when, at its own speed,
+  it arrives with the ego, and keeps to speeds people go.
 - :class:`ScriptedController`: background traffic: cruise at a speed, optionally stop at
-  an arc length for a while (or for good), then go on; keeps a time gap to any road user
-  ahead on its path.
+  an arc length for a while (or for good), then go on; yields to and follows everyone.
 - :class:`CrossingController`: pedestrian behaviours on a crosswalk: ``cross`` (start to
   cross when the ego is ``time`` seconds from the crosswalk), ``kerb`` (walk up to the kerb
   then and stop there for good), ``hesitate`` (walk up to the kerb, pause, then cross).
 
 Controllers read the world through the :class:`~sitcov.sim.embedded._actors.Actor` they
-drive and the world (``world.ego``, ``world.ego_speed``, ``world.actors``, ``world.t``).
+drive and the world (``world.ego``, ``world.ego_speed``, ``world.ego_decel``,
+``world.actors``, ``world.t``).
 """
 
 from __future__ import annotations
@@ -32,6 +36,16 @@ import numpy as np
 
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit, timing_law
 from sitcov.sim.embedded._path import _bisect_right, _point_at
+from sitcov.sim.embedded._yielding import (
+    EGO_ALL,
+    EGO_NEVER,
+    EGO_STANDING,
+    REACH,
+    SLOW,
+    STANDING,
+    STOP_HORIZON,
+    limit,
+)
 
 if TYPE_CHECKING:
     from sitcov.sim.embedded._actors import Actor
@@ -40,14 +54,13 @@ if TYPE_CHECKING:
 #: with the name bound to its correctly rounded version: the same bits).
 hypot = math.hypot
 
-#: Speed below which an actor counts as standing [m/s].
-STANDING = 0.05
+#: An ego braking harder than this [m/s^2] may stand within ``STOP_HORIZON`` of ``SLOW``:
+#: a timed car after its switch looks whether it stands in its path.
+EGO_BRAKING = SLOW / STOP_HORIZON
+#: ... if the ego is this close (centre to centre) [m]: a car looks this far ahead
+NEAR = REACH["car"] + 10.0
 #: Speed P-gain of scripted and pedestrian controllers [1/(m/s)].
 SPEED_GAIN = 0.5
-#: Scripted traffic keeps this time gap [s] plus :data:`MIN_GAP` [m] to a road user ahead.
-TIME_GAP, MIN_GAP = 1.5, 2.0
-#: A road user counts as "ahead on the path" within this lateral distance [m] (plus half widths).
-LATERAL_MARGIN = 0.5
 
 
 def steer_on_route(actor: Actor, lookahead: float) -> float:
@@ -193,6 +206,26 @@ def _speed_command(actor: Actor, target: float, dt: float) -> tuple[float, float
     return (min(u, 1.0), 0.0) if u >= 0.0 else (0.0, min(-u, 1.0))
 
 
+def react(
+    actor: Actor, world: Any, thr: float, brk: float, v0: float, ego: int = EGO_ALL
+) -> tuple[float, float]:
+    """(throttle, brake) no stronger than the IDM allows for the nearest obstacle on the
+    actor's path (``_yielding``); unchanged when nothing is ahead. ``v0``: its desired
+    speed [m/s]; ``ego``: how it sees the ego (``_yielding.EGO_ALL`` ...)."""
+    w = actor.watcher
+    if w is None or not w.entries:
+        return thr, brk
+    accel = w.accel(v0, ego, world.ego_decel)
+    if accel == math.inf:
+        return thr, brk
+    spec = actor.spec
+    u0 = thr - brk
+    u = limit(u0, accel, spec.a_max, spec.b_max)
+    if u == u0:
+        return thr, brk
+    return (u, 0.0) if u >= 0.0 else (0.0, min(-u, 1.0))
+
+
 def _lookahead(actor: Actor, speed: float) -> float:
     return max(4.0, 0.8 * speed) if actor.kind != "pedestrian" else max(1.0, 0.5 * speed)
 
@@ -226,6 +259,10 @@ class TimingController:
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
         self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
+        self._looks = False  # any road user meets its route (set with _car)
+        self._still: Any = None  # (s, ego s, law's command) of a standoff step, and
+        self._still_cmd = (0.0, 0.0)  # what react answered then
+        self._others = False  # road users besides the ego do
         # AdversaryController.lookahead's constants, read every step
         self._la_min, self._la_time = params.lookahead_min, params.lookahead_time
 
@@ -237,8 +274,12 @@ class TimingController:
         law = self.law
         s_ego = world.ego.s
         thr, brk = law.command(self.s_ego - s_ego, world.ego_speed, self.s_self - actor.s, speed)
-        if self.switch_time is None and law.phase == "cruise":
-            self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
+        if law.phase_index == 2:  # cruise
+            if self.switch_time is None:
+                self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
+            thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
+        elif law.phase_index == 1:
+            thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_NEVER)
         self.brake = brk
         steer = self._steer
         if steer is None:
@@ -250,14 +291,35 @@ class TimingController:
         """:meth:`command` of a car: the law and the steering in one :func:`_timed_car`."""
         if self._car is None:
             self._car = self._bind_car(actor)
+            w = actor.watcher
+            self._looks = w is not None and bool(w.entries)
+            self._others = self._looks and w.others
         kernel, pts, k = self._car
         law, b, s_ego = self.law, actor.body, world.ego.s
         phase, thr, brk, steer = kernel(
             pts, k, law.phase_index, s_ego, world.ego_speed, actor.s, b.x, b.y, b.yaw, b.vx, b.vy
         )
         law.phase_index = phase
-        if self.switch_time is None and phase == 2:  # cruise
-            self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
+        if phase == 2:  # cruise
+            if self.switch_time is None:
+                self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
+            if self._looks and (
+                self._others
+                or (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING)
+                and actor.gap < NEAR
+            ):
+                # both standing where they stood last step: the same answer (a standoff
+                # with the ego lasts long; nothing else can have moved without others)
+                still = not self._others and b.vx == b.vy == 0.0 and world.ego_speed == 0.0
+                if still and self._still == (actor.s, s_ego, thr, brk):
+                    thr, brk = self._still_cmd
+                else:
+                    key = (actor.s, s_ego, thr, brk)
+                    thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
+                    if still:
+                        self._still, self._still_cmd = key, (thr, brk)
+        elif phase == 1 and self._others:
+            thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_NEVER)
         self.brake = brk
         return thr, brk, steer
 
@@ -283,13 +345,148 @@ class TimingController:
         return max(actor.body.speed, self.params.cruise_speed)
 
     def stuck(self, actor: Actor) -> bool:
-        """Braked still before its switch: waits for an ego that will never come."""
-        return self.law.phase != "cruise" and self.brake > 0.0 and actor.body.speed < STANDING
+        """Braked still before its switch: waits for an ego that will never come; or, after
+        it, stands before a road user that stands too."""
+        if self.law.phase_index == 0:
+            return self.brake > 0.0 and actor.body.speed < STANDING
+        w = actor.watcher
+        ego = EGO_STANDING if self.law.phase_index == 2 else EGO_NEVER
+        stands = self.law.phase_index == 1 and self.brake > 0.0 and actor.body.speed < STANDING
+        return stands or (w is not None and w.blocked(ego))
+
+
+#: The speed an accelerating ego is assumed to reach [m/s] (the reference stack's 25 km/h)
+#: in :func:`ego_arrival`.
+EGO_CRUISE = 25.0 / 3.6
+
+
+def ego_arrival(d: float, v: float, a: float, floor: float) -> float:
+    """The ego's arrival time [s] over ``d`` [m] at speed ``v`` [m/s] (floored at ``floor``)
+    when it goes on accelerating at ``a`` [m/s^2] (if > 0) up to :data:`EGO_CRUISE` (or
+    its speed, if faster), then holds it. Without the acceleration an ego that speeds up
+    looks slower than it will be, and a road user timed on it starts late and must rush."""
+    v = v if v > floor else floor
+    cap = v if v > EGO_CRUISE else EGO_CRUISE
+    if a <= 0.0 or v >= cap:
+        return d / v
+    t1 = (cap - v) / a
+    d1 = (v + 0.5 * a * t1) * t1
+    if d1 >= d:
+        return (math.sqrt(v * v + 2.0 * a * d) - v) / a
+    return t1 + (d - d1) / cap
+
+
+def catch_speed(d: float, t: float, u: float, a: float) -> float:
+    """The speed [m/s] to change to (from ``u``, at ``a`` [m/s^2]) and hold so as to cover
+    ``d`` [m] in ``t`` [s]: ``d = v t - (v - u)^2 / (2 a)``, the smaller root; the fastest
+    change (``u + a t``) if none does."""
+    at = a * t
+    disc = at * at - 2.0 * a * (d - t * u)
+    return u + at - math.sqrt(disc) if disc > 0.0 else u + at
+
+
+class PacedController:
+    """A timed pedestrian or cyclist: meets the ego by when it starts, at a speed people go.
+
+    The adversary's role without the timing law's creeping (the law floors nothing but the
+    arrival-time estimate, so a walker synchronised from 2 m out crawls at 0.5 m/s):
+
+    1. ``wait``: stands until the ego moves and the ego's arrival time at the conflict (its
+       distance over its speed floored at ``min_speed``, as in the law, taking into account
+       that it still speeds up: :func:`ego_arrival`) has dropped to the actor's own: its
+       distance to the conflict at ``speed`` plus the time to reach that speed from
+       standing (``speed / (2 a_max)``);
+    2. ``regulate``: goes at the speed that would arrive with the ego (:func:`catch_speed`:
+       from its speed now, getting there at ``a_max``), kept within [``low``, ``high``]
+       (what people do), until the ego or the actor reaches the conflict;
+    3. ``cruise``: on at ``speed``.
+
+    From its start it stops short of a road user standing in its path (the ego only while
+    it stands: ``_yielding.EGO_STANDING``), so it never walks into a standing car.
+
+    Args:
+        s_ego, s_self: arc lengths of the conflict's start on the ego's and the actor's
+            route [m] (inf: no conflict: it goes once the ego moves).
+        speed: its own cruising speed [m/s] (drawn per run: ``_bodies.SPEEDS``).
+        low, high: the range it regulates in [m/s].
+        params: the adversary's ``min_speed`` and ``start_speed``.
+    """
+
+    name = "timed"
+
+    def __init__(
+        self,
+        s_ego: float,
+        s_self: float,
+        speed: float,
+        low: float,
+        high: float,
+        params: AdversaryParams | None = None,
+    ) -> None:
+        p = params or AdversaryParams()
+        self.params = replace(p, switch_distance=0.0, cruise_speed=float(speed))
+        self.s_ego, self.s_self = s_ego, s_self
+        self.speed, self.low, self.high = float(speed), float(low), float(high)
+        self.phase_index = 0  # wait, regulate, cruise (PHASES)
+        self.start_time: float | None = None  # when it went [s]
+        self.switch_time: float | None = None  # when it stopped regulating [s]
+        self.switch_gap: float | None = None  # the ego's distance to the conflict then [m]
+        self.brake = 0.0
+        self._steer: Callable[[float], float] | None = None
+
+    def _target(self, actor: Actor, world: Any) -> float:
+        p = self.params
+        v_ego = world.ego_speed
+        d_ego = self.s_ego - world.ego.s
+        d_self = self.s_self - actor.s
+        if self.phase_index == 0:
+            if v_ego <= p.start_speed:
+                return 0.0
+            t_ego = ego_arrival(max(d_ego, 0.0), v_ego, -world.ego_decel, p.min_speed)
+            t_self = max(d_self, 0.0) / self.speed + self.speed / (2.0 * actor.spec.a_max)
+            if math.isfinite(d_ego) and t_self < t_ego:
+                return 0.0
+            self.phase_index = 1 if math.isfinite(d_ego) else 2
+            self.start_time = world.t
+        if self.phase_index == 1:
+            if d_ego <= 0.0 or d_self <= 0.0:
+                self.phase_index = 2
+                self.switch_time, self.switch_gap = world.t, d_ego
+            else:
+                t_ego = ego_arrival(d_ego, v_ego, -world.ego_decel, p.min_speed)
+                v = catch_speed(d_self, t_ego, actor.body.speed, actor.spec.a_max)
+                return min(max(v, self.low), self.high)
+        return self.speed
+
+    def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
+        """(throttle, brake, steer) for this step."""
+        target = self._target(actor, world)
+        thr, brk = _speed_command(actor, target, world.dt)
+        if self.phase_index > 0:
+            thr, brk = react(actor, world, thr, brk, target, EGO_STANDING)
+        self.brake = brk
+        if thr == 0.0 and actor.body.speed == 0.0:
+            return thr, brk, 0.0  # waits standing
+        if self._steer is None:
+            self._steer = lateral_controller(actor, world.dt)
+        return thr, brk, self._steer(_lookahead(actor, actor.body.speed))
+
+    def reach_speed(self, actor: Actor) -> float:
+        """The speed the actor may still reach [m/s]."""
+        return max(actor.body.speed, self.high)
+
+    def stuck(self, actor: Actor) -> bool:
+        """Waits for an ego that stands (asked only once it stands for good), or stands
+        before a road user that stands."""
+        if self.phase_index == 0:
+            return True
+        return actor.watcher is not None and actor.watcher.blocked(EGO_STANDING)
 
 
 class ScriptedController:
     """Background traffic: cruise at ``speed``; stop at arc length ``stop_at`` for ``wait``
-    seconds (None: for good), then go on. Keeps ``TIME_GAP`` to whoever is ahead.
+    seconds (None: for good), then go on. Yields to and follows the road users on its path
+    (:func:`react`: the IDM, ``_yielding``).
 
     Args:
         speed: cruising speed [m/s].
@@ -320,15 +517,13 @@ class ScriptedController:
             else:
                 brake = max(actor.spec.b_max, 1.0)
                 target = min(target, math.sqrt(max(0.0, 2.0 * 0.5 * brake * max(left, 0.0))))
-        gap = _gap_ahead(actor, world)
-        if gap < math.inf:
-            target = min(target, max(0.0, (gap - MIN_GAP) / TIME_GAP))
         return target
 
     def command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
         """(throttle, brake, steer) for this step."""
         target = self._target(actor, world)
         thr, brk = _speed_command(actor, target, world.dt)
+        thr, brk = react(actor, world, thr, brk, self.speed)
         self.brake = brk
         if self._steer is None:
             self._steer = lateral_controller(actor, world.dt)
@@ -339,27 +534,10 @@ class ScriptedController:
         return max(actor.body.speed, self.speed)
 
     def stuck(self, actor: Actor) -> bool:
-        """Stopped for good at its stop point."""
-        return self.stopped_since is not None and self.wait is None
-
-
-def _gap_ahead(actor: Actor, world: Any) -> float:
-    """Distance [m] to the nearest road user ahead of ``actor`` on its heading (box to box,
-    roughly), or inf."""
-    body = actor.body
-    c, s = math.cos(body.yaw), math.sin(body.yaw)
-    best = math.inf
-    for other in world.bodies_except(actor):
-        dx, dy = other.body.x - body.x, other.body.y - body.y
-        ahead = dx * c + dy * s
-        if ahead <= 0.0 or ahead > 40.0:
-            continue
-        side = -dx * s + dy * c
-        if abs(side) < actor.half_w + other.half_w + LATERAL_MARGIN:
-            gap = ahead - actor.half_l - other.half_l
-            if gap < best:
-                best = gap
-    return best
+        """Stopped for good at its stop point, or stands before a road user that stands."""
+        if self.stopped_since is not None and self.wait is None:
+            return True
+        return actor.watcher is not None and actor.watcher.blocked()
 
 
 #: Pedestrian behaviours and their defaults: start time before the ego arrives [s],
@@ -435,6 +613,8 @@ class CrossingController:
         """(throttle, brake, steer) for this step."""
         target = self._target(actor, world)
         thr, brk = _speed_command(actor, target, world.dt)
+        if self.started:  # steps out when its behaviour says (the test): ego only if standing
+            thr, brk = react(actor, world, thr, brk, self.speed, EGO_STANDING)
         self.brake = brk
         if thr == 0.0 and actor.body.speed == 0.0:
             return thr, brk, 0.0  # waits standing: faces where it stands
@@ -448,5 +628,8 @@ class CrossingController:
 
     def stuck(self, actor: Actor) -> bool:
         """Will never move again: waits for an ego that stands still (the early end asks
-        only once the ego stands for good), or stands at the kerb for good."""
-        return not self.started or (self.paused_since is not None and self.pause is None)
+        only once the ego stands for good), stands at the kerb for good, or stands before
+        a road user that stands."""
+        if not self.started or (self.paused_since is not None and self.pause is None):
+            return True
+        return actor.watcher is not None and actor.watcher.blocked(EGO_STANDING)

@@ -32,16 +32,18 @@ from sitcov.errors import ConfigError
 from sitcov.perception._colors import OV_COLOR_KEY, PALETTE, draw_color, ov_color
 from sitcov.sim._adversary import AdversaryParams, with_switch_distance
 from sitcov.sim.embedded._actors import Actor
-from sitcov.sim.embedded._bodies import body_spec, make_body
+from sitcov.sim.embedded._bodies import SPEEDS, body_spec, make_body
 from sitcov.sim.embedded._controllers import (
     CROSSING_BEHAVIOURS,
     CrossingController,
+    PacedController,
     ScriptedController,
     TimingController,
 )
 from sitcov.sim.embedded._map import Conflict, JunctionMap, Scenario, find_conflict
 from sitcov.sim.embedded._path import Path
 from sitcov.sim.embedded._routes import actor_route
+from sitcov.sim.embedded._yielding import watch
 
 #: The intersection situation used when a situation has no ``intsit`` element (IntSit-1).
 DEFAULT_INTSIT = {"ego": "L-B", "ov": "R-B", "conflict": "c4"}
@@ -59,6 +61,12 @@ BEHAVIOURS: dict[str, tuple[str, ...]] = {
 SCRIPTED_CAR_SPEED = 25.0 / 3.6
 #: Queueing: each further car or cyclist starting on the same leg spawns this far back [m].
 QUEUE_SPACING = 8.0
+#: The ego's speed and the time it loses starting from standing [s] that a timed cyclist's
+#: spawn assumes (the reference stack's 25 km/h, reached in about 3.5 s): ``_timed_reach``.
+EGO_NOMINAL_SPEED, EGO_RAMP = 25.0 / 3.6, 1.7
+#: Spawn key of the actors' speed draws (one stream per actor and run: adding it shifts no
+#: other stream). "SPD" in ASCII.
+SPEED_KEY = 0x535044
 #: Scripted stops: the actor's front stops this far before its conflict zone [m].
 STOP_SHORT = 2.0
 _SLOT = re.compile(r"actor(\d+)$")
@@ -262,19 +270,41 @@ def _geometry(
     kind: str,
     route_name: str,
     start: float | None,
+    timed: bool = False,
 ) -> tuple[Path, Conflict | None, float]:
     """An actor's route (spawn to end), its conflict with the ego and its kerb arc length:
-    the same for every run of the situation, so computed once."""
+    the same for every run of the situation, so computed once.
+
+    ``timed``: a timed cyclist at its map spawn; if it could not reach the conflict with
+    the ego at an ordinary speed (:func:`_timed_reach`), it starts further along its route
+    (already riding towards the conflict, e.g. on a roundabout's ring)."""
     route = actor_route(map, kind, route_name)
     if start is not None:
         s0 = map.legs[route_name.partition("-")[0]].length - start
         if not 0.0 <= s0 < route.length - 1.0:
             raise ConfigError(field=f"{name}.start", value=start, expected="a point on the leg")
         route = route.sub(s0, route.length, 1.0)
-    conflict = find_conflict(
-        ego_route(map, ego_move), route, 0.5 * (body_spec("car").width + body_spec(kind).width)
-    )
+    er = ego_route(map, ego_move)
+    gap = 0.5 * (body_spec("car").width + body_spec(kind).width)
+    conflict = find_conflict(er, route, gap)
+    if timed and kind == "cyclist" and conflict is not None:
+        reach = _timed_reach(kind, conflict.s_ego)
+        if conflict.s_ov > reach + 1.0:
+            route = route.sub(conflict.s_ov - reach, route.length, 1.0)
+            conflict = find_conflict(er, route, gap)
     return route, conflict, _kerb(map, route) if kind == "pedestrian" else 0.0
+
+
+def _timed_reach(kind: str, s_ego: float) -> float:
+    """How far from the conflict [m] a timed road user of ``kind`` may start: what it
+    covers at the low end of its speeds, from standing, in the time an ego at
+    :data:`EGO_NOMINAL_SPEED` (after :data:`EGO_RAMP`) takes to the conflict ``s_ego``
+    metres along its route. So it starts once the ego runs at its speed (while the ego
+    speeds up, its arrival time is overestimated) and needs no more than its own speed."""
+    v = SPEEDS[kind].low
+    a = body_spec(kind).a_max
+    t_ego = s_ego / EGO_NOMINAL_SPEED + EGO_RAMP
+    return max(0.0, v * (t_ego - v / (2.0 * a)))
 
 
 def _kerb(map: JunctionMap, route: Path) -> float:  # noqa: A002
@@ -293,22 +323,29 @@ def _switch_distance(
     ego: Path,
     actor: Actor,
 ) -> float | None:
-    """Where a timed actor stops synchronising: the ego's distance to the conflict [m].
+    """Where a timed car stops synchronising: the ego's distance to the conflict [m].
 
-    A car keeps the paper's switch (the map's table for the paper's car-car situations,
-    else the ego's distance at its leg's mouth, capped): after it the car cruises at
-    15 km/h, about the speed it was synchronised at. A cyclist or pedestrian synchronises
-    up to the conflict (0): its cruise speed is far from the speed the law gave it (a
-    pedestrian 2 m from the kerb creeps at 0.5 m/s, then walks at 1.4 m/s; a cyclist
-    circling to a far entry at its 8 m/s top speed slows to 4.5 m/s), so an early switch
-    makes it arrive well before or after the ego: on the skewed cross a pedestrian switched
-    27.5 m out crossed the ego's lane 1.1 s early, on the roundabout a cyclist switched
-    5 m out arrived 0.8 s late where the routes cross (issue 12's blind-ego check).
+    The paper's switch (the map's table for the paper's car-car situations, else the
+    ego's distance at its leg's mouth, capped): after it the car cruises at 15 km/h,
+    about the speed it was synchronised at. Timed pedestrians and cyclists do not use the
+    law (``PacedController``: with it they crept, and a switch before the conflict made
+    them arrive early or late, issue 12's blind-ego check); for them this is 0.
     """
     if plan.kind != "car":
         return 0.0
     scen = Scenario(ego_move, plan.route, ego, actor.route, actor.conflict)
     return map.switch_distance(scen, table=True)
+
+
+def own_speed(kind: str, seed: int, index: int) -> float | None:
+    """The cruising speed [m/s] of a pedestrian or cyclist (the ``index``-th actor of the
+    scene) in the run with ``seed``, drawn from ``_bodies.SPEEDS`` on its own random stream
+    (adding it shifts no other draw); None for a car."""
+    drawn = SPEEDS.get(kind)
+    if drawn is None:
+        return None
+    seq = np.random.SeedSequence(seed, spawn_key=(SPEED_KEY, index))
+    return drawn.draw(np.random.default_rng(seq))
 
 
 def _controller(
@@ -318,28 +355,33 @@ def _controller(
     ego_move: str,
     ego: Path,
     adversary: AdversaryParams,
-    kerb: float,
+    own: float | None = None,
 ) -> Any:
+    """The controller of an actor; ``own``: its drawn speed (:func:`own_speed`), which a
+    ``speed`` in the situation overrides."""
     c = actor.conflict
-    spec = actor.spec
     s_ego = c.s_ego if c else math.inf
     s_self = c.s_ov if c else math.inf
-    cruise = None if plan.kind == "car" else spec.walk_speed
     params = dict(plan.params)
+    speed = params.pop("speed", None)
+    if speed is None:
+        speed = own if own is not None else SCRIPTED_CAR_SPEED
     try:
         if plan.behaviour == "timed":
+            drawn = SPEEDS.get(plan.kind)
+            if drawn is not None:
+                return PacedController(
+                    s_ego, s_self, float(speed), drawn.low, drawn.high, adversary
+                )
             return TimingController(
                 with_switch_distance(adversary, _switch_distance(map, plan, ego_move, ego, actor)),
                 s_ego,
                 s_self,
-                cruise,
             )
         if plan.behaviour in CROSSING_BEHAVIOURS:
-            speed = params.pop("speed", spec.walk_speed)
             return CrossingController(
-                plan.behaviour, s_ego, _kerb(map, actor.route), speed, **params
+                plan.behaviour, s_ego, _kerb(map, actor.route), float(speed), **params
             )
-        speed = params.pop("speed", SCRIPTED_CAR_SPEED if plan.kind == "car" else spec.walk_speed)
         stop_at = None
         if plan.behaviour in ("stop", "stop-go"):
             stop_at = (s_self if c else 0.5 * actor.route.length) - actor.half_l - STOP_SHORT
@@ -388,7 +430,8 @@ def build_actors(
             queue[p.route.partition("-")[0]] = 1
         else:
             start = _start(map, p, queue)
-            route, conflict, kerb = _geometry(map, plan.ego, p.name, p.kind, p.route, start)
+            timed = p.behaviour == "timed" and p.start is None
+            route, conflict, kerb = _geometry(map, plan.ego, p.name, p.kind, p.route, start, timed)
         x, y, h = route.point_at(0.0)
         info = {"route": p.route, "behaviour": p.behaviour, "conflict_type": p.conflict_type}
         actor = Actor(
@@ -402,6 +445,8 @@ def build_actors(
             _color(p, index, values, seed),
             info,
         )
-        actor.controller = _controller(map, p, actor, plan.ego, er, adversary, kerb)
+        own = own_speed(p.kind, seed, index)
+        actor.controller = _controller(map, p, actor, plan.ego, er, adversary, own)
         actors.append(actor)
+    watch(actors, ego)
     return ego, actors

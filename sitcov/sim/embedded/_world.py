@@ -83,6 +83,8 @@ class World:
         self.t = 0.0
         self.k = 0
         self.ego_speed = 0.0
+        #: the ego's deceleration over the last step [m/s^2] (negative: it sped up)
+        self.ego_decel = 0.0
         self.collision: Actor | None = None  # the actor the ego hit (CollisionMonitor)
         self.end_reason: str | None = None  # why the run ended (set by the backend)
 
@@ -105,7 +107,9 @@ class World:
     def step(self) -> None:
         """One control period for every actor (see the module docstring)."""
         ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
-        self.ego_speed = ego.body.speed
+        speed = ego.body.speed
+        self.ego_decel = (self.ego_speed - speed) / dt
+        self.ego_speed = speed
         throttle, brake, steer = self.driver.command(self, self.k, self.t)
         windy = wind.mean > 0.0
         if windy:
