@@ -195,7 +195,8 @@ def load_object_noise(path: str | Path | None = None, **overrides: Any) -> Objec
 
 def _wrap(angle: float) -> float:
     """``angle`` in (-pi, pi]."""
-    return math.atan2(math.sin(angle), math.cos(angle))
+    a = math.atan2(math.sin(angle), math.cos(angle))
+    return a if a > -math.pi else a + 2.0 * math.pi
 
 
 def _extent(cx: float, cy: float, yaw: float, hl: float, hw: float) -> tuple[float, float]:
