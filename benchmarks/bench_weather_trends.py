@@ -19,6 +19,10 @@ rate (Wilson 95 %) and change, and the Markdown trend table of docs/weather.md; 
 camera-mode throughput (runs per wall-clock second over ``--workers`` processes).
 
     python benchmarks/bench_weather_trends.py --runs 120 --seed 7 --workers 2
+
+``--first K`` starts at run K (to extend a measurement), ``--json FILE`` also writes the
+report; ``--merge A.json B.json ...`` pools reports of disjoint runs (counts add up) and
+prints the pooled report and table without running anything.
 """
 
 from __future__ import annotations
@@ -85,18 +89,29 @@ def sign_test(up: int, down: int) -> float:
 
 def summarize(rows: list[dict]) -> dict:
     """Failure rates per arm and the paired change per element, for one mode's rows."""
+    counts = {arm: sum(r[arm] for r in rows) for arm in ARMS}
+    pairs = {
+        element: (
+            sum(r[high] and not r[low] for r in rows),
+            sum(r[low] and not r[high] for r in rows),
+        )
+        for element, (low, high) in ELEMENTS.items()
+    }
+    return _report(len(rows), counts, pairs)
+
+
+def _report(n: int, counts: dict, pairs: dict) -> dict:
+    """The report of ``n`` paired runs: failures per arm, (up, down) discordant per element."""
     from sitcov.analysis._stats import wilson_interval
 
-    n = len(rows)
     report: dict = {"runs": n, "arms": {}, "elements": {}}
     for arm in ARMS:
-        k = sum(r[arm] for r in rows)
+        k = counts[arm]
         lo, hi = wilson_interval(k, n)
         report["arms"][arm] = {"failures": k, "rate": round(k / n, 3),
                                "wilson95": [round(lo, 3), round(hi, 3)]}  # fmt: skip
     for element, (low, high) in ELEMENTS.items():
-        up = sum(r[high] and not r[low] for r in rows)
-        down = sum(r[low] and not r[high] for r in rows)
+        up, down = pairs[element]
         report["elements"][element] = {
             "low": low, "high": high, "change": round((up - down) / n, 3),
             "fail_only_high": up, "fail_only_low": down,
@@ -133,17 +148,46 @@ def table(report: dict) -> str:
     return "\n".join(lines)
 
 
+def merge(reports: list[dict]) -> dict:
+    """Pool reports of disjoint runs of the same arms: counts add up."""
+    out: dict = {"merged": len(reports), "friction": reports[0].get("friction")}
+    for mode in ("pem", "camera"):
+        parts = [r[mode] for r in reports if mode in r]
+        if not parts:
+            continue
+        counts = {arm: sum(p["arms"][arm]["failures"] for p in parts) for arm in ARMS}
+        pairs = {
+            e: (sum(p["elements"][e]["fail_only_high"] for p in parts),
+                sum(p["elements"][e]["fail_only_low"] for p in parts))
+            for e in ELEMENTS
+        }  # fmt: skip
+        out[mode] = _report(sum(p["runs"] for p in parts), counts, pairs)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--runs", type=int, default=120)
+    parser.add_argument("--first", type=int, default=0, help="index of the first run")
+    parser.add_argument("--json", help="also write the report to this file")
+    parser.add_argument("--merge", nargs="+", help="pool these reports (no runs)")
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--friction", type=float, default=1.0)
     parser.add_argument("--modes", default="pem,camera", help="pem, camera or both")
     args = parser.parse_args()
-    report: dict = {"seed": args.seed, "friction": args.friction}
+    if args.merge:
+        from pathlib import Path
+
+        report = merge([json.loads(Path(f).read_text()) for f in args.merge])
+        print(json.dumps(report, indent=1))
+        print(table(report))
+        return
+    report: dict = {"seed": args.seed, "friction": args.friction, "first": args.first}
     for mode in args.modes.split(","):
-        jobs = [(mode, args.seed, i, args.friction) for i in range(args.runs)]
+        jobs = [
+            (mode, args.seed, i, args.friction) for i in range(args.first, args.first + args.runs)
+        ]
         start = time.perf_counter()
         if args.workers > 1:
             with mp.get_context("spawn").Pool(args.workers) as pool:
@@ -157,6 +201,10 @@ def main() -> None:
         report[mode]["workers"] = args.workers
     print(json.dumps(report, indent=1))
     print(table(report))
+    if args.json:
+        from pathlib import Path
+
+        Path(args.json).write_text(json.dumps(report, indent=1))
 
 
 if __name__ == "__main__":
