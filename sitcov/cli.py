@@ -21,7 +21,11 @@ app = typer.Typer(
 hyperspace_app = typer.Typer(help="Inspect situation hyperspaces.", no_args_is_help=True)
 experiment_app = typer.Typer(help="Run predefined experiments.", no_args_is_help=True)
 models_app = typer.Typer(help="Manage detector models.", no_args_is_help=True)
+map_app = typer.Typer(
+    help="Road networks: import OpenDRIVE junctions as maps.", no_args_is_help=True
+)
 app.add_typer(hyperspace_app, name="hyperspace")
+app.add_typer(map_app, name="map")
 app.add_typer(experiment_app, name="experiment")
 app.add_typer(models_app, name="models")
 
@@ -37,8 +41,10 @@ PHYSICS_OPT = typer.Option(
 JUDGE_OPT = typer.Option(
     None,
     "--judge",
-    help="What fails a run: default (collision + road departure) | paper (collision only)"
-    " | strict (+ lane departure) | kinds, comma-separated.",
+    help="What fails a run: default (collision while moving + road departure + blocked +"
+    " route incomplete) | paper (every ego collision) | strict (every kind) | kinds,"
+    " comma-separated (collision, ego_stationary, road_departure, lane_departure, blocked,"
+    " route_incomplete).",
 )
 
 
@@ -89,7 +95,9 @@ def hyperspace_show_cmd(
 
 @hyperspace_app.command("derive")
 def hyperspace_derive_cmd(
-    map_name: str = typer.Option("t-junction", "--map", help="Built-in map name or map YAML."),
+    map_name: str = typer.Option(
+        "t-junction", "--map", help="Built-in map name, map YAML or FILE.xodr[#JUNCTION]."
+    ),
     actors: str = typer.Option(
         "car", "--actors", help="Kinds besides the ego, comma-separated: car,cyclist,pedestrian."
     ),
@@ -117,6 +125,106 @@ def hyperspace_derive_cmd(
     out.write_text(text, encoding="utf-8")
     n = len(doc["axes"][1]["elements"][0]["bins"])
     err_console.print(f"wrote {out}: {n} intersection situations", highlight=False, soft_wrap=True)
+
+
+@hyperspace_app.command("scenario")
+def hyperspace_scenario_cmd(
+    scenario: Path = typer.Argument(..., help="An OpenSCENARIO file (.xosc)."),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the YAML here (default: stdout)."
+    ),
+) -> None:
+    """Write a hyperspace skeleton whose elements are the scenario's ParameterDeclarations."""
+    import yaml
+
+    from sitcov.sim.esmini import ScenarioFile
+
+    doc = ScenarioFile(scenario).hyperspace_skeleton()
+    text = yaml.safe_dump(doc, sort_keys=False, allow_unicode=True)
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {out}", highlight=False, soft_wrap=True)
+
+
+@map_app.command("import")
+def map_import_cmd(
+    file: Path = typer.Argument(..., help="OpenDRIVE file (.xodr)."),
+    list_only: bool = typer.Option(False, "--list", help="List every junction and its legs."),
+    junction: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--junction", help="Junction id (default: the file's only junction)."
+    ),
+    near: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--near", help="X,Y [m, file coordinates]: the junction nearest this point."
+    ),
+    legs: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--legs", help="Keep only these legs, comma-separated (e.g. B,L,R)."
+    ),
+    extension: float = typer.Option(
+        100.0, "--extension", min=20.0, help="How far routes run along the legs [m]."
+    ),
+    out: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--out", help="Write the map YAML here (default: stdout)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="With --list: print JSON."),
+    mouth_crosswalks: bool = typer.Option(
+        False,
+        "--mouth-crosswalks",
+        help="Add a crossing at each leg mouth with sidewalks on both sides (no object there).",
+    ),
+) -> None:
+    """Import one junction of an OpenDRIVE file as a map (--map, hyperspace derive --map)."""
+    from sitcov.roads._cli import import_map, junction_table
+
+    if list_only:
+        print(junction_table(file, as_json=as_json), end="")
+        return
+    leg_names = [n.strip() for n in legs.split(",") if n.strip()] if legs else None
+    text, summary = import_map(file, junction, near, leg_names, extension, mouth_crosswalks)
+    if out is None:
+        print(text, end="")
+        return
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(text, encoding="utf-8")
+    err_console.print(f"wrote {out}: {summary}", highlight=False, soft_wrap=True)
+
+
+@map_app.command("compare")
+def map_compare_cmd(
+    map_a: str = typer.Argument(..., help="Map A: name, YAML or FILE.xodr[#ID]."),
+    map_b: str = typer.Argument(..., help="Map B: name, YAML or FILE.xodr[#ID]."),
+    at_a: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--at-a", help="X,Y,DEG: where map A's frame lies (default: its own frame)."
+    ),
+    at_b: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--at-b", help="X,Y,DEG: where map B's frame lies (default: its own frame)."
+    ),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Compare two maps: legs, spawns, goals, routes and conflict points, in metres."""
+    import json
+
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._compare import compare_maps, comparison_text
+
+    def place(text: str | None, option: str) -> tuple[float, float, float] | None:
+        if text is None:
+            return None
+        try:
+            x, y, deg = (float(v) for v in text.split(","))
+        except ValueError:
+            raise SitcovError(f"{option}: expected X,Y,DEG, got {text!r}") from None
+        return x, y, deg
+
+    result = compare_maps(
+        load_map(map_a), load_map(map_b), place(at_a, "--at-a"), place(at_b, "--at-b")
+    )
+    print(
+        json.dumps(result, sort_keys=True) if as_json else comparison_text(result),
+        end="\n" if as_json else "",
+    )
 
 
 @app.command("generate")
@@ -258,6 +366,12 @@ def run_cmd(
     carla_launch: Optional[str] = typer.Option(  # noqa: UP045
         None, "--carla-launch", help="Shell command that (re)starts a dead CARLA server."
     ),
+    scenario: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--scenario", help="esmini: an OpenSCENARIO file (or a folder of them) to play."
+    ),
+    road: Optional[Path] = typer.Option(  # noqa: UP045
+        None, "--road", help="esmini: the OpenDRIVE file the situations are placed on."
+    ),
 ) -> None:
     """Run, resume or extend a campaign and print its summary."""
     from sitcov.campaign import load_config, open_store, run_campaign
@@ -277,9 +391,11 @@ def run_cmd(
         }.items()
         if value is not None
     }
+    esmini = {k: v for k, v in {"scenario": scenario, "road": road}.items() if v is not None}
     overrides = run_overrides(
         perception=perception,
         carla=carla,
+        esmini=esmini,
         av_cmd=av_cmd,
         av_step_timeout=av_step_timeout,
         grey_box=grey_box,
@@ -347,15 +463,19 @@ def export_cmd(
     fmt: str = typer.Option(..., "--format", help="csv | parquet | json | junit"),
     out: Optional[Path] = typer.Option(None, "--out", help="Output file (default: stdout)."),  # noqa: UP045
     campaign: Optional[str] = typer.Option(None, "--campaign", help="Only this campaign."),  # noqa: UP045
+    per_actor: bool = typer.Option(
+        False, "--per-actor", help="csv/parquet: one row per run and road user."
+    ),
 ) -> None:
     """Export stored runs (one row / test case per run)."""
     from sitcov.campaign._console import existing_store
     from sitcov.campaign._export import export
 
+    target = str(out) if out is not None else sys.stdout
     with existing_store(db) as store:
-        n = export(store, fmt, str(out) if out is not None else sys.stdout, campaign)
+        n = export(store, fmt, target, campaign, per_actor=per_actor)
     if out is not None:
-        err_console.print(f"{n} runs written to {out}")
+        err_console.print(f"{n} {'actor rows' if per_actor else 'runs'} written to {out}")
 
 
 @app.command("replay")
@@ -489,6 +609,28 @@ def report_cmd(
     console.print(f"report written to {index}")
 
 
+@app.command("evidence")
+def evidence_cmd(
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    out: Path = typer.Option(..., "--out", help="Folder for the evidence (created)."),
+    campaign: Optional[str] = typer.Option(None, "--campaign", help="The campaign."),  # noqa: UP045
+    odd: Optional[Path] = typer.Option(None, "--odd", help="ODD YAML file (default: all)."),  # noqa: UP045
+    criterion: str = typer.Option(
+        "rate<0.01@0.95", "--criterion", help="Acceptance criterion rate<TARGET[@CONFIDENCE]."
+    ),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of the held-out split."),
+    no_report: bool = typer.Option(False, "--no-report", help="Skip the HTML report."),
+) -> None:
+    """Write safety evidence: ODD coverage, test-case records, OpenLABEL tags, triggering
+    conditions, residual risk, the report and a manifest of hashes (docs/evidence.md)."""
+    from sitcov.evidence import build_evidence, evidence_lines
+
+    summary = build_evidence(db, out, campaign=campaign, odd=odd, criterion=criterion,
+                             seed=seed, report=not no_report)  # fmt: skip
+    for line in evidence_lines(summary):
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
+
+
 @experiment_app.command("faults")
 def experiment_faults_cmd(
     db: Path = typer.Option(Path("faults.db"), "--db", help="Database (created or resumed)."),
@@ -502,13 +644,23 @@ def experiment_faults_cmd(
     executor: str = typer.Option("processes", "--executor", help="serial | processes | ray"),
     as_json: bool = typer.Option(False, "--json", help="Print Table 2 as JSON."),
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
-    av: str = typer.Option("reference", "--av", help="AV stack under test (must take faults)."),
+    av: str = typer.Option(
+        "reference",
+        "--av",
+        help="AV stack under test (must take faults); reference-latched with --judge paper is"
+        " the paper's protocol.",
+    ),
     backend: str = typer.Option("embedded", "--backend", help="Simulation backend."),
     batch_size: Optional[int] = typer.Option(  # noqa: UP045
         None, "--batch-size", min=1, help="Asks per batch (how often learning generators learn)."
     ),
     physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
     judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None,
+        "--map",
+        help="Embedded map: name, YAML or FILE.xodr[#ID] (default: the hyperspace's).",
+    ),
 ) -> None:
     """Run the paper's seeded-fault experiment (Table 2); re-running completes a partial one."""
     import json
@@ -545,6 +697,7 @@ def experiment_faults_cmd(
             executor=executor,
             workers=workers,
             batch_size=batch_size,
+            backend_options={"map": map_name} if map_name else None,
             progress=lambda _name, n: bar.advance(task, n),
         )
     if as_json:
@@ -684,19 +837,32 @@ def experiment_flakiness_cmd(
 
 @app.command("runs-needed")
 def runs_needed_cmd(
-    margin: float = typer.Option(0.05, "--margin", help="Wanted half-width of the interval."),
+    margin: float = typer.Option(0.05, "--margin", help="Wanted reach of the interval."),
     rate: Optional[float] = typer.Option(  # noqa: UP045
         None, "--rate", help="Expected failure rate (default: 0.5, the worst case)."
     ),
+    below: Optional[float] = typer.Option(  # noqa: UP045
+        None, "--below", help="Instead: runs, none failing, to show the rate is below this."
+    ),
     confidence: float = typer.Option(0.95, "--confidence", help="Confidence level."),
 ) -> None:
-    """Runs per bin to bound its failure rate to +-margin (Wilson interval)."""
-    from sitcov.analysis._flaky import runs_needed
+    """Runs per bin to bound its failure rate to +-margin (Wilson), or, with --below X, to
+    show a rate below X with no failure (exact binomial)."""
+    from sitcov.analysis._flaky import runs_needed, zero_failure_runs
 
+    if below is not None:
+        n = zero_failure_runs(below, confidence)
+        console.print(
+            f"{n} runs without a failure show a failure rate below {below:g} at "
+            f"{100 * confidence:g}% confidence (exact binomial; one failure needs more)",
+            highlight=False,
+        )
+        return
     n = runs_needed(margin, rate, confidence)
     what = "any failure rate" if rate is None else f"a failure rate near {rate:g}"
     console.print(
-        f"{n} runs per bin bound {what} to +-{margin:g} at {100 * confidence:g}% (Wilson)",
+        f"{n} runs per bin bound {what} to within {margin:g} on either side at "
+        f"{100 * confidence:g}% (Wilson)",
         highlight=False,
     )
 
@@ -779,13 +945,17 @@ def bench_cmd(
         "machine's speed drifts) and check every round gives the same outcomes.",
     ),
     json_out: bool = typer.Option(False, "--json", help="Print the figures as JSON."),
+    map_name: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--map", help="Embedded map: name, YAML or FILE.xodr[#ID] (default: t-junction)."
+    ),
+    hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
 ) -> None:
     """Runs per second of the embedded backend with the reference stack (PEM, one core)."""
     import json
 
     from sitcov.campaign._bench import bench
 
-    result = bench(runs, seed, fault=fault, rounds=rounds)
+    result = bench(runs, seed, fault=fault, rounds=rounds, map=map_name, hyperspace=hyperspace)
     if json_out:
         console.print_json(json.dumps(result))
         return
@@ -879,6 +1049,21 @@ def render_cmd(
         highlight=False,
         soft_wrap=True,
     )
+
+
+@app.command("animate")
+def animate_cmd(
+    run: str = typer.Argument(..., help="CAMPAIGN:INDEX of a stored run (INDEX if one campaign)."),
+    db: Path = typer.Option(..., "--db", help="Campaign database (SQLite)."),
+    out: Path = typer.Option(Path("run.gif"), "--out", help="FILE.gif | FILE.html | FILE.mp4."),
+    fps: int = typer.Option(10, "--fps", min=1, max=60, help="Frames per second."),
+) -> None:
+    """Animate a stored run from its trace (top-down, every actor, the ego's speed, the
+    distance and TTC to the road user it meets, the moment of failure)."""
+    from sitcov.report import animate_run
+
+    path = animate_run(db, run, out, fps=fps)
+    console.print(f"animation written to {path}", highlight=False, soft_wrap=True)
 
 
 @app.command("calibrate")
@@ -1035,35 +1220,123 @@ def _calibrate_classes_cmd(
 
 @app.command("export-xosc")
 def export_xosc_cmd(
-    out: Path = typer.Option(..., "--out", help="Directory for the .xosc files."),
+    out: Path = typer.Option(..., "--out", help="Directory for the .xosc files and the road."),
     situation_json: Optional[str] = typer.Option(  # noqa: UP045
         None,
         "--situation-json",
         help="Situation JSON (as printed by `sitcov generate`; JSON lines ok), or @FILE.",
     ),
     db: Optional[Path] = typer.Option(  # noqa: UP045
-        None, "--db", help="Export every failing run of this campaign database."
+        None, "--db", help="Export the stored runs of this campaign database (see --status)."
     ),
     campaign: Optional[str] = typer.Option(  # noqa: UP045
         None, "--campaign", help="Only this campaign of --db."
     ),
-    map_name: str = typer.Option("Town03", "--map", help="CARLA map file (name or YAML)."),
+    status: str = typer.Option(
+        "fail", "--status", help="Runs of --db to export: fail | pass | all."
+    ),
+    map_name: str = typer.Option(
+        "t-junction", "--map", help="Embedded map the --situation-json situations run on."
+    ),
+    seed: int = typer.Option(0, "--seed", help="Run seed of the --situation-json situations."),
+    road: Optional[Path] = typer.Option(  # noqa: UP045
+        None,
+        "--road",
+        help="Play on this OpenDRIVE file instead of the map's own export (CARLA's Town03 "
+        "for t-junction runs).",
+    ),
+    distribution: bool = typer.Option(
+        False,
+        "--distribution",
+        help="Also write the runs as one ParameterValueDistribution (campaign_distribution"
+        ".xosc over campaign_template.xosc and catalogs/; esmini --param_dist).",
+    ),
 ) -> None:
-    """Write OpenSCENARIO 1.0 files (one per situation) for ScenarioRunner / esmini."""
-    from sitcov.campaign._replay import failing_situations
+    """Write OpenSCENARIO 1.2 files (one per situation) plus their OpenDRIVE road, for
+    esmini, ScenarioRunner and other engines (docs/export-xosc.md)."""
+    from sitcov.campaign._xosc import export_runs, export_situations
     from sitcov.errors import ConfigError
-    from sitcov.sim.carla import export_xosc, situations_from_json
+    from sitcov.sim.carla import situations_from_json
 
     if (situation_json is None) == (db is None):
         raise ConfigError(field="export-xosc", expected="exactly one of --situation-json, --db")
+    if status not in ("fail", "pass", "all"):
+        raise ConfigError(field="--status", value=status, expected="fail | pass | all")
     if situation_json is not None:
+        if map_name.lower() == "town03":
+            raise ConfigError(
+                field="--map", value=map_name,
+                expected="an embedded map (t-junction, ...); for CARLA's Town03 give "
+                "--road PATH/Town03.xodr",
+            )  # fmt: skip
         situations = situations_from_json(situation_json)
+        written = export_situations(situations, out, map=map_name, seed=seed, road=road)
     else:
-        situations = failing_situations(db, campaign)
-    written = export_xosc(situations, out, map=map_name)
+        wanted = None if status == "all" else status
+        written = export_runs(db, out, campaign=campaign, status=wanted, road=road)
     for path in written:
         console.print(str(path), highlight=False, soft_wrap=True)
     err_console.print(f"{len(written)} OpenSCENARIO file(s) written to {out}")
+    if distribution and written:
+        from sitcov.sim.xosc import write_distribution
+
+        template, dist = write_distribution(written, out, campaign or "campaign")
+        console.print(str(dist), highlight=False, soft_wrap=True)
+        err_console.print(f"distribution of {len(written)} runs: {dist} (template {template})")
+
+
+@app.command("export-xodr")
+def export_xodr_cmd(
+    map_name: str = typer.Option("t-junction", "--map", help="Embedded map (name or YAML)."),
+    out: Path = typer.Option(..., "--out", help="OpenDRIVE file to write (.xodr)."),
+) -> None:
+    """Write an embedded map as OpenDRIVE 1.4 (roads, lanes, junction, sidewalks,
+    crosswalks), the road export-xosc's scenarios play on (docs/export-xosc.md)."""
+    from sitcov.roads import write_xodr
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._odr import road_network
+
+    network, ids = road_network(load_map(map_name))
+    write_xodr(network, out)
+    console.print(
+        f"wrote {out}: {len(network.roads)} roads, {len(ids.movements)} movements",
+        highlight=False,
+        soft_wrap=True,
+    )
+
+
+@app.command("play-xosc")
+def play_xosc_cmd(
+    paths: list[Path] = typer.Argument(..., help="Scenario files or folders of them."),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
+) -> None:
+    """Play exported scenarios (and every run of a *_distribution.xosc) in esmini and compare
+    its collisions with sitcov's verdict (same road user hit, within 0.5 s); esmini from
+    SITCOV_ESMINI or PATH."""
+    import json
+
+    from sitcov.sim.xosc import play, play_distribution, summarise
+
+    def expand(path: Path) -> list[Path]:
+        if not path.is_dir():
+            return [path]
+        return [f for f in sorted(path.glob("*.xosc")) if not f.stem.endswith("_template")]
+
+    played = []
+    for f in (f for p in paths for f in expand(p)):
+        played += play_distribution(f) if f.stem.endswith("_distribution") else [play(f)]
+    summary = summarise(played)
+    if as_json:
+        console.print(json.dumps(summary.to_dict()), highlight=False, soft_wrap=True)
+        return
+    console.print(
+        f"{summary.files} file(s): {summary.clean} loaded cleanly ({summary.clean_rate:.1%}), "
+        f"{summary.agree} agree with sitcov ({summary.agree_rate:.1%}; "
+        f"{summary.expected_collisions} stored collisions)",
+        highlight=False,
+    )
+    for name in summary.disagreeing:
+        console.print(f"  differs: {name}", highlight=False, soft_wrap=True)
 
 
 @app.command("carla-check")

@@ -48,8 +48,48 @@ def need_program(*names: str) -> str:
     missing(f"{' or '.join(names)} is not on PATH")
 
 
+def need_esmini_library() -> str:
+    """The path of esmini's C library, found as the esmini backend finds it
+    (``SITCOV_ESMINI_LIB``, ``SITCOV_ESMINI`` or an ``esmini`` on PATH; CI sets
+    ``SITCOV_ESMINI`` to the shared build)."""
+    from sitcov.errors import SetupError
+    from sitcov.sim.esmini import find_library
+
+    try:
+        return str(find_library())
+    except SetupError as exc:
+        missing(str(exc))
+
+
 def not_on_this_machine(reason: str) -> NoReturn:
     """Skip, in CI too: the test needs a capability of the machine itself that no install
     step can provide (root, a cgroup-v1 memory controller, /proc start times). Each such test
     has a sibling that runs everywhere (docs/reliability.md names it)."""
     pytest.skip(reason, allow_module_level=True)
+
+
+def need_esmini(tool: str = "esmini"):
+    """The esmini player (``SITCOV_ESMINI`` or PATH; CI points it at ../shared's build) or
+    another program of its build beside it (``odrplot``), as a ``pathlib.Path``."""
+    from sitcov.sim.xosc import esmini_tool, find_esmini
+
+    esmini = find_esmini()
+    if esmini is None:
+        missing("esmini not found (set SITCOV_ESMINI to the esmini program, or put it on PATH)")
+    if tool == "esmini":
+        return esmini
+    path = esmini_tool(tool, esmini)
+    if path is None:
+        missing(f"{tool} not found beside {esmini}")
+    return path
+
+
+def need_schema(name: str):
+    """An ASAM schema (``OpenSCENARIOv1.2.xsd``, ``OpenDRIVE_1.4H.xsd``) of the esmini build."""
+    from sitcov.sim.xosc import schema_dir
+
+    folder = schema_dir(need_esmini())
+    path = None if folder is None else folder / name
+    if path is None or not path.is_file():
+        missing(f"schema {name} not found in esmini's schema folder ({folder})")
+    return path

@@ -51,8 +51,11 @@ PACKAGES = (
     "sim",
     "sim.embedded",
     "sim.carla",
+    "sim.esmini",
     "weather",
+    "roads",
     "report",
+    "evidence",
 )
 
 

@@ -2,6 +2,7 @@
 and explanations of the failures (interaction tests, failure regions)."""
 
 from sitcov.analysis._explain import interaction_analysis
+from sitcov.analysis._progress import completion_lines, route_completion_stats
 from sitcov.analysis._regions import explain, explain_lines, failure_regions
 from sitcov.analysis._stats import Z95, uniformity, wilson_interval
 from sitcov.analysis._summary import (
@@ -18,6 +19,7 @@ from sitcov.analysis._summary import (
 __all__ = [
     "Z95",
     "bin_stats",
+    "completion_lines",
     "breakdowns",
     "coverage",
     "coverage_growth",
@@ -26,6 +28,7 @@ __all__ = [
     "failures_by_kind",
     "failure_regions",
     "interaction_analysis",
+    "route_completion_stats",
     "summarize",
     "uniformity",
     "wilson_interval",

@@ -7,8 +7,12 @@ the share of flaky situations (Wilson 95 % interval) and the mean flip probabili
 percentile-bootstrap interval over situations, seeded).
 
 Runs-needed: the smallest ``n`` such that the Wilson interval of a failure rate observed
-as ``p`` in ``n`` runs has half-width at most ``margin``; with no rate given the worst case
-``p = 0.5`` (the widest interval) is used, which bounds every other rate.
+as ``p`` in ``n`` runs reaches at most ``margin`` from ``p`` on either side (the interval
+is lopsided near 0 and 1: at ``p = 0`` its upper end is ``z^2 / (n + z^2)``, so claiming
+"below 5 %" takes 73 runs, not the 35 a symmetric half-width suggests); with no rate given
+the worst case ``p = 0.5`` is used, which bounds every other rate. ``zero_failure_runs``
+answers the other question a safety engineer asks: how many runs, none failing, show the
+rate is below ``x`` with a given confidence (exact binomial: ``(1 - x)^n <= 1 - c``).
 """
 
 from __future__ import annotations
@@ -34,8 +38,36 @@ def wilson_half_width(p: float, n: int, z: float) -> float:
     return z * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / (1 + z2 / n)
 
 
+def wilson_reach(p: float, n: int, z: float) -> float:
+    """How far the Wilson interval of a rate ``p`` observed in ``n`` runs reaches from
+    ``p``: the larger of ``p - lower`` and ``upper - p`` (the interval is lopsided near
+    0 and 1, so its half-width understates the far side there)."""
+    z2 = z * z
+    centre = (p + z2 / (2 * n)) / (1 + z2 / n)
+    half = wilson_half_width(p, n, z)
+    lo, hi = max(0.0, centre - half), min(1.0, centre + half)
+    return max(p - lo, hi - p)
+
+
+def zero_failure_runs(below: float, confidence: float = 0.95) -> int:
+    """Runs, none failing, that show a failure rate below ``below`` with ``confidence``
+    (exact one-sided binomial bound: the smallest ``n`` with ``(1 - below)^n <= 1 - c``;
+    about ``3 / below`` at 95 %, the "rule of three")."""
+    if not 0 < below < 1:
+        raise ConfigError(field="--below", value=below, expected="a rate in (0, 1)")
+    if not 0 < confidence < 1:
+        raise ConfigError(field="--confidence", value=confidence, expected="a number in (0, 1)")
+    n = math.ceil(math.log(1.0 - confidence) / math.log(1.0 - below))
+    while n > 1 and (1.0 - below) ** (n - 1) <= 1.0 - confidence:  # guard float rounding
+        n -= 1
+    while (1.0 - below) ** n > 1.0 - confidence:
+        n += 1
+    return n
+
+
 def runs_needed(margin: float, rate: float | None = None, confidence: float = 0.95) -> int:
-    """Runs per bin so that the Wilson interval of its failure rate is at most ``±margin``.
+    """Runs per bin so that the Wilson interval of its failure rate reaches at most
+    ``margin`` from the rate on either side.
 
     Args:
         margin: wanted half-width, in (0, 0.5].
@@ -43,8 +75,8 @@ def runs_needed(margin: float, rate: float | None = None, confidence: float = 0.
         confidence: two-sided confidence level in (0, 1).
 
     Returns:
-        The smallest such ``n`` (the half-width decreases with ``n`` for a fixed rate, so
-        it is found by doubling and bisection, then checked exactly).
+        The smallest such ``n`` (the reach decreases with ``n`` for a fixed rate, so it is
+        found by doubling and bisection).
     """
     if not 0 < margin <= 0.5:
         raise ConfigError(field="--margin", value=margin, expected="a number in (0, 0.5]")
@@ -55,12 +87,12 @@ def runs_needed(margin: float, rate: float | None = None, confidence: float = 0.
         raise ConfigError(field="--confidence", value=confidence, expected="a number in (0, 1)")
     z = NormalDist().inv_cdf(0.5 + confidence / 2)
     hi = 1
-    while wilson_half_width(p, hi, z) > margin:
+    while wilson_reach(p, hi, z) > margin:
         hi *= 2
-    lo = hi // 2  # half-width(lo) > margin unless lo == 0
+    lo = hi // 2  # reach(lo) > margin unless lo == 0
     while hi - lo > 1:
         mid = (lo + hi) // 2
-        if wilson_half_width(p, mid, z) > margin:
+        if wilson_reach(p, mid, z) > margin:
             lo = mid
         else:
             hi = mid

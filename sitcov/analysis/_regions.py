@@ -7,6 +7,10 @@ fitted failure rate is at least 50 % and at least the overall rate becomes a rul
 conjunction of the conditions on its path. Each rule's support,
 precision (with a Wilson interval) and recall are then counted on the held-out runs only.
 
+A rule is kept only when the lower end of its held-out precision's Wilson 95 % interval is
+above the held-out base failure rate: a rule that merely matches the average, measured on
+runs it was not fitted on, is dropped (listed under ``dropped``), not shown as a finding.
+
 Encoding, so that rules read as bins: an element whose bins are numbers is ordinal (bin
 index in hyperspace order; a split reads ``friction <= 0.2``); any other element (e.g.
 ``intsit``) is categorical, its bins ordered by their failure rate on the fitting part, so
@@ -16,7 +20,7 @@ this ordering contains the best subset split (Breiman et al. 1984, section 9.4).
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -30,6 +34,9 @@ from sitcov.hyperspace import Hyperspace
 HOLDOUT = 1 / 3
 #: depth of the tree (rules have at most this many conditions)
 MAX_DEPTH = 3
+#: a categorical condition with more bins than this is written grouped (by road-user kind
+#: and conflict type where the bins carry them), the full list staying in ``bins``
+MAX_LISTED = 6
 
 
 def _is_ordinal(hs: Hyperspace, e: int) -> bool:
@@ -74,16 +81,50 @@ def _conditions(
         labels = [el.labels[lv] for lv in sorted(kept)]
         if _is_ordinal(hs, e):
             first, last = min(kept), max(kept)
-            if first == 0:
+            if first == last:
+                text = f"{el.name} = {el.labels[first]}"
+            elif first == 0:
                 text = f"{el.name} <= {el.labels[last]}"
             elif last == len(order) - 1:
                 text = f"{el.name} >= {el.labels[first]}"
             else:
                 text = f"{el.labels[first]} <= {el.name} <= {el.labels[last]}"
+        elif len(labels) > MAX_LISTED:
+            text = grouped_text(el, labels)
         else:
             text = f"{el.name} in {{{', '.join(labels)}}}"
         conds.append({"element": el.name, "bins": labels, "text": text})
     return conds
+
+
+def bin_group(value: Any) -> str:
+    """The group of a categorical bin: its road-user kind and conflict type where its value
+    carries them (``car crossing``, ``pedestrian crossing``), else ``other``."""
+    if not isinstance(value, Mapping) or value.get("kind") is None:
+        return "other"
+    kind = str(value["kind"])
+    kind_type = str(value.get("type") or "").replace("_", " ")
+    if not kind_type:
+        return kind
+    return kind_type if kind_type.startswith(kind) else f"{kind} {kind_type}"
+
+
+def grouped_text(el: Any, labels: list[str]) -> str:
+    """A long set of categorical bins as counts per road-user kind and conflict type,
+    naming a group whole when every bin of it is in the set (``intsit: every pedestrian
+    pedestrian_crossing bin (24), 3 of 12 car crossing bins``)."""
+    chosen = set(labels)
+    groups: dict[str, list[str]] = {}
+    for b in el.bins:
+        groups.setdefault(bin_group(b.value), []).append(b.label)
+    parts = []
+    for group, members in sorted(groups.items(), key=lambda g: -len(g[1])):
+        n = sum(m in chosen for m in members)
+        if n == len(members):
+            parts.append(f"every {group} bin ({n})")
+        elif n:
+            parts.append(f"{n} of {len(members)} {group} bins")
+    return f"{el.name}: {len(labels)} of {len(el.bins)} bins: " + ", ".join(parts)
 
 
 def _measure(mask: np.ndarray, y: np.ndarray) -> dict[str, Any]:
@@ -149,13 +190,17 @@ def failure_regions(
         "holdout_runs": int(n_hold),
         "message": _not_enough(n, int(y.sum()), min_runs),
         "rules": [],
+        "dropped": [],
     }
     if out["message"]:
         return out
     orders = _orders(hyperspace, codes[fit], y[fit])
     threshold = max(0.5, float(y[fit].mean()))
+    min_leaf = max(10, len(fit) // 50)
+    base_rate = float(y[hold].mean()) if n_hold else 0.0
+    out.update(min_leaf=min_leaf, holdout_base_rate=base_rate)
     leaves = grow(_features(codes[fit], orders), y[fit], max_depth=max_depth,
-                  min_leaf=max(10, len(fit) // 50), threshold=threshold)  # fmt: skip
+                  min_leaf=min_leaf, threshold=threshold)  # fmt: skip
     for _, lo, hi in leaves:
         conds = _conditions(hyperspace, orders, lo, hi)
         fitted = _measure(_matches(codes[fit], hyperspace, conds), y[fit])
@@ -163,9 +208,20 @@ def failure_regions(
             continue
         text = " and ".join(c["text"] for c in conds) or "everywhere"
         held = _measure(_matches(codes[hold], hyperspace, conds), y[hold])
-        out["rules"].append({"text": text, "conditions": conds, "fit": fitted, "holdout": held})
+        rule = {"text": text, "conditions": conds, "fit": fitted, "holdout": held}
+        if _beats(held, base_rate):
+            out["rules"].append(rule)
+        else:
+            out["dropped"].append(rule)
     out["rules"].sort(key=lambda r: (-r["fit"]["failures"], -r["fit"]["precision"]))
     return out
+
+
+def _beats(held: dict[str, Any], base_rate: float) -> bool:
+    """Whether a rule's held-out precision is above the held-out base rate beyond
+    sampling error: the lower end of its Wilson 95 % interval is above the base rate."""
+    ci = held["precision_ci95"]
+    return bool(held["support"]) and ci is not None and ci[0] > base_rate
 
 
 def rule_line(rule: dict[str, Any]) -> str:
@@ -224,5 +280,13 @@ def explain_lines(result: dict[str, Any], top: int = 10) -> list[str]:
     lines.append(f"failure regions ({regions['validation']}):")
     lines += [f"- {rule_line(r)}" for r in regions["rules"]]
     if not regions["rules"]:
-        lines.append("  no rule reaches 50% precision on the fitting runs")
+        lines.append("  no rule reaches 50% precision on the fitting runs and, held out, beats"
+                     " the base rate")  # fmt: skip
+    if regions.get("min_leaf"):
+        base = regions.get("holdout_base_rate") or 0.0
+        lines.append(
+            f"  (rules: >= {regions['min_leaf']} fitting runs per leaf; kept only when the "
+            f"lower end of their held-out precision's 95% interval beats the held-out base "
+            f"rate {100 * base:.0f}%: {len(regions.get('dropped', []))} dropped)"
+        )
     return lines

@@ -6,7 +6,8 @@ with those keys work too. ``pending`` runs were planned but not run and are igno
 ``generated`` counts every other run; failure rates are over *judged* runs (pass + fail),
 so errors and timeouts neither count as failures nor dilute the rate.
 
-A failed run's kind (``collision``, ``road_departure``, ``lane_departure``) is its
+A failed run's kind (``collision``, ``ego_stationary``, ``road_departure``,
+``lane_departure``, ``blocked``, ``route_incomplete``) is its
 ``failure_kind`` (a RunRecord property or a mapping key); a failed run without one is a
 collision, as every failure was before failure kinds existed.
 """
@@ -28,7 +29,16 @@ from sitcov.hyperspace import Hyperspace
 
 #: Kinds a failed run can have (``sitcov.sim.FAILURE_KINDS``, repeated to keep analysis
 #: free of simulation imports).
-FAILURE_KINDS = ("collision", "road_departure", "lane_departure")
+FAILURE_KINDS = (
+    "collision",
+    "ego_stationary",
+    "road_departure",
+    "lane_departure",
+    "blocked",
+    "route_incomplete",
+)
+#: Kinds that are a collision of the ego (which road user it hit is counted for them).
+COLLISION_KINDS = ("collision", "ego_stationary")
 
 
 def _field(run: Any, name: str) -> Any:
@@ -262,7 +272,7 @@ class _Tally:
         self.idx.extend(row)
         self.codes.append(_CODE.get(status, -1))
         self.kind_codes.append(kind)
-        self.hits.append(run_hit(run, kind >= 0 and FAILURE_KINDS[kind] == "collision"))
+        self.hits.append(run_hit(run, kind >= 0 and FAILURE_KINDS[kind] in COLLISION_KINDS))
 
     def _matrix(self) -> np.ndarray:
         return np.array(self.idx, dtype=np.int64).reshape(-1, len(self.names))
@@ -387,15 +397,32 @@ def worst_bins(
 
 
 def worst_pairs(
-    hyperspace: Hyperspace, runs: Iterable[Any], *, min_judged: int = 5, top: int | None = 10
+    hyperspace: Hyperspace,
+    runs: Iterable[Any],
+    *,
+    min_judged: int = 5,
+    top: int | None = 10,
+    beyond_bins: bool = False,
 ) -> list[dict[str, Any]]:
     """Pairs of bins (two elements) with the highest failure rates, ranked as
-    :func:`worst_bins`; each row has ``elements`` and ``labels`` (2-tuples)."""
+    :func:`worst_bins`; each row has ``elements`` and ``labels`` (2-tuples) and
+    ``bin_rates``, the two bins' own failure rates.
+
+    With ``beyond_bins`` only pairs that fail more than both of their bins alone are kept
+    (the lower end of the pair's Wilson interval above each bin's own failure rate):
+    otherwise one bad bin (friction 0.1) fills the list with copies of itself paired with
+    every other bin.
+    """
     indexed, _ = _indexed(hyperspace, runs)
     tallies: dict[tuple[int, int, int, int], list[int]] = {}
+    singles: dict[tuple[int, int], list[int]] = {}
     for idx, status in indexed:
         if status not in ("pass", "fail"):
             continue
+        for e, b in enumerate(idx):
+            t = singles.setdefault((e, b), [0, 0])
+            t[0] += status == "fail"
+            t[1] += 1
         for p in _pairs_of(idx):
             t = tallies.setdefault(p, [0, 0])
             t[0] += status == "fail"
@@ -404,6 +431,10 @@ def worst_pairs(
     rows = []
     for (e1, b1, e2, b2), (fails, judged) in tallies.items():
         rate, ci = _rate(fails, judged)
+        (k1, n1), (k2, n2) = singles[(e1, b1)], singles[(e2, b2)]
+        alone = (k1 / n1, k2 / n2)
+        if beyond_bins and (ci is None or ci[0] <= max(alone)):
+            continue
         rows.append(
             {
                 "elements": (names[e1], names[e2]),
@@ -412,6 +443,7 @@ def worst_pairs(
                 "judged": judged,
                 "failure_rate": rate,
                 "ci95": ci,
+                "bin_rates": alone,
             }
         )
     return _ranked(rows, min_judged, top)

@@ -15,7 +15,7 @@ from sitcov.av._external import ExternalProcessStack, external_stack
 from sitcov.av._factory import make_stack
 from sitcov.av._faults import DEFAULT_PARAMS, FAULT_DESCRIPTIONS, FAULTS, resolve_params
 from sitcov.av._pid import LateralPID, LongitudinalPID, heading_error
-from sitcov.av._reference import NoPerceptionStack, ReferenceStack
+from sitcov.av._reference import LatchedReferenceStack, NoPerceptionStack, ReferenceStack
 
 __all__ = [
     "DEFAULT_PARAMS",
@@ -28,6 +28,7 @@ __all__ = [
     "ExternalProcessStack",
     "LateralPID",
     "LongitudinalPID",
+    "LatchedReferenceStack",
     "NoPerceptionStack",
     "Observation",
     "ReferenceStack",

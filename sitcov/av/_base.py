@@ -95,7 +95,9 @@ class Control:
         info: optional diagnostics (e.g. ``{"aeb": True}``), stored with the run's metrics.
             Reserved key ``"aeb"``: True means the stack's emergency brake has latched and
             it ignores perception from now on (it brakes to the end of the run); a backend
-            may then stop producing camera frames for it.
+            may then stop producing camera frames for it. Reserved key ``"aeb_active"``:
+            True means its emergency brake brakes now but will release (perception goes
+            on); either key records when the AEB first fired (``Outcome.aeb_time``).
     """
 
     throttle: float = 0.0

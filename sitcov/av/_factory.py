@@ -11,6 +11,7 @@ from sitcov.av._base import AVStack
 from sitcov.errors import ConfigError
 
 register_builtin("av", "reference", "sitcov.av._reference:ReferenceStack")
+register_builtin("av", "reference-latched", "sitcov.av._reference:LatchedReferenceStack")
 register_builtin("av", "no-perception", "sitcov.av._reference:NoPerceptionStack")
 
 
@@ -22,10 +23,11 @@ def make_stack(
     """Build the AV stack named by ``spec``.
 
     Args:
-        spec: ``"reference"`` (the paper's stack), ``"no-perception"`` (the same without
-            its brake), an entry point in the group ``sitcov.av``, ``package.module:Class``,
-            or ``cmd:COMMAND`` (an external process; ``params`` are its options, see
-            ``sitcov.av.external_stack``).
+        spec: ``"reference"`` (the paper's stack, its AEB releasing),
+            ``"reference-latched"`` (its AEB latched, as the paper's),
+            ``"no-perception"`` (the same without its brake), an entry point in the
+            group ``sitcov.av``, ``package.module:Class``, or ``cmd:COMMAND`` (an
+            external process; ``params`` are its options, see ``sitcov.av.external_stack``).
         fault: seeded fault (``f1``/``f2``/``f3``), passed to stacks that accept ``fault``.
         params: parameter overrides, passed to stacks that accept ``params``.
 

@@ -28,6 +28,13 @@ DEFAULT_PARAMS: dict[str, Any] = {
     # detection classes the AEB acts on (the label above always counts); how closeness
     # is judged per class: sitcov.av._aeb.CLASS_SIZE, docs/embedded.md
     "classes": ("car", "person", "bicycle"),
+    # What the AEB does once it fired: brake fully to a standstill, hold while a frame
+    # still triggers it and for aeb_hold seconds after the last one that did, then hand
+    # back to route following (a production AEB holds the car, then releases to the
+    # driver). aeb_latch: brake to the end of the run instead (the paper's stack; the
+    # "reference-latched" stack).
+    "aeb_latch": False,
+    "aeb_hold": 1.0,  # [s]
     # Route following (CARLA's local planner and PID controllers).
     "target_speed_kmh": 25.0,  # cruise speed [km/h]
     "lat_kp": 0.58,  # lateral P gain [1/rad]
@@ -121,6 +128,10 @@ def _validate(name: str, value: Any) -> Any:
                 field="params.centering", value=value, expected="[lo, hi] with 0 <= lo < hi <= 1"
             )
         return (lo, hi)
+    if name == "aeb_latch":
+        if not isinstance(value, bool):
+            raise ConfigError(field="params.aeb_latch", value=value, expected="true or false")
+        return value
     if name == "threshold":
         return _number(name, value, 0.0, 1.0)
     if name in _INT_PARAMS:

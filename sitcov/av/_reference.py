@@ -1,12 +1,16 @@
-"""The reference modular ego stack: route following by PID, camera perception and a latched AEB.
+"""The reference modular ego stack: route following by PID, camera perception and an AEB.
 
 This is the stack of the paper (Tahir & Alexander): CARLA's local planner and PID
 controllers drive the route at 25 km/h; a camera-only perception stage feeds an emergency
 brake that fires when a detection of a road user (by default a car, a person or a bicycle:
 the ``classes`` parameter) passes three tests (score, centering, apparent size: the box
-width for a car, the scaled box height for a person or cyclist, :data:`CLASS_SIZE`) and
-then brakes fully until the run ends. The seeded faults change those tests'
-parameters (see :mod:`sitcov.av._faults`).
+width for a car, the scaled box height for a person or cyclist, :data:`CLASS_SIZE`).
+Once fired, it brakes fully to a standstill, holds while frames still trigger it and for
+``aeb_hold`` seconds after the last one that did, then hands back to route following, so
+the stack can finish its route after a stop. The paper's brake latched until the end of
+the run: that is the ``aeb_latch`` parameter, and the stack named ``reference-latched``
+(:class:`LatchedReferenceStack`), which the paper's Table 2 protocol uses. The seeded
+faults change the three tests' parameters (see :mod:`sitcov.av._faults`).
 """
 
 from __future__ import annotations
@@ -26,6 +30,9 @@ from sitcov.perception._base import CameraSpec, Detection
 
 Detector = Callable[[Any], Sequence[Detection]]
 
+#: The releasing AEB hands back only once the car stands (below this speed [m/s]): like a
+#: production AEB it brakes to a standstill and holds there (the judge's stationary speed).
+_HELD_SPEED = 0.3
 #: Distance to the last route point at which the route counts as driven [m] (CARLA: 1 m).
 _ARRIVED = 1.0
 #: ``math.hypot`` under the name :func:`_route_step` uses (``sitcov/_jit.py``
@@ -68,6 +75,8 @@ class ReferenceStack(AVStack):
         self._centering = p["centering"]
         self._distance = p["distance"]
         self.min_box_width = aeb_min_box_width(self._distance) if self.aeb else math.inf
+        self.aeb_latches = bool(p["aeb_latch"])
+        self._hold = float(p["aeb_hold"])
         self._label = p["label"]
         self._classes = frozenset((*p["classes"], p["label"]))
         self.min_box_sizes = (
@@ -79,7 +88,9 @@ class ReferenceStack(AVStack):
 
     def _reset_state(self) -> None:
         self._steer = 0.0
-        self._fired_at: float | None = None
+        self._fired_at: float | None = None  # latched: when it fired
+        self._braking_since: float | None = None  # releasing AEB: when it fired, while on
+        self._clear_since: float | None = None  # ... and since when no frame triggered it
         self._state: Any = None  # the route step's array, made at the first step
 
     def reset(self, info: RunInfo) -> None:
@@ -104,8 +115,8 @@ class ReferenceStack(AVStack):
 
     @property
     def aeb_fired(self) -> bool:
-        """Whether the emergency brake has fired in this run."""
-        return self._fired_at is not None
+        """Whether the emergency brake is latched (or, releasing, braking) now."""
+        return self._fired_at is not None or self._braking_since is not None
 
     def step(self, observation: Observation) -> Control:
         """One control step: perception and AEB first, then route following."""
@@ -121,7 +132,9 @@ class ReferenceStack(AVStack):
         )
         if fired is None:
             return Control(thr, brk, steer)
-        return Control(thr, brk, steer, {"aeb": True, "aeb_time": fired})
+        if self.aeb_latches:
+            return Control(thr, brk, steer, {"aeb": True, "aeb_time": fired})
+        return Control(thr, brk, steer, {"aeb_active": True, "aeb_time": fired})
 
     def plain_step(self) -> Callable[..., tuple[float, float, float, float | None]] | None:
         """:meth:`step` on plain values for a backend that calls it every control step
@@ -141,15 +154,27 @@ class ReferenceStack(AVStack):
         detections: Sequence[Detection] | None,
         image: Any,
     ) -> tuple[float, float, float, float | None]:
-        """:meth:`step`'s decision: (throttle, brake, steer, the AEB's firing time or None)."""
+        """:meth:`step`'s decision: (throttle, brake, steer, the AEB's firing time while it
+        brakes, else None); see the module docstring for latching and releasing."""
         if self._fired_at is not None:
             return 0.0, 1.0, self._steer, self._fired_at
-        if (
-            self.aeb
-            and (detections is not None or image is not None)
-            and self._perceive(detections, image)
-        ):  # a new frame (between frames the last decision holds)
-            self._fired_at = t
+        frame = self.aeb and (detections is not None or image is not None)
+        since = self._braking_since
+        if since is not None:  # releasing AEB, braking: hold, then hand back
+            if frame:  # a new frame (between frames the last decision holds)
+                if self._perceive(detections, image):
+                    self._clear_since = None
+                elif self._clear_since is None:
+                    self._clear_since = t
+            clear = self._clear_since
+            if clear is None or t - clear < self._hold - 1e-9 or speed >= _HELD_SPEED:
+                return 0.0, 1.0, self._steer, since
+            self._braking_since = self._clear_since = None
+        elif frame and self._perceive(detections, image):
+            if self.aeb_latches:
+                self._fired_at = t
+            else:
+                self._braking_since = t
             return 0.0, 1.0, self._steer, t
         # route following: the next waypoint, the two PIDs and CARLA's steering
         # regulation, all in _route_step (compiled when numba is there)
@@ -275,6 +300,23 @@ def _step_kernel() -> Any:
         _STEP = compiled(_route_step, example, 0.0, 0.5, 0.1, 3.0, helpers=(window_pid,))
         _STEP = _STEP or _route_step
     return _STEP
+
+
+class LatchedReferenceStack(ReferenceStack):
+    """The paper's reference stack exactly: once its AEB fires it brakes to the end of the
+    run (``aeb_latch``). ``sitcov experiment faults --av reference-latched`` runs the
+    paper's Table 2 protocol with it (docs/experiments.md)."""
+
+    name: ClassVar[str] = "reference-latched"
+
+    def __init__(
+        self,
+        fault: str | None = None,
+        params: Mapping[str, Any] | None = None,
+        aeb: bool = True,
+        detector: Detector | None = None,
+    ) -> None:
+        super().__init__(fault, {"aeb_latch": True, **(params or {})}, aeb, detector)
 
 
 class NoPerceptionStack(ReferenceStack):

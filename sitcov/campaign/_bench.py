@@ -20,6 +20,8 @@ def bench(
     warmup: int = 5,
     rounds: int = 1,
     progress: Callable[[int], None] | None = None,
+    map: str | None = None,  # noqa: A002 - the backend option's name
+    hyperspace: str | None = None,
 ) -> dict[str, Any]:
     """Run ``runs`` random default-hyperspace situations with the reference stack.
 
@@ -37,6 +39,9 @@ def bench(
     and ``rounds_runs_per_s`` every round's figure. Every round must give the same
     outcomes (the same seeds give the same runs), else RuntimeError.
 
+    ``map`` runs on another embedded map (a name, a YAML file or ``FILE.xodr[#ID]``) and
+    ``hyperspace`` draws from another hyperspace file (e.g. one derived on that map).
+
     Returns:
         ``{"runs", "runs_per_s", "ms_per_run", "mean_steps", "failures", "wall_s", "cpu_s",
         "warmup_cpu_s", "jit", "end_reasons", "rounds", "rounds_runs_per_s"}`` (times of
@@ -49,10 +54,11 @@ def bench(
     from sitcov.sim._judge import Judge
     from sitcov.sim.embedded._backend import EmbeddedBackend
 
-    hyperspace = load_hyperspace()
-    generator = make_generator("random", hyperspace)
+    space = load_hyperspace(hyperspace) if hyperspace else load_hyperspace()
+    generator = make_generator("random", space)
     situations = [generator.ask(ask_rng(seed, i)) for i in range(runs)]
-    backend = EmbeddedBackend(perception=perception, physics=physics)
+    options = {"map": map} if map else {}
+    backend = EmbeddedBackend(perception=perception, physics=physics, **options)
     verdict = Judge.from_spec(judge)
     stack = make_stack("reference", fault=fault)
     cpu0 = time.process_time()

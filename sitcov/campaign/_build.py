@@ -176,6 +176,18 @@ def build_stack(config: CampaignConfig) -> AVStack:
     return make_stack(config.av, fault=config.fault, params=config.av_params)
 
 
+def check_backend_hyperspace(backend: Any, hyperspace: Any) -> None:
+    """Let a backend refuse a hyperspace it cannot play (its optional ``check_hyperspace``,
+    e.g. the esmini backend: elements that are no parameter of the user's scenario).
+
+    Raises:
+        ConfigError: the backend's one-line reason.
+    """
+    check = getattr(backend, "check_hyperspace", None)
+    if callable(check):
+        check(hyperspace)
+
+
 def check_parts(config: CampaignConfig) -> None:
     """Build every part ``config`` names once, then close it.
 
@@ -188,5 +200,9 @@ def check_parts(config: CampaignConfig) -> None:
     hyperspace = resolve_hyperspace(config.hyperspace)
     config = with_hyperspace_map(config, hyperspace)
     make_generator(config, hyperspace)
-    build_backend(config).close()
+    backend = build_backend(config)
+    try:
+        check_backend_hyperspace(backend, hyperspace)
+    finally:
+        backend.close()
     build_stack(config).close()

@@ -8,7 +8,7 @@ Example ``campaign.yaml``::
     seed: 7
     backend_options: {perception: pem}
     physics: carla          # or physical (docs/weather.md)
-    judge: default          # collision + road_departure; paper | strict | [kinds]
+    judge: default          # or paper | strict | a list of kinds (docs/campaigns.md)
     fault: f2
     executor: processes
     workers: 2
@@ -42,9 +42,10 @@ class CampaignConfig(BaseModel):
         physics: the backend's physics profile, ``carla`` (what CARLA does: weather acts on
             perception only) or ``physical`` (wet-road friction, crosswind force); given to
             the backend as its ``physics`` option. ``backend_options.physics`` is moved here.
-        judge: what counts as a failure: ``default`` (collision + road departure),
-            ``paper`` (collision only, the paper's judge), ``strict`` (also lane
-            departure) or a list of kinds (``sitcov.sim.FAILURE_KINDS``).
+        judge: what counts as a failure: ``default`` (collision while moving, road
+            departure, blocked, route incomplete), ``paper`` (every ego collision, the
+            paper's judge), ``strict`` (every kind) or a list of kinds
+            (``sitcov.sim.FAILURE_KINDS``).
         av: AV stack name (or ``module:Class``); ``fault`` a seeded fault (f1|f2|f3);
             ``av_params`` parameter overrides.
         runs: total runs wanted in the campaign (running again with more extends it).
@@ -194,6 +195,7 @@ def run_overrides(
     *,
     perception: str | None = None,
     carla: Mapping[str, Any] | None = None,
+    esmini: Mapping[str, Any] | None = None,
     av_cmd: str | None = None,
     av_step_timeout: float | None = None,
     grey_box: bool | None = None,
@@ -205,6 +207,9 @@ def run_overrides(
         perception: ``--perception``, an option of the embedded backend.
         carla: the ``--carla-*``/``--map`` flags that were given, as keyword arguments of
             ``sitcov.sim.carla.carla_backend_options``; they need ``backend="carla"``.
+        esmini: ``--scenario`` (a .xosc file or a folder of them) and ``--road`` (an
+            OpenDRIVE file) as the esmini backend's ``scenario`` and ``road`` options, made
+            absolute; they need ``backend="esmini"``.
         av_cmd: ``--av-cmd``, an external-process stack (protocol in docs/protocol.md).
         av_step_timeout: ``--av-step-timeout`` [s] for an external stack.
         grey_box: ``--grey-box``: the stack is also given the situation at reset.
@@ -226,6 +231,11 @@ def run_overrides(
         from sitcov.sim.carla import carla_backend_options
 
         backend_options.update(carla_backend_options(**carla))
+    if esmini:
+        if fields.get("backend") != "esmini":
+            flags = ", ".join("--" + k for k in esmini)
+            raise ConfigError(f"{flags}: these flags need --backend esmini")
+        backend_options.update({k: str(Path(v).resolve()) for k, v in esmini.items()})
     if av_cmd:
         if fields.get("av"):
             raise ConfigError("--av and --av-cmd: give one stack, not both")

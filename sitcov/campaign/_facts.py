@@ -30,10 +30,12 @@ def iter_facts(
 ) -> Iterator[dict[str, Any]]:
     """One mapping per run (same filters as ``Store.iter_runs``, in no particular order):
     ``bins``, ``status``, ``failure_kind``, ``events`` (the failure events the run's
-    outcome reports as facts, a tuple of kinds; empty while pending) and ``hit`` (the
+    outcome reports as facts, a tuple of kinds; empty while pending), ``hit`` (the
     outcome's ``metrics["collision_kind"]``: the kind of road user the ego collided with;
     None without a collision and in runs that do not store it, such as the paper's
-    two-car scene, whose only other road user is a car)."""
+    two-car scene, whose only other road user is a car), ``completion`` (the outcome's
+    ``metrics["route_completion"]``, None in runs stored before world model 3) and
+    ``actor_collisions`` (how many collisions between two other road users it records)."""
     if isinstance(store, SQLiteStore):
         yield from _sql_facts(store, campaign, status)
         return
@@ -53,6 +55,9 @@ class RunFacts:
         campaign, index, seed, status, failure_kind, bins: as in ``RunRecord``.
         config: the campaign's stored config (shared by its runs).
         hit: the kind of road user the ego collided with, as :func:`iter_facts` says.
+        events, completion, actor_collisions: as :func:`iter_facts` says (the failure
+            events that happened, counted or not; the route completion; collisions
+            between two other road users).
     """
 
     campaign: str
@@ -63,6 +68,9 @@ class RunFacts:
     bins: Mapping[str, str]
     config: Mapping[str, Any]
     hit: str | None = None
+    events: tuple[str, ...] = ()
+    completion: float | None = None
+    actor_collisions: int = 0
 
 
 def iter_run_facts(
@@ -72,6 +80,7 @@ def iter_run_facts(
     order, streamed."""
     if not isinstance(store, SQLiteStore):
         for run in store.iter_runs(campaign, status):
+            facts = record_facts(run)
             yield RunFacts(
                 run.campaign,
                 run.index,
@@ -80,22 +89,39 @@ def iter_run_facts(
                 run.failure_kind,
                 dict(run.bins),
                 run.config,
-                run_hit(run),
+                facts["hit"],
+                facts["events"],
+                facts["completion"],
+                facts["actor_collisions"],
             )
         return
     config = store._config(campaign)
     where, params = store._where(campaign, status)
     cursor = store._db.execute(
-        f"SELECT idx, seed, status, failure_kind, bins, {_HIT} FROM runs{where} ORDER BY idx",
+        f"SELECT idx, seed, status, failure_kind, bins, {_HIT}, {_EVENT_MASK}, {_COMPLETION}, "
+        f"{_ACTOR_COLLISIONS} FROM runs{where} ORDER BY idx",
         params,
     )
     while rows := cursor.fetchmany(_CHUNK):
-        for idx, seed, state, kind, bins, hit in rows:
+        for idx, seed, state, kind, bins, hit, mask, completion, contacts in rows:
             try:
                 decoded = json.loads(bins)
             except (ValueError, TypeError) as exc:
                 raise _damaged(store.location, f"run {campaign}:{idx}", exc) from None
-            yield RunFacts(campaign, int(idx), int(seed), state, kind, decoded, config, hit)
+            events = _COLLISION if mask == 0 and state == "fail" else _EVENTS[mask]
+            yield RunFacts(
+                campaign,
+                int(idx),
+                int(seed),
+                state,
+                kind,
+                decoded,
+                config,
+                hit,
+                events,
+                completion,
+                contacts or 0,
+            )
 
 
 def total_wall_time(store: Store, campaign: str) -> float:
@@ -113,12 +139,16 @@ def total_wall_time(store: Store, campaign: str) -> float:
 def record_facts(run: RunRecord) -> dict[str, Any]:
     """The facts of a run record (what :func:`iter_facts` gives for it)."""
     events = tuple(event_times(run.outcome)) if run.outcome is not None else ()
+    metrics = run.outcome.metrics if run.outcome is not None else {}
+    completion = metrics.get("route_completion")
     return {
         "bins": dict(run.bins),
         "status": run.status,
         "failure_kind": run.failure_kind,
         "events": events,
         "hit": run_hit(run),
+        "completion": None if completion is None else float(completion),
+        "actor_collisions": len(metrics.get("actor_collisions") or ()),
     }
 
 
@@ -136,11 +166,12 @@ def _sql_facts(
 ) -> Iterator[dict[str, Any]]:
     where, params = store._where(campaign, status)
     cursor = store._db.execute(
-        f"SELECT campaign, idx, bins, status, failure_kind, {_EVENT_MASK}, {_HIT} FROM runs{where}",
+        f"SELECT campaign, idx, bins, status, failure_kind, {_EVENT_MASK}, {_HIT}, "
+        f"{_COMPLETION}, {_ACTOR_COLLISIONS} FROM runs{where}",
         params,
     )
     while rows := cursor.fetchmany(_CHUNK):
-        for name, idx, bins, state, kind, mask, hit in rows:
+        for name, idx, bins, state, kind, mask, hit, completion, contacts in rows:
             try:
                 decoded = json.loads(bins)
             except (ValueError, TypeError) as exc:
@@ -152,18 +183,23 @@ def _sql_facts(
                 "failure_kind": kind,
                 "events": events,
                 "hit": hit,
+                "completion": completion,
+                "actor_collisions": contacts or 0,
             }
 
 
-#: Failure events a run's outcome reports as facts, as bits: the collision flag, then
-#: each departure metric that is set (-1: no outcome yet). The same facts as
-#: ``sitcov.sim._judge.event_times``, computed by SQLite.
-_EVENT_KINDS = ("collision", *EVENT_METRICS)
+#: Failure events a run's outcome reports as facts, as bits: the collision flag (split
+#: by ``metrics.ego_stationary``), then each event metric that is set (-1: no outcome
+#: yet). The same facts as ``sitcov.sim._judge.event_times``, computed by SQLite.
+_EVENT_KINDS = ("collision", "ego_stationary", *EVENT_METRICS)
+_STATIONARY = "coalesce(json_extract(outcome, '$.metrics.ego_stationary'), 0)"
 _EVENT_MASK = (
-    "CASE WHEN outcome IS NULL THEN -1 ELSE (coalesce(collision, 0) != 0)"
+    "CASE WHEN outcome IS NULL THEN -1 ELSE "
+    f"(coalesce(collision, 0) != 0 AND {_STATIONARY} = 0)"
+    f" | ((coalesce(collision, 0) != 0 AND {_STATIONARY} != 0) << 1)"
     + "".join(
         f" | ((json_extract(outcome, '$.metrics.{key}') IS NOT NULL) << {bit})"
-        for bit, key in enumerate(EVENT_METRICS.values(), start=1)
+        for bit, key in enumerate(EVENT_METRICS.values(), start=2)
     )
     + " END"
 )
@@ -177,3 +213,10 @@ _HIT = (
 )
 #: A failed run whose outcome reports no event failed by collision (as before failure kinds).
 _COLLISION = ("collision",)
+#: The run's route completion (None before world model 3), computed by SQLite.
+_COMPLETION = "json_extract(outcome, '$.metrics.route_completion')"
+#: How many collisions between two other road users the run records.
+_ACTOR_COLLISIONS = (
+    "CASE WHEN outcome IS NULL THEN 0 "
+    "ELSE coalesce(json_array_length(outcome, '$.metrics.actor_collisions'), 0) END"
+)

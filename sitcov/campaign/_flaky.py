@@ -107,9 +107,11 @@ def flakiness_table(store: Any, group: str = EXPERIMENT, seed: int = 0) -> dict[
     """Flakiness of the stored experiment ``group`` (see ``sitcov.analysis._flaky``).
 
     Situations are matched by run index across the group's campaigns; a repeat campaign
-    still running contributes the runs it has finished.
+    still running contributes the runs it has finished. Each of the flakiest situations
+    has ``replay``, the command that re-runs its base run (``sitcov replay --db ...``).
     """
     from sitcov.analysis._flaky import flakiness
+    from sitcov.campaign._export import replay_command
     from sitcov.campaign._summary import campaign_hyperspace
 
     base = f"{group}/base"
@@ -134,7 +136,7 @@ def flakiness_table(store: Any, group: str = EXPERIMENT, seed: int = 0) -> dict[
     )
     for item in result["flakiest"]:
         item["index"] = order[item.pop("position")]
-        item["replay"] = f"{base}:{item['index']}"
+        item["replay"] = replay_command(store.location, base, item["index"])
     result["group"] = group
     result["campaigns"] = sorted(members)
     return result
@@ -172,5 +174,5 @@ def flakiness_lines(table: dict[str, Any], n_bins: int = 8) -> list[str]:
     if table["flakiest"]:
         lines.append("flakiest situations (failures/seeds, replay line):")
     for item in table["flakiest"][:5]:
-        lines.append(f"  {item['failures']}/{item['judged']}  sitcov replay {item['replay']}")
+        lines.append(f"  {item['failures']}/{item['judged']}  {item['replay']}")
     return lines

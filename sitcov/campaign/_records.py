@@ -45,8 +45,8 @@ class RunRecord:
 
     @property
     def failure_kind(self) -> str | None:
-        """``pass``, ``collision``, ``road_departure``, ``lane_departure``, ``error`` or
-        ``timeout`` (``Outcome.kind``); None while pending."""
+        """``pass``, a kind of ``sitcov.sim.FAILURE_KINDS``, ``error`` or ``timeout``
+        (``Outcome.kind``); None while pending."""
         return self.outcome.kind if self.outcome is not None else None
 
     @property

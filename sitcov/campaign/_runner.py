@@ -31,6 +31,7 @@ from sitcov._seeding import ask_rng, run_seed
 from sitcov.campaign._build import (
     build_backend,
     build_stack,
+    check_backend_hyperspace,
     make_generator,
     resolve_hyperspace,
     restore_generator,
@@ -305,6 +306,7 @@ def _run_locked(
     hyperspace = resolve_hyperspace(config.hyperspace)
     config = with_hyperspace_map(config, hyperspace)
     backend = build_backend(config)
+    check_backend_hyperspace(backend, hyperspace)
     build_stack(config).close()  # a bad stack or fault must fail before anything is stored
     no_effect = no_effect_elements(hyperspace, backend)
     generator, resumed, replayed = _open_campaign(config, store, hyperspace)

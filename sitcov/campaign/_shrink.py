@@ -3,9 +3,13 @@
 Starting from a stored failing run, elements are moved to their *benign* bin and the
 situation re-run (the stack and backend rebuilt from the stored config, as a replay):
 
-- benign bin of an element = the bin with the lowest add-one-smoothed failure rate
-  ``(failures + 1) / (judged + 2)`` among the judged runs of the run's campaign (ties: the
-  earlier bin), so a bin is not called benign on no evidence;
+- benign bin of an element = what physics calls mild, not what happened to fail least:
+  the bin an element's hyperspace metadata names (``benign: LABEL``); else for the
+  weather elements clear and dry (the lowest cloudiness, rain, puddles, wetness, wind and
+  fog density; the highest friction and fog start distance); else ``none`` for an actor
+  element that has it; only elements with no such meaning (the intersection situation, a
+  user's categories) fall back to the bin with the lowest add-one-smoothed failure rate
+  ``(failures + 1) / (judged + 2)`` among the judged runs (ties: the earlier bin);
 - "still fails" = fails in at least ``min_rate`` of ``repeats`` runs and then also of
   ``2 * repeats`` runs (the second batch is run only when the first passes: a cheap
   two-stage test that halves the chance of accepting a set near the threshold by luck);
@@ -51,10 +55,51 @@ def derived_seeds(seed: int, stream: int, n: int) -> list[int]:
     return [int(s) for s in state]
 
 
+#: weather elements whose mildest bin is the lowest value, and those whose is the highest
+MILD_LOW = frozenset(
+    {"cloudiness", "precipitation", "precipitation_deposits", "wetness", "wind_intensity",
+     "fog_density"}
+)  # fmt: skip
+MILD_HIGH = frozenset({"friction", "fog_distance"})
+
+
+def _numeric(label: str, value: Any) -> float | None:
+    try:
+        return float(value if value is not None else label)
+    except (TypeError, ValueError):
+        return None
+
+
+def physical_benign(el: Any) -> tuple[str, str] | None:
+    """(bin, basis) of an element's mildest bin by meaning, or None when it has none."""
+    named = el.metadata.get("benign")
+    if named is not None and str(named) in el.labels:
+        return str(named), "hyperspace"
+    if el.name in MILD_LOW | MILD_HIGH:
+        values = {b.label: _numeric(b.label, b.value) for b in el.bins}
+        if all(v is not None for v in values.values()):
+            pick = min if el.name in MILD_LOW else max
+            return pick(el.labels, key=lambda lab: values[lab]), "physics"
+    if "none" in el.labels:
+        return "none", "no actor"
+    return None
+
+
+def benign_basis(hs: Hyperspace) -> dict[str, str]:
+    """Per element, why its benign bin is benign: ``physics``, ``hyperspace`` (its
+    metadata), ``no actor`` or ``observed`` (lowest smoothed failure rate)."""
+    return {el.name: (physical_benign(el) or ("", "observed"))[1] for el in hs.elements}
+
+
 def benign_bins(hs: Hyperspace, runs: Sequence[Any]) -> dict[str, str]:
-    """Per element, the bin with the lowest add-one-smoothed failure rate in ``runs``."""
+    """Per element, its mildest bin by meaning (:func:`physical_benign`), else the bin
+    with the lowest add-one-smoothed failure rate in ``runs``."""
     out = {}
     for el in hs.elements:
+        known = physical_benign(el)
+        if known is not None:
+            out[el.name] = known[0]
+            continue
         tallies = {label: [0, 0] for label in el.labels}
         for r in runs:
             if r.status in ("pass", "fail") and r.bins.get(el.name) in tallies:
@@ -115,6 +160,7 @@ class ShrinkResult:
     trials: list[dict[str, Any]] = field(default_factory=list)
     confirm: dict[str, Any] = field(default_factory=dict)
     message: str | None = None
+    basis: dict[str, str] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """All fields as a dict."""
@@ -255,7 +301,8 @@ def shrink_run(
     trial = _Trial(hs, run, benign, sim, stack, seeds, min_rate, config, given)
     try:
         result = ShrinkResult(campaign, index, run.seed, dict(run.bins), benign, candidates,
-                              [], {}, repeats, min_rate, min_failures, 0)  # fmt: skip
+                              [], {}, repeats, min_rate, min_failures, 0,
+                              basis=benign_basis(hs))  # fmt: skip
         result.original_failures = trial.failures(frozenset(candidates), seeds) or 0
         if keep is not None:
             kept = frozenset(e for e in keep if e in candidates)
@@ -305,6 +352,12 @@ def shrink_lines(result: ShrinkResult, db: Any) -> list[str]:
         lines.append("  none: it fails with every element at its benign bin")
     moved = [f"{e}={result.benign[e]}" for e in result.candidates if e not in result.necessary]
     lines.append("moved to benign bins: " + (", ".join(moved) or "none"))
+    basis = result.basis or {}
+    observed = [e for e in result.candidates if basis.get(e) == "observed"]
+    lines.append(
+        "benign = clear, dry, friction 1 and no extra actor by physics"
+        + (f"; by lowest observed failure rate: {', '.join(observed)}" if observed else "")
+    )
     c = result.confirm
     if c:
         lo, hi = c["ci95"]

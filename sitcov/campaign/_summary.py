@@ -78,24 +78,35 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
     """The `sitcov summary --json` object of the finished runs of ``campaign`` (or all), plus
     ``physics``, ``judge`` and ``world_model`` (one value, or a list when the campaigns
     differ), ``judge_counts`` (the kinds that fail a run), ``legacy_world_model`` (any
-    campaign made before world versions) and ``events_by_kind``.
+    campaign made before world versions), ``events_by_kind`` (judged runs with each event,
+    counted or not), ``not_counted`` (the kinds the judge does not count that happened,
+    with their run counts), ``route_completion``
+    (:func:`sitcov.analysis.route_completion_stats` over the judged runs) and
+    ``actor_collisions`` (runs with a collision between two other road users, and how many
+    such collisions: recorded, never the ego's failure).
 
     The runs are read once, as a stream of their facts (no run records are built), so a
     100,000-run campaign is summarised in seconds with flat memory.
     """
-    from sitcov.analysis import summarize
+    from sitcov.analysis import route_completion_stats, summarize
     from sitcov.campaign._breakdown import slot_types
     from sitcov.campaign._facts import iter_facts
     from sitcov.sim import FAILURE_KINDS, Judge
 
     hyperspace = campaign_hyperspace(store, campaign)
     events = dict.fromkeys(FAILURE_KINDS, 0)
+    completions: list[float | None] = []
+    contacts = [0, 0]  # runs with a collision between two other road users, collisions
 
     def stream() -> Iterator[Mapping[str, Any]]:
         for facts in iter_facts(store, campaign, FINISHED):
             if facts["status"] in ("pass", "fail"):
                 for kind in facts["events"]:
                     events[kind] += 1
+                completions.append(facts.get("completion"))
+                n = facts.get("actor_collisions") or 0
+                contacts[0] += n > 0
+                contacts[1] += n
             yield facts
 
     summary = summarize(hyperspace, stream(), slot_types(hyperspace))
@@ -107,15 +118,27 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
         summary["judge_counts"] = list(Judge.from_spec(setups[0]["judge"]).counts)
     summary["legacy_world_model"] = any(i.legacy for i in infos)
     summary["events_by_kind"] = events
+    summary["route_completion"] = route_completion_stats(completions)
+    counted = summary.get("judge_counts")
+    summary["not_counted"] = (
+        {k: n for k, n in events.items() if n and k not in counted} if counted else {}
+    )
+    summary["actor_collisions"] = {"runs": contacts[0], "collisions": contacts[1]}
     return summary
 
 
+#: a bin needs this many runs to be ranked among the worst (fewer say too little)
+MIN_RANKED = 10
+
+
 def worst_bins(summary: dict[str, Any], n: int = 5) -> list[tuple[str, str, dict[str, Any]]]:
-    """The ``n`` bins with the highest Wilson lower bound of failure rate (ties: rate, count)."""
+    """The ``n`` bins with the highest Wilson lower bound of failure rate (ties: rate,
+    count), among bins with at least :data:`MIN_RANKED` runs."""
     ranked = []
     for element, bins in summary.get("elements", {}).items():
         for label, stats in bins.items():
-            if stats.get("failures") and stats.get("ci95"):
+            enough = stats.get("generated", 0) >= MIN_RANKED
+            if enough and stats.get("failures") and stats.get("ci95"):
                 key = (stats["ci95"][0], stats["failure_rate"], stats["generated"])
                 ranked.append((key, element, label, stats))
     ranked.sort(key=lambda r: r[0], reverse=True)
@@ -147,6 +170,19 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
             lo, hi = k["ci95"]
             text = f"{k['failures']}  {k['failure_rate']:.1%}  (95% CI {lo:.1%} - {hi:.1%})"
             totals.add_row(f"  {kind.replace('_', ' ')}", text)
+    for kind, n in summary.get("not_counted", {}).items():
+        totals.add_row(f"  not counted: {kind.replace('_', ' ')}", _uncounted_text(n, judged))
+    # (events that happened in runs the campaign's judge passes or fails for another kind)
+    contacts = summary.get("actor_collisions") or {}
+    if contacts.get("runs"):
+        totals.add_row("  other road users collided", f"{contacts['runs']} runs (never the ego's)")
+    if "route_completion" in summary:
+        from sitcov.analysis import completion_lines
+
+        head, dist = completion_lines(summary["route_completion"])
+        totals.add_row("route completion", head)
+        if dist:
+            totals.add_row("  distribution", dist)
     totals.add_row("errors + timeouts", str(errors))
     for key, label in (("physics", "physics"), ("judge", "judge"), ("world_model", "world model")):
         if key in summary:
@@ -154,7 +190,10 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     cov = summary.get("coverage", {})
     totals.add_row("bins covered", f"{cov.get('bins_covered', 0)} / {cov.get('bins_total', 0)}")
     totals.add_row("pairwise coverage", f"{cov.get('pairwise', 0.0):.1%}")
-    worst = Table(title="worst bins (by Wilson lower bound)", title_justify="left")
+    worst = Table(
+        title=f"worst bins (by Wilson lower bound; bins of >= {MIN_RANKED} runs)",
+        title_justify="left",
+    )
     for col in ("element", "bin", "runs", "failures", "rate", "95% CI"):
         worst.add_column(col, justify="left" if col in ("element", "bin") else "right")
     for element, label, s in worst_bins(summary):
@@ -170,6 +209,8 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     parts = [totals, *breakdown_tables(summary)]
     if worst.row_count:
         parts.append(worst)
+    elif summary.get("failures"):
+        parts.append(f"worst bins: none ranked yet (a bin needs >= {MIN_RANKED} runs)")
     return Group(*parts)
 
 
@@ -218,6 +259,12 @@ def hit_table(rows: Mapping[str, Any]) -> Any:
         share = "n/a" if r["share"] is None else f"{r['share']:.0%}"
         table.add_row(name, str(r["generated"]), str(r["collisions"]), rate, ci, share)
     return table
+
+
+def _uncounted_text(n: int, judged: int) -> str:
+    """``12 runs (6.0%)``: runs with an event the judge does not count."""
+    runs = "1 run" if n == 1 else f"{n} runs"
+    return f"{runs} ({n / judged:.1%})" if judged else runs
 
 
 def _setup_text(summary: dict[str, Any], key: str) -> str:

@@ -15,6 +15,7 @@ from pathlib import Path
 from sitcov.errors import ConfigError
 from sitcov.report import _sections as sec
 from sitcov.report._breakdown_section import breakdown_section
+from sitcov.report._criticality_section import criticality_section
 from sitcov.report._data import NO_FAULT, load_campaigns
 from sitcov.report._explain_section import explain_section
 from sitcov.report._pictures import failure_pictures
@@ -24,7 +25,7 @@ DEFAULT_HEATMAP = ("intsit", "friction")
 #: Rows of the worst-bins and worst-combinations tables.
 TOP = 10
 #: A bin or pair needs this many judged runs to be ranked (fewer say too little).
-MIN_JUDGED = 5
+MIN_JUDGED = 10
 
 
 def _heat_pair(names: Sequence[str], heatmap: tuple[str, str] | None) -> tuple[str, str] | None:
@@ -101,6 +102,8 @@ def build_report(
         page.update(sec.growth_section(hs, views, has_nf, page["bins_total"], fig_dir))
         page.update(sec.heat_section(hs, primary, pair, scope, fig_dir))
         page.update(explain_section(hs, primary, scope))
+        primary_names = list(dict.fromkeys(r.campaign for r in primary))
+        page.update(criticality_section(store, str(db), primary_names, fig_dir))
         page.update(sec.provenance_section(str(db), str(out), views, pair, experiment_cmd))
         page["pictures"], page["picture_note"] = failure_pictures(
             store, str(db), primary, fig_dir, pictures
@@ -116,7 +119,9 @@ def build_report(
             scope_primary=scope,
             table2=sec.table2_section(experiment, fig_dir),
             worst_bins=sec.ranked_rows(worst_bins(hs, primary, min_judged=MIN_JUDGED, top=TOP)),
-            worst_pairs=sec.ranked_rows(worst_pairs(hs, primary, min_judged=MIN_JUDGED, top=TOP)),
+            worst_pairs=sec.ranked_rows(
+                worst_pairs(hs, primary, min_judged=MIN_JUDGED, top=TOP, beyond_bins=True)
+            ),
             min_judged=MIN_JUDGED,
         )
     finally:

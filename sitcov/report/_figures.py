@@ -150,6 +150,92 @@ def element_figure(
     return fig
 
 
+def ranked_bins_figure(title: str, rows: Sequence[Mapping[str, Any]], note: str = "") -> Any:
+    """Horizontal failure-rate bars with Wilson 95 % intervals, one row per bin or group,
+    labelled ``label (failures/judged)``: readable whatever the number of bins, since the
+    figure's height follows the rows shown and long labels sit on the y axis.
+
+    Args:
+        title: the figure's title.
+        rows: ``label``, ``failures``, ``judged``, ``failure_rate``, ``ci95`` per row, in
+            the order to draw (top first).
+        note: a line under the title (e.g. "30 of 216 bins shown").
+    """
+    plt = _plt()
+    n = max(1, len(rows))
+    longest = max((len(str(r["label"])) for r in rows), default=10) + 10
+    left = min(4.5, 0.3 + 0.065 * longest)  # [in] room for the labels
+    height = 1.0 + 0.24 * n
+    fig, ax = plt.subplots(figsize=(WIDTH, height))
+    fig.subplots_adjust(left=left / WIDTH, right=0.97, top=1 - 0.62 / height, bottom=0.4 / height)
+    ys = list(range(n))[::-1]
+    rates = [r["failure_rate"] or 0.0 for r in rows]
+    lo = [
+        max(0.0, rate - (r["ci95"] or (rate, rate))[0]) for rate, r in zip(rates, rows, strict=True)
+    ]
+    hi = [
+        max(0.0, (r["ci95"] or (rate, rate))[1] - rate) for rate, r in zip(rates, rows, strict=True)
+    ]
+    ax.barh(
+        ys,
+        rates,
+        xerr=[lo, hi],
+        color=PALETTE[0],
+        alpha=0.85,
+        height=0.7,
+        error_kw={"elinewidth": 1, "capsize": 2},
+    )
+    ax.set_yticks(ys, [f"{r['label']} ({r['failures']}/{r['judged']})" for r in rows], fontsize=8)
+    ax.set_xlim(0, 1.02)
+    ax.set_xlabel("failure rate (Wilson 95% CI)")
+    ax.grid(axis="x", alpha=0.3)
+    ax.grid(axis="y", visible=False)
+    fig.suptitle(
+        title,
+        x=left / WIDTH,
+        ha="left",
+        y=1 - 0.08 / height,
+        va="top",
+        fontsize=11,
+        fontweight="bold",
+    )
+    if note:
+        fig.text(left / WIDTH, 1 - 0.38 / height, note, fontsize=8, color="#555", va="top")
+    return fig
+
+
+def histograms_figure(
+    series: Mapping[str, Mapping[str, Sequence[float]]], caps: Mapping[str, float]
+) -> Any:
+    """One histogram per measure, passing and failing runs overlaid (counts), values above
+    a measure's cap gathered in its last bin (labelled ``>= cap``)."""
+    plt = _plt()
+    import numpy as np
+
+    n = max(1, len(series))
+    fig, axes = plt.subplots(1, n, figsize=(WIDTH, 3.0))
+    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.2, top=0.86, wspace=0.28)
+    axes = list(np.atleast_1d(axes))
+    for ax, (label, by_status) in zip(axes, series.items(), strict=False):
+        cap = caps[label]
+        edges = np.linspace(0.0, cap, 21)
+        edges[-1] = cap + 1e-9
+        for i, (status, colour) in enumerate((("pass", PALETTE[0]), ("fail", PALETTE[1]))):
+            values = by_status.get(status, [])
+            ax.hist(
+                values,
+                bins=edges,
+                color=colour,
+                alpha=0.6 if i else 0.75,
+                label=f"{status} ({len(values)})",
+            )
+        ax.set_xlabel(f"{label} (last bin: >= {cap:g})")
+        ax.set_ylabel("runs")
+        ax.legend(fontsize=8)
+    fig.suptitle("Criticality of every judged run (smallest over its road users)", fontsize=10)
+    return fig
+
+
 def growth_figure(curves: Mapping[str, tuple[Sequence[float], Sequence[float], int]]) -> Any:
     """Bins covered and pairwise coverage against run index, one line per campaign.
 
@@ -211,6 +297,8 @@ def heatmap_figure(
     plt = _plt()
     import numpy as np
 
+    labels_a, note_a = _busiest(labels_a, cells, rows=True)
+    labels_b, note_b = _busiest(labels_b, cells, rows=False)
     grid = np.full((len(labels_a), len(labels_b)), np.nan)
     for i, la in enumerate(labels_a):
         for j, lb in enumerate(labels_b):
@@ -218,9 +306,11 @@ def heatmap_figure(
             if cell is not None and cell.rate is not None:
                 grid[i, j] = cell.rate
     height = 1.4 + 0.32 * len(labels_a)
-    width = min(WIDTH, 2.5 + 0.9 * len(labels_b))
+    longest = max((len(str(lab)) for lab in labels_a), default=4)
+    left = min(3.5, 0.5 + 0.07 * longest)  # [in] room for the row labels
+    width = min(WIDTH, left + 1.5 + 0.9 * len(labels_b))
     fig, ax = plt.subplots(figsize=(width, height))
-    fig.subplots_adjust(left=1.0 / width, right=1.0, bottom=0.55 / height, top=1 - 0.35 / height)
+    fig.subplots_adjust(left=left / width, right=1.0, bottom=1.0 / height, top=1 - 0.55 / height)
     cmap = plt.get_cmap("Reds").with_extremes(bad="#eeeeee")
     image = ax.imshow(grid, cmap=cmap, vmin=0.0, vmax=1.0, aspect="auto")
     ax.grid(False)
@@ -243,9 +333,41 @@ def heatmap_figure(
     ax.set_yticks(range(len(labels_a)), [str(lab) for lab in labels_a])
     ax.set_xlabel(element_b)
     ax.set_ylabel(element_a)
-    ax.set_title(f"Failure rate by {element_a} and {element_b} (failures/judged runs)")
+    title = f"Failure rate by {element_a} and {element_b} (failures/judged runs)"
+    shown = "; ".join(x for x in (note_a, note_b) if x)
+    ax.set_title(title + (f"\n{shown}" if shown else ""), fontsize=9)
+    _rotate(ax, [str(lab) for lab in labels_b])
     fig.colorbar(image, ax=ax, label="failure rate", shrink=0.9)
     return fig
+
+
+#: the heat map shows at most this many rows and columns (the highest failure rates)
+MAX_HEAT = 24
+
+
+def _busiest(
+    labels: Sequence[str], cells: Mapping[tuple[str, str], Any], *, rows: bool
+) -> tuple[list[str], str]:
+    """At most :data:`MAX_HEAT` labels of one side of the heat map: those whose cells fail
+    most in total (Wilson lower bound of their pooled rate), in hyperspace order."""
+    labels = list(labels)
+    if len(labels) <= MAX_HEAT:
+        return labels, ""
+    from sitcov.analysis import wilson_interval
+
+    score = {}
+    for lab in labels:
+        k = n = 0
+        for (la, lb), cell in cells.items():
+            if (la if rows else lb) == lab and cell is not None:
+                k, n = k + cell.failures, n + cell.judged
+        ci = wilson_interval(k, n)
+        score[lab] = ci[0] if ci else -1.0
+    keep = set(sorted(labels, key=lambda lab: -score[lab])[:MAX_HEAT])
+    side = "rows" if rows else "columns"
+    return [lab for lab in labels if lab in keep], (
+        f"{MAX_HEAT} of {len(labels)} {side} shown (highest failure rates)"
+    )
 
 
 def table2_figure(table: Mapping[str, Mapping[str, Any]]) -> Any:

@@ -17,18 +17,52 @@ from sitcov.errors import SitcovError
 
 
 def _pick(runs: Sequence[Any], n: int) -> list[Any]:
-    """Up to ``n`` failing runs, preferring different intersection situations (then order)."""
+    """Up to ``n`` failing runs, the failure kinds (collision, road departure, ...) in
+    proportion to their counts (largest remainder, each kind at least one while slots
+    last), within a kind preferring different intersection situations, then run order."""
     failing = [r for r in runs if r.status == "fail"]
-    chosen, seen = [], set()
+    by_kind: dict[str, list[Any]] = {}
     for run in failing:
+        by_kind.setdefault(str(run.failure_kind), []).append(run)
+    slots = _proportional({k: len(v) for k, v in by_kind.items()}, min(n, len(failing)))
+    chosen = []
+    for kind, group in by_kind.items():
+        chosen += _distinct(group, slots[kind])
+    order = {id(r): i for i, r in enumerate(failing)}
+    return sorted(chosen, key=lambda r: order[id(r)])
+
+
+def _proportional(counts: dict[str, int], n: int) -> dict[str, int]:
+    """``n`` slots shared by ``counts``: every kind one while slots last (most frequent
+    first), the rest by largest remainder of its proportional share."""
+    slots = dict.fromkeys(counts, 0)
+    for kind in sorted(counts, key=lambda k: -counts[k])[:n]:
+        slots[kind] = 1
+    left = n - sum(slots.values())
+    total = sum(counts.values())
+    if left > 0 and total:
+        share = {k: counts[k] * n / total - slots[k] for k in counts}
+        for kind in sorted(counts, key=lambda k: -share[k]):
+            extra = min(max(0, int(share[kind])), counts[kind] - slots[kind], left)
+            slots[kind] += extra
+            left -= extra
+        for kind in sorted(counts, key=lambda k: -(share[k] - int(share[k]))):
+            if left and slots[kind] < counts[kind]:
+                slots[kind] += 1
+                left -= 1
+    return slots
+
+
+def _distinct(group: Sequence[Any], n: int) -> list[Any]:
+    """``n`` runs of ``group``, different intersection situations first."""
+    chosen, seen = [], set()
+    for run in group:
         key = run.bins.get("intsit")
-        if key not in seen:
+        if len(chosen) < n and key not in seen:
             chosen.append(run)
             seen.add(key)
-        if len(chosen) == n:
-            return chosen
-    for run in failing:
-        if len(chosen) == n:
+    for run in group:
+        if len(chosen) >= n:
             break
         if run not in chosen:
             chosen.append(run)
@@ -44,7 +78,10 @@ def _complete(trace: Any) -> bool:
     return len(actors) <= 1 or set(actors) <= set(trace.actors or {})
 
 
-def _trace_outcome(store: Any, run: Any, builders: dict) -> Any:
+def traced_outcome(store: Any, run: Any, builders: dict) -> Any:
+    """The run's outcome with a complete trace: the stored one, else one re-simulation with
+    ``record=True`` (backends and stacks are kept in ``builders`` per campaign; close them
+    with :func:`close_builders`)."""
     stored = store.get_run(run.campaign, run.index, with_trace=True)
     if stored.outcome is not None and _complete(stored.outcome.trace):
         return stored.outcome
@@ -64,9 +101,10 @@ def _trace_outcome(store: Any, run: Any, builders: dict) -> Any:
 
 
 def failure_pictures(
-    store: Any, db: str, runs: Sequence[Any], fig_dir: Path, n: int
+    store: Any, db: str, runs: Sequence[Any], fig_dir: Path, n: int, *, animate: bool = True
 ) -> tuple[list[dict[str, str]], str]:
-    """Draw up to ``n`` failing runs of ``runs``; returns (picture dicts, a note for the page)."""
+    """Draw up to ``n`` failing runs of ``runs`` (and, with ``animate``, a short GIF of
+    each); returns (picture dicts, a note for the page)."""
     chosen = _pick(runs, n) if n > 0 else []
     if not chosen:
         return [], ""
@@ -79,7 +117,7 @@ def failure_pictures(
         for run in chosen:
             ref = f"{run.campaign}:{run.index}"
             try:
-                outcome = _trace_outcome(store, run, builders)
+                outcome = traced_outcome(store, run, builders)
                 safe = "".join(c if c.isalnum() else "_" for c in ref)
                 path = fig_dir / f"failure_{safe}.png"
                 render_topdown(outcome, path)
@@ -87,7 +125,7 @@ def failure_pictures(
             except (SitcovError, ValueError, TypeError, OSError) as exc:
                 problems.append(f"{ref}: {exc}")
                 continue
-            detail = [outcome.kind.replace("_", " ")]
+            detail = [_what_happened(outcome)]
             if outcome.collision_speed is not None:
                 detail.append(f"impact {outcome.collision_speed:.1f} m/s")
             if outcome.collision_time is not None:
@@ -97,6 +135,7 @@ def failure_pictures(
                 detail.append(f"re-simulation gave {outcome.status}, stored {run.status}")
             pictures.append(
                 {
+                    "gif": _animation(outcome, ref) if animate else None,
                     "png": base64.b64encode(data).decode("ascii"),
                     "run": ref,
                     "bins": ", ".join(f"{k}={v}" for k, v in run.bins.items()),
@@ -105,11 +144,7 @@ def failure_pictures(
                 }
             )
     finally:
-        for backend, stack in builders.values():
-            for obj in (stack, backend):
-                close = getattr(obj, "close", None)
-                if close is not None:
-                    close()
+        close_builders(builders)
     note = (
         "Top-down views drawn by the embedded backend's renderer. Runs without a stored trace were "
         "simulated again from their stored situation, seed and campaign config."
@@ -117,3 +152,43 @@ def failure_pictures(
     if problems:
         note += " Not drawn: " + "; ".join(problems)
     return pictures, note
+
+
+def close_builders(builders: dict) -> None:
+    """Close the stacks and backends :func:`traced_outcome` built."""
+    for backend, stack in builders.values():
+        for obj in (stack, backend):
+            close = getattr(obj, "close", None)
+            if close is not None:
+                close()
+
+
+def _what_happened(outcome: Any) -> str:
+    """``collision with actor2 (pedestrian)``, ``road departure``, ..."""
+    text = outcome.kind.replace("_", " ")
+    if outcome.kind != "collision":
+        return text
+    from sitcov.report._animate import actor_kind, focus_actor
+
+    actor = focus_actor(outcome)  # the actor hit (a two-car run stores no name: the OV)
+    if actor is None:
+        return text
+    name = "the OV" if actor == "ov" else str(actor)
+    kind = (outcome.metrics or {}).get("collision_kind") or actor_kind(outcome, actor)
+    return f"{text} with {name} ({kind})"
+
+
+#: the report's animations: short and small (every 4th step at dt 0.05 s, at most 60 frames)
+REPORT_FPS, REPORT_FRAMES, REPORT_DPI = 5, 60, 60
+
+
+def _animation(outcome: Any, ref: str) -> str | None:
+    """A small GIF of the run, base64 (None when the run has no trace to animate)."""
+    from sitcov.report._animate import gif_bytes, render_frames
+
+    if outcome.trace is None or not outcome.trace.ego:
+        return None
+    frames = render_frames(
+        outcome, title=ref, fps=REPORT_FPS, max_frames=REPORT_FRAMES, dpi=REPORT_DPI
+    )
+    return base64.b64encode(gif_bytes(frames, REPORT_FPS)).decode("ascii")

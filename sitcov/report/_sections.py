@@ -80,6 +80,7 @@ def ranked_rows(rows: Sequence[dict[str, Any]]) -> list[dict[str, str]]:
                 "fj": f"{row['failures']} / {row['judged']}",
                 "rate": pct(row["failure_rate"]),
                 "ci": f"{100 * ci[0]:.1f}–{100 * ci[1]:.1f}%" if ci else "–",
+                "alone": " / ".join(pct(r) for r in row["bin_rates"]) if "bin_rates" in row else "",
             }
         )
     return out
@@ -216,9 +217,61 @@ def kind_rows(runs: Sequence[Any]) -> list[dict[str, str]]:
     ]
 
 
+def _completion(runs: Sequence[Any]) -> dict[str, Any]:
+    """Route completion statistics of the judged runs (``sitcov.analysis``)."""
+    from sitcov.analysis import route_completion_stats
+
+    judged = (r for r in runs if r.status in ("pass", "fail"))
+    return route_completion_stats(getattr(r, "completion", None) for r in judged)
+
+
+def _completion_card(runs: Sequence[Any]) -> dict[str, Any]:
+    stats = _completion(runs)
+    if not stats["runs"]:
+        return {"key": "route completion", "value": "n/a", "detail": "no run reports it"}
+    return {
+        "key": "route completion",
+        "value": pct(stats["mean"]),
+        "detail": f"mean; goal reached {pct(stats['goal_rate'])}, median {pct(stats['median'])}",
+    }
+
+
+def uncounted_rows(views: Sequence[CampaignView], runs: Sequence[Any]) -> list[dict[str, str]]:
+    """Events that happened in judged runs but that the campaigns' judge does not count
+    (per kind: runs with it, share of the judged runs), and collisions between two other
+    road users (never the ego's failure); empty when the judges differ."""
+    from sitcov.sim import FAILURE_KINDS, Judge
+
+    judge = _setup_value(views, "judge")
+    try:
+        counted = set(Judge.from_spec(judge).counts)
+    except ValueError:  # mixed judges
+        return []
+    judged = [r for r in runs if r.status in ("pass", "fail")]
+    rows = []
+    for kind in FAILURE_KINDS:
+        if kind in counted:
+            continue
+        n = sum(kind in getattr(r, "events", ()) for r in judged)
+        if n:
+            share = pct(n / len(judged))
+            rows.append({"kind": kind.replace("_", " "), "runs": str(n), "share": share})
+    n = sum(getattr(r, "actor_collisions", 0) > 0 for r in judged)
+    if n:
+        rows.append(
+            {
+                "kind": "collision between two other road users (never the ego's)",
+                "runs": str(n),
+                "share": pct(n / len(judged)),
+            }
+        )
+    return rows
+
+
 def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[Any]) -> dict:
-    """The summary cards, the failures by kind and the per-campaign table."""
-    from sitcov.analysis import coverage
+    """The summary cards, the failures by kind, the events the judge does not count, the
+    route completion and the per-campaign table."""
+    from sitcov.analysis import completion_lines, coverage
 
     counts = status_counts(all_runs)
     judged = counts["pass"] + counts["fail"]
@@ -242,6 +295,7 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
             "value": f"{cov['bins_covered']} / {cov['bins_total']}",
             "detail": f"{len(hs.elements)} elements",
         },
+        _completion_card(all_runs),
         {"key": "pairwise coverage", "value": pct(cov["pairwise"]), "detail": "2-way bins"},
         *_setup_cards(views),
     ]
@@ -263,15 +317,19 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
                 "bins": f"{s['bins_covered']}/{s['bins_total']}" if s else "–",
                 "pairwise": pct(s["pairwise"]) if s else "–",
                 "kinds": kinds_text(view.runs),
+                "completion": pct(_completion(view.runs)["mean"]),
                 "physics": str(view.setup.get("physics", "?")),
                 "judge": str(view.setup.get("judge", "?")),
             }
         )
+    head, dist = completion_lines(_completion(all_runs))
     return {
         "cards": cards,
         "campaigns": rows,
         "bins_total": cov["bins_total"],
         "kinds": kind_rows(all_runs),
+        "uncounted": uncounted_rows(views, all_runs),
+        "completion": {"head": head, "distribution": dist},
     }
 
 
@@ -296,6 +354,10 @@ def element_section(hs: Any, views: Sequence[CampaignView], fig_dir: Path) -> di
             }
             for f in faults
         }
+        if len(labels) > MAX_BARS:
+            primary = stats[next(iter(groups))][name]
+            figures += _many_bins_figures(element, primary, fig_dir)
+            continue
         file = f"element_{slug(name)}.png"
         png = _figures.save(_figures.element_figure(name, labels, counts, rates), fig_dir / file)
         figures.append(
@@ -314,6 +376,80 @@ def element_section(hs: Any, views: Sequence[CampaignView], fig_dir: Path) -> di
         "element_figures": figures,
         "several_series": len(generators) > 1 or len(faults) > 1,
         "series_names": series,
+    }
+
+
+#: an element with more bins than this is drawn as its top bins and its groups
+MAX_BARS = 24
+#: bins shown in the top-bins figure of such an element
+TOP_BARS = 25
+
+
+def _rows(per_bin: dict[str, dict[str, Any]], labels: Sequence[str]) -> list[dict[str, Any]]:
+    return [{"label": lab, **per_bin[lab]} for lab in labels if per_bin[lab]["judged"]]
+
+
+def _many_bins_figures(element: Any, per_bin: dict[str, dict[str, Any]], fig_dir: Path) -> list:
+    """An element with many bins (a derived map's situations): its bins grouped by road
+    user and conflict type, and the :data:`TOP_BARS` bins with the highest failure rate
+    (Wilson lower bound), each a horizontal bar chart whose height follows its rows."""
+    from sitcov.analysis import wilson_interval
+    from sitcov.analysis._regions import bin_group
+
+    out = []
+    groups: dict[str, list[int]] = {}
+    for b in element.bins:
+        s = per_bin[b.label]
+        tally = groups.setdefault(bin_group(b.value), [0, 0])
+        tally[0] += s["failures"]
+        tally[1] += s["judged"]
+    if len(groups) > 1:
+        rows = []
+        for group, (k, n) in groups.items():
+            ci = wilson_interval(k, n)
+            rows.append(
+                {
+                    "label": group,
+                    "failures": k,
+                    "judged": n,
+                    "failure_rate": k / n if n else None,
+                    "ci95": ci,
+                }
+            )
+        rows.sort(key=lambda r: -(r["failure_rate"] or 0.0))
+        out.append(
+            _ranked_figure(
+                element.name,
+                "groups",
+                rows,
+                fig_dir,
+                f"{len(element.bins)} bins in {len(rows)} groups "
+                "(road-user kind and conflict type)",
+            )
+        )
+    ranked = sorted(
+        _rows(per_bin, element.labels),
+        key=lambda r: (-(r["ci95"] or (0, 0))[0], -(r["failure_rate"] or 0)),
+    )
+    shown = ranked[:TOP_BARS]
+    more = len(ranked) - len(shown)
+    note = f"{len(shown)} of {len(element.bins)} bins, highest failure rate (Wilson lower bound)"
+    if more:
+        note += f"; and {more} more in the CSV export"
+    out.append(_ranked_figure(element.name, "top bins", shown, fig_dir, note))
+    return out
+
+
+def _ranked_figure(name: str, what: str, rows: list, fig_dir: Path, note: str) -> dict:
+    file = f"element_{slug(name)}_{slug(what)}.png"
+    figure = _figures.ranked_bins_figure(f"{name}: failure rate, {what}", rows, note)
+    png = _figures.save(figure, fig_dir / file)
+    return {
+        "png": b64(png),
+        "alt": f"Failure rate of {name}, {what}",
+        "caption": f"{name}: {note}",
+        "file": f"figures/{file}",
+        "wide": True,
     }
 
 

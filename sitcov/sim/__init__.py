@@ -12,6 +12,7 @@ from sitcov.weather import PHYSICS_PROFILES, Conditions, conditions_from_values
 
 _plugins.register_builtin("backend", "embedded", "sitcov.sim.embedded:EmbeddedBackend")
 _plugins.register_builtin("backend", "carla", "sitcov.sim.carla:CarlaBackend")
+_plugins.register_builtin("backend", "esmini", "sitcov.sim.esmini:EsminiBackend")
 
 
 def make_backend(name: str = "embedded", **options: Any) -> Backend:

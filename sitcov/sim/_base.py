@@ -16,8 +16,10 @@ if TYPE_CHECKING:
 STATUSES = ("pass", "fail", "error", "timeout")
 #: Version of the embedded world model (dynamics, conditions, judge facts). Stored with every
 #: campaign; campaigns made with another version cannot be extended. Version 1 ("legacy")
-#: is everything before physics profiles and failure kinds.
-WORLD_MODEL_VERSION = 2
+#: is everything before physics profiles and failure kinds; version 3 added the route
+#: progress facts (route completion, blocked, route incomplete, stationary collisions)
+#: and the reference stack's releasing AEB.
+WORLD_MODEL_VERSION = 3
 
 
 @dataclass(frozen=True)
@@ -58,9 +60,13 @@ class Outcome:
         aeb_time: [s] or None.
         message: error text for ``error``/``timeout`` runs.
         metrics: further backend-specific metrics (JSON-serialisable); the embedded
-            backend reports ``road_departure_time`` and ``lane_departure_time`` here.
-        failure_kind: set by the campaign's judge: ``pass``, ``collision``,
-            ``road_departure``, ``lane_departure``, ``error`` or ``timeout``; None for an
+            backend reports ``road_departure_time`` and ``lane_departure_time`` here, and
+            the route progress facts: ``route_completion`` [0-1], ``time_to_goal``,
+            ``blocked_time``, ``route_incomplete_time``, ``ego_stopped``, ``stop_reason``,
+            ``ego_stationary`` (docs/campaigns.md, "Route completion and blame"). Runs
+            stored before world model 3 have none of these (null: not judged on them).
+        failure_kind: set by the campaign's judge: ``pass``, a kind of
+            ``sitcov.sim.FAILURE_KINDS``, ``error`` or ``timeout``; None for an
             outcome straight from a backend (see :attr:`kind`). Not part of ``==``: it is
             derived from the facts and ``status``, which are compared.
         trace: recorded trajectories when the run was asked to record.

@@ -6,10 +6,25 @@ counts as a failure. A :class:`Judge` does, after ``Backend.run``, from campaign
 configuration. The same facts therefore give a collision-only verdict (the paper's judge)
 or one that also fails runs that leave the road, without simulating again.
 
-Kinds of an outcome (``Outcome.kind``): ``pass``, ``collision``, ``road_departure``,
-``lane_departure`` for judged runs, and ``error`` / ``timeout`` for runs that could not be
-judged. When several counted events happen in one run, the kind is the earliest one
-(ties: the order of :data:`FAILURE_KINDS`).
+Kinds of an outcome (``Outcome.kind``): ``pass`` or a failure kind of
+:data:`FAILURE_KINDS` for judged runs, and ``error`` / ``timeout`` for runs that could not
+be judged. When several counted events happen in one run, the kind is the earliest one
+(ties: the order of :data:`FAILURE_KINDS`). The failure events:
+
+- ``collision``: the ego's box overlapped another road user's while the ego moved;
+- ``ego_stationary``: the same with the ego standing still (below
+  :data:`STATIONARY_SPEED` at the impact): someone ran into it. Collisions between two
+  other road users are recorded (``metrics["actor_collisions"]``) and are never the ego's;
+- ``road_departure`` / ``lane_departure``: the ego's box left the road / its lane;
+- ``blocked``: the ego stood still for a stated time while nothing occupied its path or the
+  conflict zone ahead (``metrics["blocked_time"]``; docs/campaigns.md);
+- ``route_incomplete``: the run's time budget ended before the ego reached its goal
+  (``metrics["route_incomplete_time"]``).
+
+Named judges (:data:`JUDGES`): ``default`` counts what the stack did (a collision it was
+moving in, leaving the road, not making progress); ``paper`` counts every ego collision,
+moving or standing, and nothing else (the paper's verdict; the CARLA Leaderboard also
+counts every collision); ``strict`` counts every kind. A list of kinds is a judge too.
 """
 
 from __future__ import annotations
@@ -25,19 +40,32 @@ if TYPE_CHECKING:
     from sitcov.sim._base import Outcome
 
 #: What can count as a failure, in tie-break order.
-FAILURE_KINDS = ("collision", "road_departure", "lane_departure")
+FAILURE_KINDS = (
+    "collision",
+    "ego_stationary",
+    "road_departure",
+    "lane_departure",
+    "blocked",
+    "route_incomplete",
+)
 #: Every value of ``Outcome.kind`` / the stored ``failure_kind`` column.
 OUTCOME_KINDS = ("pass", *FAILURE_KINDS, "error", "timeout")
-#: Named judges. ``paper`` is the paper's collision-only judge.
+#: Named judges. ``paper`` is the paper's collision-only judge (every ego collision).
 JUDGES: dict[str, tuple[str, ...]] = {
-    "default": ("collision", "road_departure"),
-    "paper": ("collision",),
+    "default": ("collision", "road_departure", "blocked", "route_incomplete"),
+    "paper": ("collision", "ego_stationary"),
     "strict": FAILURE_KINDS,
 }
-#: Metric keys (``Outcome.metrics``) where backends report the first time of each departure.
+#: Ego speed below which a collision is ``ego_stationary`` [m/s] (backends report the
+#: fact as ``metrics["ego_stationary"]``; the embedded world's ``STILL_SPEED``).
+STATIONARY_SPEED = 0.3
+#: Metric keys (``Outcome.metrics``) where backends report the first time of each event
+#: other than a collision.
 EVENT_METRICS = {
     "road_departure": "road_departure_time",
     "lane_departure": "lane_departure_time",
+    "blocked": "blocked_time",
+    "route_incomplete": "route_incomplete_time",
 }
 _EXPECTED = f"one of {', '.join(JUDGES)} or a list of {', '.join(FAILURE_KINDS)}"
 
@@ -73,12 +101,15 @@ def event_times(outcome: Outcome) -> dict[str, float]:
 
     A backend that says ``fail`` without saying why (no collision flag, no departure
     metric) is taken as reporting a collision at its end time, as every stored run
-    before failure kinds existed did.
+    before failure kinds existed did. A collision is ``ego_stationary`` when the outcome
+    says so (``metrics["ego_stationary"]``; runs stored before have no such fact: their
+    collisions are ``collision``).
     """
     times: dict[str, float] = {}
     if outcome.collision:
         t = outcome.collision_time
-        times["collision"] = float(outcome.sim_time if t is None else t)
+        kind = "ego_stationary" if (outcome.metrics or {}).get("ego_stationary") else "collision"
+        times[kind] = float(outcome.sim_time if t is None else t)
     for kind, key in EVENT_METRICS.items():
         t = (outcome.metrics or {}).get(key)
         if t is not None:

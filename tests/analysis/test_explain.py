@@ -129,13 +129,43 @@ def test_rules_are_measured_on_runs_not_used_to_fit():
         for i, r in enumerate(runs)
     ]
     second = failure_regions(HS, flipped, seed=11)
-    assert [r["text"] for r in first["rules"]] == [r["text"] for r in second["rules"]]
     assert first["rules"], "the planted region must give at least one rule"
-    for r1, r2 in zip(first["rules"], second["rules"], strict=True):
+    # the fitted rules are the same; kept or dropped is decided on the held-out runs
+    fitted1 = sorted(first["rules"] + first["dropped"], key=lambda r: r["text"])
+    fitted2 = sorted(second["rules"] + second["dropped"], key=lambda r: r["text"])
+    assert [r["text"] for r in fitted1] == [r["text"] for r in fitted2]
+    assert not second["rules"], "flipped held-out outcomes cannot confirm a failure region"
+    for r1, r2 in zip(fitted1, fitted2, strict=True):
         assert r1["fit"] == r2["fit"]
         h1, h2 = r1["holdout"], r2["holdout"]
         assert h1["support"] == h2["support"]
         assert h1["failures"] + h2["failures"] == h1["support"]
+
+
+def test_a_rule_that_only_matches_the_base_rate_held_out_is_dropped():
+    # no region at all: any rule the tree finds on the fitting part is noise, and its
+    # held-out precision does not beat the base rate beyond sampling error
+    for seed in range(5):
+        runs = synthetic_runs(450, lambda a, b, c: 0.0, seed=20 + seed)
+        regions = failure_regions(HS, runs, seed=seed)
+        assert regions["rules"] == []
+        for rule in regions["dropped"]:
+            assert rule["holdout"]["precision_ci95"][0] <= regions["holdout_base_rate"]
+
+
+def test_long_categorical_conditions_are_grouped_by_road_user_and_conflict():
+    from importlib import resources
+
+    from sitcov.analysis._regions import grouped_text
+    from sitcov.hyperspace import load_hyperspace
+
+    hs = load_hyperspace(str(resources.files("sitcov.hyperspace") / "data/derived/t-junction.yaml"))
+    el = hs.element("intsit")
+    peds = [b.label for b in el.bins if b.value.get("kind") == "pedestrian"]
+    text = grouped_text(el, [*peds, el.labels[0]])
+    assert f"every pedestrian crossing bin ({len(peds)})" in text
+    assert text.startswith(f"intsit: {len(peds) + 1} of {len(el.bins)} bins")
+    assert len(text) < 200
 
 
 def test_planted_region_is_the_top_rule_with_high_held_out_precision():

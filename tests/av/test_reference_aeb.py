@@ -1,10 +1,18 @@
-"""The AEB's three tests, the latch and the perception modes of the reference stack."""
+"""The AEB's three tests, the latch, the release and the perception modes of the reference stack."""
 
 from __future__ import annotations
 
 import pytest
 
-from sitcov.av import EgoState, Observation, ReferenceStack, RunInfo, aeb_test
+from sitcov.av import (
+    EgoState,
+    LatchedReferenceStack,
+    Observation,
+    ReferenceStack,
+    RunInfo,
+    aeb_test,
+    make_stack,
+)
 from sitcov.perception import CameraSpec, Detection
 
 W = 800.0  # image width [px]
@@ -69,12 +77,18 @@ def _started(stack: ReferenceStack) -> ReferenceStack:
     return stack
 
 
-def _obs(t: float, detections=None, image=None) -> Observation:
-    return Observation(t, EgoState(10.0, 0.0, 0.0, 6.9, t), detections=detections, image=image)
+def _obs(t: float, detections=None, image=None, speed: float = 6.9) -> Observation:
+    ego = EgoState(10.0, 0.0, 0.0, speed, t)
+    return Observation(t, ego, detections=detections, image=image)
+
+
+def _still(t: float, detections=None) -> Observation:
+    """An observation of the ego standing."""
+    return _obs(t, detections, speed=0.0)
 
 
 def test_latch_holds_to_the_end_and_reset_clears_it():
-    stack = _started(ReferenceStack())
+    stack = _started(LatchedReferenceStack())
     for t in (0.0, 0.05, 0.1):
         c = stack.step(_obs(t, ()))
         assert c.brake < 1.0 and "aeb" not in c.info
@@ -117,7 +131,7 @@ def test_camera_mode_runs_the_detector_on_new_frames_only():
         calls.append(image)
         return (det(0.5, 0.3),) if image == "close" else ()
 
-    stack = _started(ReferenceStack(detector=detector))
+    stack = _started(ReferenceStack(detector=detector, params={"aeb_latch": True}))
     assert stack.step(_obs(0.0, image="far")).brake < 1.0
     assert stack.step(_obs(0.05)).brake < 1.0  # no frame: no detector call
     assert calls == ["far"]
@@ -139,3 +153,52 @@ def test_image_width_comes_from_the_run_camera():
     assert stack.step(_obs(0.0, (d,))).brake < 1.0
     stack.reset(RunInfo(0.05, route, route[-1], "t", CameraSpec(), 0))
     assert stack.step(_obs(0.0, (d,))).brake == 1.0
+
+
+def test_released_aeb_holds_then_hands_back_after_the_trigger_clears():
+    """The default AEB brakes fully to a standstill, holds while frames trigger it and for
+    ``aeb_hold`` seconds after the last one that did (between frames the last decision
+    holds), then the route follower drives again; it fires again on a new trigger."""
+    stack = _started(ReferenceStack())
+    assert stack.params["aeb_hold"] == 1.0 and not stack.aeb_latches
+    close = (det(0.5, 0.3),)
+    fired = stack.step(_still(0.1, close))
+    assert fired.brake == 1.0 and fired.info == {"aeb_active": True, "aeb_time": 0.1}
+    assert stack.step(_still(0.2, close)).brake == 1.0  # still triggering
+    assert stack.step(_still(0.3, ())).brake == 1.0  # cleared at 0.3: hold until 1.3
+    assert stack.step(_still(0.35)).brake == 1.0  # no frame: holds
+    assert stack.step(_still(1.25, ())).brake == 1.0
+    assert stack.step(_obs(1.3, ())).brake == 1.0  # still rolling: brakes on to a stand
+    c = stack.step(_still(1.35, ()))
+    assert c.brake < 1.0 and c.info == {} and not stack.aeb_fired  # handed back
+    assert stack.step(_still(1.4, close)).info == {"aeb_active": True, "aeb_time": 1.4}
+    # a trigger during the hold restarts it
+    stack.step(_still(1.5, ()))
+    stack.step(_still(2.0, close))
+    assert stack.step(_still(2.1, ())).brake == 1.0  # cleared at 2.1
+    assert stack.step(_still(3.05, ())).brake == 1.0
+    assert stack.step(_still(3.1, ())).brake < 1.0
+
+
+@pytest.mark.parametrize("hold", [0.0, 2.5])
+def test_hold_time_is_a_parameter(hold):
+    stack = _started(ReferenceStack(params={"aeb_hold": hold}))
+    stack.step(_still(0.0, (det(0.5, 0.3),)))
+    stack.step(_still(0.1, ()))
+    assert (stack.step(_still(0.1 + hold - 0.05, ())).brake == 1.0) is (hold > 0.0)
+    assert stack.step(_still(0.1 + hold, ())).brake < 1.0
+
+
+def test_latched_variant_is_a_named_stack_and_a_parameter():
+    for stack in (make_stack("reference-latched"), ReferenceStack(params={"aeb_latch": True})):
+        assert stack.aeb_latches and stack.config()["params"]["aeb_latch"] is True
+    latched = make_stack("reference-latched", fault="f2")
+    assert latched.name == "reference-latched" and latched.params["centering"] == (0.3, 0.6)
+    assert not make_stack("reference").aeb_latches
+
+
+def test_aeb_latch_must_be_a_boolean():
+    from sitcov.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="params.aeb_latch"):
+        ReferenceStack(params={"aeb_latch": "yes"})

@@ -17,7 +17,8 @@ DEPARTING = "judge_fakes:DepartingBackend"
 
 
 def departing_outcome(situation: Any, seed: int, physics: str = "carla") -> Outcome:
-    """FakeBackend's outcome plus lane/road departure facts drawn from the seed.
+    """FakeBackend's outcome plus lane/road departure and route progress facts drawn
+    from the seed.
 
     About 30% of runs leave their lane, half of those the road too, a little earlier (a
     corner over the kerb before the centre is far off the lane, as when steering into the
@@ -30,11 +31,22 @@ def departing_outcome(situation: Any, seed: int, physics: str = "carla") -> Outc
         lane = round(0.3 * base.sim_time, 3)
         if rng.random() < 0.5:
             road = round(0.2 * base.sim_time, 3)
+    # route progress facts: a collision is the standing ego's in a fifth of the cases;
+    # a run without a collision reaches its goal, or stops short (blocked or not)
+    stationary = base.collision and rng.random() < 0.2
+    goal = not base.collision and rng.random() < 0.7
+    stops = not (base.collision or goal or rng.random() < 0.5)
+    blocked = round(0.5 * base.sim_time, 3) if stops else None
     metrics = {
         **base.metrics,
         "lane_departure_time": lane,
         "road_departure_time": road,
         "physics": physics,
+        "ego_stationary": bool(stationary),
+        "route_completion": 1.0 if goal else round(float(rng.random()), 6),
+        "blocked_time": blocked,
+        "route_incomplete_time": None if base.collision or goal else 60.0,
+        "actor_collisions": [{"actors": ["a", "b"]}] * int(rng.random() < 0.1),
     }
     return replace(base, metrics=metrics, collision_time=base.sim_time if base.collision else None)
 

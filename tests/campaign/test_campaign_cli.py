@@ -75,7 +75,8 @@ def test_exports(db, capsys, tmp_path):
     assert suite.get("failures") == str(fails)
     cases = suite.findall("testcase")
     assert len(cases) == 30 and sum(c.find("failure") is not None for c in cases) == fails
-    assert "friction=" in cases[0].get("name")
+    props = {p.get("name"): p.get("value") for p in cases[0].iter("property")}
+    assert cases[0].get("name") == props["situation_id"] and "friction=" in props["bins"]
 
     code, out, _ = sitcov(capsys, "export", "--db", str(path), "--format", "json")
     data = json.loads(out)

@@ -24,7 +24,7 @@ from sitcov.campaign._summary import summarize_store, summary_table
 from sitcov.errors import ConfigError
 from sitcov.generation import make_generator
 from sitcov.hyperspace import load_hyperspace
-from sitcov.sim import WORLD_MODEL_VERSION, Judge
+from sitcov.sim import FAILURE_KINDS, WORLD_MODEL_VERSION, Judge
 
 # --- the judge is configuration; the facts are not -------------------------------------------
 
@@ -50,7 +50,7 @@ def test_the_judge_decides_verdicts_from_identical_facts():
             judge = Judge.from_spec(run.config["judge"])
             assert run.failure_kind == judge.kind(raw) and run.status == judge(raw).status
     kinds = {j: _kinds(store, j) for j in runs}
-    assert set(kinds["paper"]) <= {"pass", "collision"}
+    assert set(kinds["paper"]) <= {"pass", "collision", "ego_stationary"}
     assert "road_departure" in kinds["default"] and "lane_departure" in kinds["strict"]
     fails = {j: store.count_runs(j, "fail") for j in runs}
     assert fails["paper"] < fails["default"] < fails["strict"]  # each judge counts more
@@ -105,7 +105,7 @@ def test_summary_breaks_failures_down_by_kind(judged_db):
         assert by_kind[kind]["failure_rate"] == pytest.approx(n / judged)
     assert sum(k["failures"] for k in by_kind.values()) == summary["failures"]
     assert summary["physics"] == "carla" and summary["judge"] == "strict"
-    assert summary["judge_counts"] == ["collision", "road_departure", "lane_departure"]
+    assert summary["judge_counts"] == list(FAILURE_KINDS)
     assert summary["world_model"] == WORLD_MODEL_VERSION and not summary["legacy_world_model"]
     # events: every fact, counted or not (here the strict judge counts all)
     assert summary["events_by_kind"]["lane_departure"] >= by_kind["lane_departure"]["failures"]
@@ -118,7 +118,7 @@ def test_summary_breaks_failures_down_by_kind(judged_db):
     Console(file=text, width=120).print(summary_table(summary))
     shown = text.getvalue()
     assert "road departure" in shown and "lane departure" in shown
-    assert "strict (collision + road departure + lane departure)" in shown
+    assert "strict (collision + ego stationary + road departure + lane departure" in shown
 
 
 def test_exports_carry_the_failure_kind(judged_db, tmp_path):
@@ -134,6 +134,14 @@ def test_exports_carry_the_failure_kind(judged_db, tmp_path):
         assert {r["index"]: r["failure_kind"] for r in data["runs"]} == expected
         assert data["campaigns"][0]["judge"] == "strict"
         assert data["campaigns"][0]["physics"] == "carla"
+        # route progress facts: columns in CSV, statistics per campaign in JSON
+        metrics = {r.index: r.outcome.metrics for r in store.runs("k") if r.outcome}
+        for row in rows:
+            want = metrics[int(row["index"])]
+            assert float(row["route_completion"]) == want["route_completion"]
+            assert row["ego_stationary"] == str(want["ego_stationary"])
+        done = data["campaigns"][0]["route_completion"]
+        assert done["runs"] == len(metrics) and 0.0 < done["mean"] < 1.0
         pq_path = tmp_path / "k.parquet"
         export(store, "parquet", str(pq_path))
     import pyarrow.parquet as pq
@@ -150,9 +158,28 @@ def test_report_shows_judge_physics_and_kinds(judged_db, tmp_path):
 
     html = build_report(judged_db, tmp_path / "rep", pictures=0).read_text()
     section = html.split("Failures by kind", 1)[1].split("</table>", 1)[0]
-    for kind in ("collision", "road departure", "lane departure"):
+    for kind in ("collision", "road departure", "lane departure", "blocked", "ego stationary"):
         assert kind in section
     assert "strict" in html and "carla" in html
+    assert "Route completion" in html and "goal" in html
+    # strict counts every kind: only the other road users' collisions are left to say
+    uncounted = html.split("Events the judge does not count", 1)[1].split("</table>", 1)[0]
+    assert uncounted.count("<tr><td>") == 1 and "two other road users" in uncounted
+
+
+def test_report_says_what_the_paper_judge_does_not_count(tmp_path):
+    from sitcov.report import build_report
+
+    path = tmp_path / "paper.db"
+    with open_store(path) as store:
+        run_campaign(fake_config(name="p", backend=DEPARTING, judge="paper", runs=60), store)
+        summary = summarize_store(store)
+    html = build_report(path, tmp_path / "rep", pictures=0).read_text()
+    section = html.split("Events the judge does not count", 1)[1].split("</table>", 1)[0]
+    for kind, n in summary["not_counted"].items():
+        assert f'<td>{kind.replace("_", " ")}</td><td class="n">{n}</td>' in section
+    assert "blocked" in section and "road departure" in section
+    assert "two other road users" in section
 
 
 # --- an old database ----------------------------------------------------------------------------
@@ -258,6 +285,9 @@ def test_old_campaign_summarises_exports_and_reports_as_legacy(old_db, tmp_path,
     assert summary["failures_by_kind"]["road_departure"]["failures"] == 0
     assert summary["physics"] == "legacy" and summary["world_model"] == "legacy"
     assert summary["judge"] == "paper" and summary["legacy_world_model"] is True
+    # runs stored before route progress facts: counted apart, never as 0 completion
+    assert summary["route_completion"]["runs"] == 0
+    assert summary["route_completion"]["without"] == 28 and summary["not_counted"] == {}
     code, out, _ = sitcov(capsys, "summary", "--db", str(old_db))
     assert code == 0 and "legacy" in out
     code, out, _ = sitcov(capsys, "export", "--db", str(old_db), "--format", "csv")
@@ -320,4 +350,4 @@ def test_judge_flag_reaches_the_stored_config(tmp_path, capsys):
         info = store.campaign("default")
         assert info.config["judge"] == "paper" and info.config["physics"] == "physical"
         assert info.world_version == WORLD_MODEL_VERSION
-        assert {r.failure_kind for r in store.runs()} <= {"pass", "collision"}
+        assert {r.failure_kind for r in store.runs()} <= {"pass", "collision", "ego_stationary"}

@@ -63,6 +63,8 @@ def test_cli_runs_needed_and_flakiness(tmp_path, capsys):
 
     code, out, _ = run_cli(capsys, "runs-needed", "--margin", "0.05")
     assert code == 0 and out.startswith("381 runs per bin")
+    code, out, _ = run_cli(capsys, "runs-needed", "--below", "0.05")
+    assert code == 0 and out.startswith("59 runs without a failure")
     code, _, err = run_cli(capsys, "runs-needed", "--margin", "0.05", "--rate", "2")
     assert code != 0 and "--rate" in err
     db = str(tmp_path / "f.db")

@@ -38,7 +38,9 @@ def test_sql_facts_equal_the_record_facts(tmp_path):
             assert sorted(sql) == sorted(records)
             assert len(sql) == (48 if name else 144)
         events = [set(f["events"]) for f in iter_facts(store, "strict")]
-        assert any("lane_departure" in e for e in events)
+        for kind in ("lane_departure", "ego_stationary", "blocked", "route_incomplete"):
+            assert any(kind in e for e in events), kind
+        assert any(f["actor_collisions"] for f in iter_facts(store, "strict"))
         outcomes = [set(event_times(r.outcome)) for r in store.iter_runs("strict")]
         assert sorted(map(sorted, events)) == sorted(map(sorted, outcomes))
 
@@ -58,6 +60,16 @@ def test_summary_of_sqlite_equals_the_in_memory_store(tmp_path):
     assert paper["failures_by_kind"]["road_departure"]["failures"] == 0
     assert paper["events_by_kind"]["road_departure"] > 0
     assert summarize_store(memory, "errors")["errors"] > 0
+    # what the paper's judge does not count is said: departures, no progress
+    assert {"road_departure", "blocked", "route_incomplete"} <= set(paper["not_counted"])
+    assert paper["not_counted"]["blocked"] == paper["events_by_kind"]["blocked"]
+    strict = summarize_store(memory, "strict")
+    assert strict["not_counted"] == {}
+    done = strict["route_completion"]
+    assert done["runs"] == strict["passes"] + strict["failures"] and done["without"] == 0
+    assert sum(done["distribution"].values()) == done["runs"]
+    assert 0.0 < done["goal_rate"] < 1.0 and 0.0 < done["mean"] < 1.0
+    assert strict["actor_collisions"]["runs"] > 0
 
 
 def test_total_wall_time_in_sql_equals_the_sum_over_runs(tmp_path):

@@ -58,7 +58,7 @@ def test_report_is_self_contained(built):
         assert f"element_{name}.png" in figures
     assert {"coverage_growth.png", "heatmap.png"} <= figures
     embedded = html.count('src="data:image/png;base64,')
-    assert embedded == len([f for f in figures if f.endswith(".png")]) == 11
+    assert embedded == len([f for f in figures if f.endswith(".png")]) == 12  # + criticality
 
 
 def test_headline_numbers_are_the_stored_ones(built):

@@ -12,7 +12,7 @@ from _sim_helpers import INTSITS, make_situation
 from sitcov.av import AVStack, Control, NoPerceptionStack, Observation, ReferenceStack, RunInfo
 from sitcov.errors import ConfigError, UnknownPluginError
 from sitcov.hyperspace import load_hyperspace
-from sitcov.sim import make_backend
+from sitcov.sim import Judge, make_backend
 from sitcov.sim.embedded import EmbeddedBackend, render_topdown
 
 
@@ -181,7 +181,9 @@ def test_camera_mode_passes_images() -> None:
 
 @pytest.mark.slow
 def test_early_end_never_changes_a_verdict() -> None:
-    """Every run ended as ``stopped`` would also pass if simulated to the 60 s timeout."""
+    """Every run ended as ``stopped`` (the latched AEB: the releasing one never ends a
+    run early) would also pass if simulated to the 60 s timeout, and gets that run's
+    verdict under every judge."""
     from sitcov._seeding import ask_rng, run_seed
     from sitcov.av import make_stack
     from sitcov.generation import make_generator
@@ -190,14 +192,18 @@ def test_early_end_never_changes_a_verdict() -> None:
     fast, full = EmbeddedBackend(), EmbeddedBackend(early_end=False)
     checked = 0
     for fault in (None, "f2"):
-        stack = make_stack("reference", fault=fault)
+        stack = make_stack("reference-latched", fault=fault)
         for i in range(40):
             situation = generator.ask(ask_rng(11, i))
             outcome = fast.run(situation, stack, run_seed(11, i))
             if outcome.end_reason != "stopped":
                 continue
             checked += 1
-            assert full.run(situation, stack, run_seed(11, i)).status == "pass"
+            whole = full.run(situation, stack, run_seed(11, i))
+            assert whole.status == "pass"
+            for judge in ("default", "paper", "strict"):
+                verdict = Judge.from_spec(judge)
+                assert verdict.kind(outcome) == verdict.kind(whole), (i, judge)
     assert checked >= 20
 
 

@@ -15,7 +15,13 @@ from sitcov.sim.embedded._monitors import DrivableArea, LaneDepartureMonitor, Ro
 
 
 def facts(
-    collision: float | None = None, road: float | None = None, lane: float | None = None
+    collision: float | None = None,
+    road: float | None = None,
+    lane: float | None = None,
+    *,
+    stationary: bool = False,
+    blocked: float | None = None,
+    incomplete: float | None = None,
 ) -> Outcome:
     """A backend outcome with the given first event times (None = did not happen)."""
     return Outcome(
@@ -24,7 +30,13 @@ def facts(
         sim_time=collision if collision is not None else 20.0,
         collision=collision is not None,
         collision_time=collision,
-        metrics={"road_departure_time": road, "lane_departure_time": lane},
+        metrics={
+            "road_departure_time": road,
+            "lane_departure_time": lane,
+            "ego_stationary": stationary and collision is not None,
+            "blocked_time": blocked,
+            "route_incomplete_time": incomplete,
+        },
     )
 
 
@@ -40,6 +52,13 @@ CASES = [
     (facts(collision=6.0, road=4.0), "road_departure", "collision", "road_departure"),
     (facts(collision=4.0, road=6.0), "collision", "collision", "collision"),
     (facts(collision=4.0, road=4.0, lane=4.0), "collision", "collision", "collision"),
+    # someone ran into the standing ego: the paper's judge counts it, default does not
+    (facts(collision=5.0, stationary=True), "pass", "ego_stationary", "ego_stationary"),
+    # no progress: default and strict fail it, the paper's judge does not
+    (facts(blocked=12.0, incomplete=60.0), "blocked", "pass", "blocked"),
+    (facts(incomplete=60.0), "route_incomplete", "pass", "route_incomplete"),
+    (facts(road=30.0, incomplete=60.0), "road_departure", "pass", "road_departure"),
+    (facts(collision=8.0, stationary=True, blocked=5.0), "blocked", "ego_stationary", "blocked"),
 ]
 
 
@@ -59,7 +78,14 @@ def test_explicit_list_judge_counts_exactly_its_kinds():
     assert judge.counts == ("lane_departure",) and judge.name == "custom"
     assert judge(facts(collision=2.0)).status == "pass"  # a collision is not counted
     assert judge(facts(lane=1.0)).kind == "lane_departure"
-    assert Judge.from_spec("road_departure,collision").name == "default"
+    assert Judge.from_spec("road_departure,collision").name == "custom"
+    spec = "route_incomplete,blocked,road_departure,collision"
+    assert Judge.from_spec(spec).name == "default"
+    assert Judge.from_spec("collision,road_departure,blocked").counts == (
+        "collision",
+        "road_departure",
+        "blocked",
+    )
 
 
 def test_unjudgeable_runs_keep_their_status_and_kind():
@@ -79,15 +105,17 @@ def test_a_fail_without_facts_is_a_collision_as_before_kinds_existed():
     [
         (None, "default"),
         ("paper", "paper"),
-        (["collision"], "paper"),
-        (["lane_departure", "collision", "road_departure"], "strict"),
+        (["ego_stationary", "collision"], "paper"),
+        (["collision"], ["collision"]),
+        (list(reversed(FAILURE_KINDS)), "strict"),
         ("lane_departure, collision", ["collision", "lane_departure"]),
     ],
 )
 def test_judge_settings_have_one_canonical_form(spec, canon):
     assert normalize_judge(spec) == canon
-    assert set(JUDGES["default"]) == {"collision", "road_departure"}
-    assert JUDGES["paper"] == ("collision",) and JUDGES["strict"] == FAILURE_KINDS
+    assert set(JUDGES["default"]) == {"collision", "road_departure", "blocked", "route_incomplete"}
+    assert JUDGES["paper"] == ("collision", "ego_stationary")
+    assert JUDGES["strict"] == FAILURE_KINDS
 
 
 @pytest.mark.parametrize("bad", ["", "crash", ["collision", "offroad"], []])
@@ -198,3 +226,13 @@ def test_reference_stack_on_dry_road_stays_on_the_road():
         out = backend.run(make_situation(intsit, friction=1.0), stack, seed=intsit)
         assert out.metrics["road_departure_time"] is None, intsit
         assert out.metrics["lane_departure_time"] is None, intsit
+
+
+def test_collisions_between_other_road_users_never_fail_the_ego():
+    contact = {"actors": ["ov", "actor2"], "kinds": ["car", "pedestrian"], "time": 4.0}
+    base = facts()
+    outcome = Outcome(
+        **{**base.to_dict(), "metrics": {**base.metrics, "actor_collisions": [contact]}}
+    )
+    for name in JUDGES:
+        assert Judge.from_spec(name)(outcome).status == "pass", name

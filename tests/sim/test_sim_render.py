@@ -11,8 +11,8 @@ from sitcov.sim import Trace
 from sitcov.sim.embedded._render import (
     EGO_COLOR,
     KIND_COLORS,
-    _drawn_actors,
-    _outline,
+    drawn_actors,
+    outline,
     render_topdown,
 )
 
@@ -46,7 +46,7 @@ def _trace() -> Trace:
 
 
 def test_every_actor_is_drawn_in_slot_order_with_its_kind():
-    drawn = _drawn_actors(_trace(), _trace().meta)
+    drawn = drawn_actors(_trace(), _trace().meta)
     assert [a["name"] for a in drawn] == ["ego", "ov", "actor2", "actor3", "actor10"]
     assert [a["label"] for a in drawn] == [
         "ego (car)",
@@ -63,7 +63,7 @@ def test_every_actor_is_drawn_in_slot_order_with_its_kind():
 
 def test_an_old_trace_without_actors_draws_ego_and_ov():
     old = Trace(ego=_rows(0, 0, 0), ov=_rows(5, 5, 1), meta={})
-    assert [a["label"] for a in _drawn_actors(old, {})] == ["ego (car)", "OV (car)"]
+    assert [a["label"] for a in drawn_actors(old, {})] == ["ego (car)", "OV (car)"]
 
 
 @pytest.mark.parametrize(
@@ -71,7 +71,7 @@ def test_an_old_trace_without_actors_draws_ego_and_ov():
 )
 def test_outlines_fit_the_body_and_point_forward(kind, length, width, corners):
     row = (0.0, 3.0, -2.0, 0.7, 1.0)
-    pts = np.array(_outline(kind, row, length, width))
+    pts = np.array(outline(kind, row, length, width))
     assert len(pts) == corners
     local = (pts - [3.0, -2.0]) @ np.array(
         [[math.cos(0.7), -math.sin(0.7)], [math.sin(0.7), math.cos(0.7)]]
@@ -83,7 +83,7 @@ def test_outlines_fit_the_body_and_point_forward(kind, length, width, corners):
 
 
 def test_a_pedestrian_is_a_disc():
-    pts = np.array(_outline("pedestrian", (0.0, 1.0, 1.0, 0.3, 1.0), 0.5, 0.5))
+    pts = np.array(outline("pedestrian", (0.0, 1.0, 1.0, 0.3, 1.0), 0.5, 0.5))
     assert len(pts) >= 12
     assert np.hypot(pts[:, 0] - 1.0, pts[:, 1] - 1.0) == pytest.approx(np.full(len(pts), 0.25))
 

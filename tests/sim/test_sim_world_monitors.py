@@ -40,7 +40,7 @@ def world(ego: Actor, *others: Actor, t: float = 0.0, k: int = 0, aeb: float | N
         k=k,
         mu=1.0,
         collision=None,
-        driver=SimpleNamespace(aeb_time=aeb),
+        driver=SimpleNamespace(aeb_time=aeb, latched=aeb is not None),
     )
     relate(w)
     return w
@@ -146,7 +146,7 @@ def test_early_end_needs_a_latched_standing_ego_and_no_actor_that_can_reach_it()
     w = world(ego, waiting)
     mon = EarlyEndMonitor(w)
     assert mon.update(w) is None  # AEB has not fired
-    w.driver.aeb_time = 1.0
+    w.driver.aeb_time, w.driver.latched = 1.0, True
     assert mon.update(w) == "stopped"  # the only actor is stuck
     moving = actor("m", "car", -20.0, controller=Controller(stuck=False))
     w2 = world(ego, moving, aeb=1.0)

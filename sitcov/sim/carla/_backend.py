@@ -526,6 +526,7 @@ class CarlaBackend(Backend):
             record=record,
             scene=scene,
             ov_kind="car" if plan.car_ov else twins[0].actor.kind,
+            route=list(info.route),
         )
         episode.attach_sensors(run.library, sensors)
         try:

@@ -11,6 +11,11 @@ the ego's bounding box lies on a driving lane (``Map.get_waypoint(location,
 project_to_road=False)`` is None off the road: sidewalk, shoulder, kerb, grass) and records
 the first time one does not, as ``metrics["road_departure_time"]``. Lane departure is not
 reported by this backend (``lane_departure_time`` is None); see docs/campaigns.md.
+
+Route progress: :class:`sitcov.sim._progress.RouteProgress` follows the ego along its
+route each tick (route completion, time to goal, standstill, route incomplete); a
+collision with the ego below ``STATIONARY_SPEED`` is ``ego_stationary``. ``blocked_time``
+is not reported by this backend (None).
 """
 
 from __future__ import annotations
@@ -21,12 +26,15 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from sitcov.sim._base import Outcome, Trace
+from sitcov.sim._judge import STATIONARY_SPEED
+from sitcov.sim._progress import RouteProgress
 from sitcov.sim.carla._geometry import carla_transform, steer_to_carla
 from sitcov.sim.carla._metrics import relative_speed
 from sitcov.sim.carla._state import image_to_rgb, make_observation, vehicle_state
 
-#: The ego counts as halted below this speed [m/s]; after AEB, a halt of HALT_TIME [s] with
-#: the OV at its goal ends the run early (``stopped``): nothing can change any more.
+#: The ego counts as halted below this speed [m/s]; after its AEB latched, a halt of
+#: HALT_TIME [s] with the OV at its goal ends the run early (``stopped``): nothing can change
+#: any more (an AEB that releases never ends a run early).
 HALT_SPEED = 0.1
 HALT_TIME = 2.0
 
@@ -100,6 +108,7 @@ class Episode:
         record: keep the trajectories.
         scene: the situation's further road users (None in the paper's two-car scene).
         ov_kind: the primary road user's kind.
+        route: the ego's route in the sitcov frame (route progress facts, RouteProgress).
     """
 
     def __init__(
@@ -113,6 +122,7 @@ class Episode:
         record: bool = False,
         scene: Scene | None = None,
         ov_kind: str = "car",
+        route: list[tuple[float, float]] | None = None,
     ) -> None:
         self.settings, self.world, self.stack = settings, world, stack
         self.ego, self.ov = ego, ov
@@ -126,6 +136,9 @@ class Episode:
                 self.road_users[actor_id] = (twin.name, twin.actor.kind, twin.carla_actor)
         self.other_hits: list[str] = []
         self.rows: tuple[list, list] = ([], [])
+        self.route: list[tuple[float, float]] = list(route or ())
+        self.latched = False  # the stack's AEB latched (Control.info["aeb"])
+        self.progress: RouteProgress | None = None
 
     def attach_sensors(self, library: Any, sensors: list[Any]) -> None:
         """Spawn the ego's RGB camera (the stack's CameraSpec) and collision sensor.
@@ -178,12 +191,14 @@ class Episode:
         """
         settings = self.settings
         road = RoadMonitor(settings.carla, settings.carla_map)
+        self.progress = RouteProgress(self.route, settings.goal_tolerance, settings.sim_timeout)
         frame = self.world.tick(seconds=settings.timeout)
         step, halted = 0, 0.0
         while True:
             now = self._observe(step * settings.dt, metrics, road)
+            self.progress.update(now.t, now.ego.x, now.ego.y, now.ego.speed, settings.dt)
             image = self._image(frame)
-            standing = metrics.aeb_time is not None and now.ego.speed < HALT_SPEED
+            standing = self.latched and now.ego.speed < HALT_SPEED
             halted = halted + settings.dt if standing else 0.0
             reason = self._end_reason(now, goal, driver, halted)
             if reason is not None:
@@ -252,8 +267,10 @@ class Episode:
             control = self.stack.step(make_observation(now.t, now.ego, rgb))
         except Exception as exc:
             raise StackFailure() from exc
-        if control.info.get("aeb") and metrics.aeb_time is None:
-            metrics.aeb_time = float(control.info.get("aeb_time", now.t))
+        info = control.info
+        if (info.get("aeb") or info.get("aeb_active")) and metrics.aeb_time is None:
+            metrics.aeb_time = float(info.get("aeb_time", now.t))
+        self.latched = self.latched or bool(info.get("aeb"))
         self.ego.apply_control(
             carla.VehicleControl(
                 throttle=_clip01(control.throttle),
@@ -286,6 +303,9 @@ class Episode:
             "other_collisions": sorted(set(self.other_hits)),
             "road_departure_time": road.time,
             "lane_departure_time": None,
+            **self.progress.facts(reason, self.latched),
+            "ego_collision_speed": now.ego.speed if hit is not None else None,
+            "ego_stationary": hit is not None and now.ego.speed < STATIONARY_SPEED,
         }
         if self.scene is not None:
             extra["actors"] = self.scene.metrics(name)

@@ -69,6 +69,7 @@ def _xosc() -> Any:
         from scenariogeneration import xosc
     except ImportError:
         raise MissingExtraError("OpenSCENARIO export", "xosc", "scenariogeneration") from None
+    xosc.VersionBase().setVersion(minor=0)  # one process-wide version: this file is 1.0
     return xosc
 
 

@@ -3,6 +3,7 @@
 from sitcov.sim.embedded._backend import ELEMENT_EFFECTS, EmbeddedBackend
 from sitcov.sim.embedded._collision import box_distance, overlap, time_to_collision
 from sitcov.sim.embedded._dynamics import Vehicle, VehicleParams, bmw_320i, default_params
+from sitcov.sim.embedded._lanes_map import LanesMap  # registers layout: lanes
 from sitcov.sim.embedded._layouts import MergeMap, RoundaboutMap  # registers the layouts
 from sitcov.sim.embedded._map import Conflict, JunctionMap, Scenario, find_conflict, load_map
 from sitcov.sim.embedded._path import Path
@@ -13,6 +14,7 @@ __all__ = [
     "Conflict",
     "EmbeddedBackend",
     "JunctionMap",
+    "LanesMap",
     "MergeMap",
     "Path",
     "RoundaboutMap",

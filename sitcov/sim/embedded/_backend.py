@@ -39,6 +39,7 @@ from sitcov.sim.embedded._monitors import (  # noqa: F401 - constants re-exporte
     RoadDepartureMonitor,
     default_monitors,
 )
+from sitcov.sim.embedded._progress import BLOCKED_TIME, STILL_SPEED  # noqa: F401
 from sitcov.sim.embedded._scene import DEFAULT_INTSIT, build_actors, parse_scene  # noqa: F401
 from sitcov.sim.embedded._world import Wind, World
 from sitcov.weather._conditions import (
@@ -344,7 +345,7 @@ class EmbeddedBackend(Backend):
         driver = self._driver(situation, av_stack, ego, cond, rng, seed)
         world = World(ego, actors, driver, wind, cond.mu, self.dt)
         monitors = self._monitors(world)
-        reason = run_loop(world, monitors, n_max, record)
+        reason = world.end_reason = run_loop(world, monitors, n_max, record)
         return self._outcome(plan, world, monitors, cond, wind_direction, reason, record)
 
     def _driver(self, situation, av_stack, ego, cond, rng, seed) -> EgoDriver:
@@ -390,7 +391,10 @@ class EmbeddedBackend(Backend):
         road = RoadDepartureMonitor(
             self.map.drivable_area, route.hs, left, right, ego.half_l, ego.half_w
         )
-        return default_monitors(world, lane, road, self.early_end)
+        driver = world.driver
+        never_latches = driver.plain_step is not None and not driver.plain_latches
+        early_end = self.early_end and not never_latches
+        return default_monitors(world, lane, road, early_end, self.sim_timeout)
 
     def _outcome(self, plan, world, monitors, cond, wind_direction, reason, record) -> Outcome:
         """The run's Outcome: the primary OV's values at the top level, as before actors."""
@@ -420,6 +424,8 @@ class EmbeddedBackend(Backend):
             "ego_gap_at_switch": timing.switch_gap if timing else None,
             **run,
             "ego_final_speed": world.ego.body.speed,
+            "ego_collision_speed": world.ego.body.speed if collided else None,
+            "ego_stationary": collided and world.ego.body.speed < STILL_SPEED,
         }
         if not plan.classic:
             metrics.update(scene_metrics(world, per_actor))

@@ -209,7 +209,9 @@ def derive_hyperspace(
         "description": f"Situations derived from map {jmap.name!r}: every route pair that "
         f"conflicts, actors {', '.join(actors)}, up to {max_actors} besides the ego.",
         "metadata": {
-            "map": jmap.name,
+            # a map file (YAML or FILE.xodr#ID) is named as given, so that a campaign on the
+            # derived hyperspace loads the same file; a built-in map by its name
+            "map": map_name if "." in FsPath(str(map_name)).name else jmap.name,
             "traffic": "right-hand",
             "derived_by": "sitcov hyperspace derive",
             "actors": list(actors),

@@ -6,8 +6,9 @@ detections from the sensor (PEM mode: ``Sensor.detect`` with an ``ActorView`` pe
 ``kind`` set, or for the built-in PEM the same through ``PEMSensor.detect_prepared``), a
 rendered frame (camera mode), the real detector's detections on that frame (camera mode,
 a stack that wants detections) or an object list (either mode), delays frames by
-the perception delay, asks the stack for a ``Control``, notes when its AEB fired (from
-then on perception stops: the stack ignores it), and delays the brake command by the
+the perception delay, asks the stack for a ``Control``, notes when its AEB fired (if it
+latched, perception stops from then on: the stack ignores it; an AEB that releases keeps
+receiving frames), and delays the brake command by the
 brake delay (throttle and steering act at once).
 """
 
@@ -80,6 +81,8 @@ class EgoDriver:
         self.aeb_time: float | None = None
         plain = getattr(type(stack), "plain_step", None)  # the built-in stack's fast path
         self.plain_step = plain(stack) if callable(plain) and kind != "objects" else None
+        # whether the built-in stack's AEB latches when it fires (else it releases)
+        self.plain_latches = bool(getattr(stack, "aeb_latches", True))
         # the built-in PEM (its detect not overridden): each actor prepared once per run,
         # then shown by its body's pose (no Pose or ActorView per frame)
         self.prepared = sensor is not None and type(sensor).detect is PEMSensor.detect
@@ -151,18 +154,20 @@ class EgoDriver:
             throttle, brake, steer, fired = self.plain_step(
                 t, ego.x, ego.y, ego.yaw, world.ego_speed, detections, image
             )
+            latches = fired is not None and self.plain_latches
         else:
             throttle, brake, steer, fired = self._step(
                 ego, world.ego_speed, t, detections, image, objects
             )
+            latches = fired is True
         if fired is not None:
             if self.aeb_time is None:
                 self.aeb_time = t
             # no more frames (camera) or detections (PEM) once the brake has latched:
             # Control.info["aeb"] promises the stack ignores perception from now on, and
             # the sensor's noise draws come last from the run's generator, so skipping
-            # them changes no other draw
-            self.latched = True
+            # them changes no other draw. An AEB that releases keeps perceiving.
+            self.latched = latches
         if self.brakes:
             self.brakes.append(brake)
             brake = self.brakes.popleft()
@@ -172,8 +177,12 @@ class EgoDriver:
         self, ego: Any, speed: float, t: float, detections: Any, image: Any, objects: Any = None
     ) -> tuple[float, float, float, bool | None]:
         """The AV stack's step through its protocol: (throttle, brake, steer, True once
-        its ``Control.info["aeb"]`` says the AEB latched, else None)."""
+        its ``Control.info["aeb"]`` says the AEB latched, False while
+        ``Control.info["aeb_active"]`` says an AEB that will release brakes, else None)."""
         obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, speed, t), detections, image, objects)
         ctrl = self.stack.step(obs)
         info = ctrl.info
-        return ctrl.throttle, ctrl.brake, ctrl.steer, (True if info and info.get("aeb") else None)
+        fired = None
+        if info:
+            fired = True if info.get("aeb") else (False if info.get("aeb_active") else None)
+        return ctrl.throttle, ctrl.brake, ctrl.steer, fired

@@ -662,11 +662,15 @@ def route_conflict(ego: Path, ov: Path, gap: float) -> Conflict | None:
 
 @functools.lru_cache(maxsize=16)
 def load_map(source: str = "t-junction") -> JunctionMap:
-    """Load a built-in map by name (``"t-junction"``, ``"cross"``, ...) or a YAML file path.
+    """Load a built-in map by name (``"t-junction"``, ``"cross"``, ...), a YAML file path,
+    or an OpenDRIVE file: ``FILE.xodr`` (its only junction) or ``FILE.xodr#ID`` (junction
+    ``ID``), imported on the fly (``sitcov.roads``, ``docs/roads.md``).
 
     Raises:
         ConfigError: unknown name, unreadable file or invalid content.
     """
+    if ".xodr" in str(source).lower():
+        return JunctionMap(*_xodr_map_data(str(source)))
     path = FsPath(source)
     if not path.suffix:
         path = MAPS_DIR / f"{source}.yaml"
@@ -682,3 +686,24 @@ def load_map(source: str = "t-junction") -> JunctionMap:
     except (yaml.YAMLError, ValueError, RecursionError) as exc:  # bad UTF-8, deep nesting
         raise ConfigError(f"{path}: not valid YAML: {' '.join(str(exc).split())}") from None
     return JunctionMap(data, source=str(path))
+
+
+def _xodr_map_data(source: str) -> tuple[dict[str, Any], str]:
+    """The map data of ``FILE.xodr[#JUNCTION]`` and the source name for messages."""
+    from sitcov.roads import junction_map_data, list_junctions, read_opendrive
+
+    file, _, junction = source.partition("#")
+    net = read_opendrive(file)
+    if not junction:
+        ids = [row["id"] for row in list_junctions(net)]
+        if len(ids) != 1:
+            raise ConfigError(
+                file=file,
+                field="junction",
+                value=None,
+                expected=f"FILE.xodr#ID naming one of its {len(ids)} junctions "
+                f"({', '.join(ids[:20])}{', ...' if len(ids) > 20 else ''}; "
+                "`sitcov map import FILE --list` lists them)",
+            )
+        junction = ids[0]
+    return junction_map_data(net, junction), f"{file}#{junction}"

@@ -19,6 +19,9 @@ new metric is a new monitor in the list (``default_monitors``), not a change of 
   to a stop; the run goes on.
 - :class:`LeaveMapRule`: an actor at the end of its route leaves the world.
 - :class:`GoalMonitor`: the ego reached its goal: ends the run.
+- :class:`~sitcov.sim.embedded._progress.ProgressMonitor`: the ego's route completion,
+  time to goal, standstill and ``blocked`` time (``_progress.py``); it ends the run at the
+  goal as :class:`GoalMonitor` does, in the built-in list instead of it.
 - :class:`EarlyEndMonitor`: the ego's AEB latched and it stands, and no actor can still
   reach it: ends the run as ``stopped`` (docs/embedded.md, "End of a run").
 
@@ -235,6 +238,8 @@ class EgoRouteMonitor:
         self.sin, self.cos = _heading_trig(route)
         self.lane, self.road = lane, road
         self.max_lat = 0.0
+        # the road monitor's cheap pre-test, written out below (this runs every step)
+        self._road = (road.hs, road.left, road.right, road.half_l, road.half_w)
 
     def update(self, world: Any) -> None:
         """Offset of the ego at its tracked segment; feed both departure monitors."""
@@ -247,7 +252,10 @@ class EgoRouteMonitor:
         if lane.time is None and (lat > lane.limit or -lat > lane.limit):
             lane.update(world.t, b.x, b.y, b.yaw, i, lat)
         if road.time is None:
-            road.update(world.t, b.x, b.y, b.yaw, i, lat)
+            hs, left, right, half_l, half_w = self._road
+            reach = half_w + half_l * abs(math.sin(b.yaw - hs[i])) + CLEARANCE_SLACK
+            if not (lat + reach < left[i] and reach - lat < right[i]):
+                road.update(world.t, b.x, b.y, b.yaw, i, lat)
         lat = -lat if lat < 0.0 else lat
         if lat > self.max_lat:
             self.max_lat = lat
@@ -578,7 +586,8 @@ class GoalMonitor:
 class EarlyEndMonitor:
     """Ends a run as ``stopped`` once nothing can change any more.
 
-    The ego's AEB has latched (``world.driver.aeb_time``) and the ego stands; then the run
+    The ego's AEB has latched (``world.driver.latched``: an AEB that releases never ends a
+    run early) and the ego stands; then the run
     is over when no active actor can still reach it. An actor cannot when it is
     ``clear`` (the stopped ego's box lies outside the corridor the actor will still sweep:
     its remaining route widened by half its width and :data:`CORRIDOR_MARGIN`, and the road
@@ -587,12 +596,17 @@ class EarlyEndMonitor:
     ``away`` (past its conflict zone and moving away), or ``stuck`` (its controller will
     never move it again, e.g. the timing law braked waiting for an ego that stands).
 
+    The route progress facts must be those of the whole run, so the run also waits until
+    the standing ego's path is clear (``progress.settled()``, ``_progress.py``).
+
     Args:
         enabled: False never ends a run early.
+        progress: the run's ``ProgressMonitor`` (None: not waited for).
     """
 
-    def __init__(self, world: Any, enabled: bool = True) -> None:
+    def __init__(self, world: Any, enabled: bool = True, progress: Any = None) -> None:
         self.enabled = enabled
+        self.progress = progress
         self.clear: list[bool | None] = [None] * len(world.actors)
         self.zone_end = [
             math.inf if a.conflict is None else min(a.conflict.s_ov_end, a.conflict.s_ov + PET_ZONE)
@@ -608,7 +622,7 @@ class EarlyEndMonitor:
 
     def update(self, world: Any) -> str | None:
         """``"stopped"`` when the ego stands latched and no actor can reach it."""
-        if not self.enabled or world.driver.aeb_time is None:
+        if not self.enabled or not world.driver.latched:
             return None
         if world.ego.body.speed >= STOPPED_SPEED:
             return None
@@ -621,6 +635,8 @@ class EarlyEndMonitor:
             away = a.s - a.half_l > self.zone_end[i] and a.gap > a.prev_gap
             if not (away or a.controller.stuck(a)):
                 return None
+        if self.progress is not None and not self.progress.settled():
+            return None
         return "stopped"
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
@@ -628,9 +644,18 @@ class EarlyEndMonitor:
 
 
 def default_monitors(
-    world: Any, lane: LaneDepartureMonitor, road: RoadDepartureMonitor, early_end: bool
+    world: Any,
+    lane: LaneDepartureMonitor,
+    road: RoadDepartureMonitor,
+    early_end: bool,
+    budget: float = 60.0,
 ) -> list[Any]:
-    """The monitors of an embedded run, in the order the loop calls them."""
+    """The monitors of an embedded run, in the order the loop calls them (``budget``: the
+    run's time limit [s], for the route progress facts; without ``early_end`` there is no
+    early-end monitor)."""
+    from sitcov.sim.embedded._progress import ProgressMonitor  # it imports this module
+
+    progress = ProgressMonitor(world, budget)  # also the goal monitor
     return [
         EgoRouteMonitor(world.ego.route, lane, road),
         PETMonitor(world),
@@ -638,6 +663,8 @@ def default_monitors(
         CollisionMonitor(world),
         *([ActorCollisionMonitor(world)] if len(world.actors) > 1 else []),
         LeaveMapRule(world),
-        GoalMonitor(world),
-        EarlyEndMonitor(world, early_end),
+        progress,
+        # a stack that can never latch (the built-in stack with its releasing AEB) never
+        # ends a run early: no monitor to call every step
+        *([EarlyEndMonitor(world, early_end, progress)] if early_end else []),
     ]

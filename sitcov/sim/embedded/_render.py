@@ -15,7 +15,7 @@ from sitcov.sim.embedded._map import JunctionMap, load_map
 SNAPSHOTS = 5
 
 
-def _outline(kind: str, row: tuple, length: float, width: float) -> list[tuple[float, float]]:
+def outline(kind: str, row: tuple, length: float, width: float) -> list[tuple[float, float]]:
     """The outline of an actor of ``kind`` at ``row`` (t, x, y, yaw, speed): a box for cars
     and trucks, a pointed box (a bike seen from above) for cyclists, a disc for pedestrians."""
     _, x, y, yaw, _ = row
@@ -40,7 +40,7 @@ def _box(
 
     ax.add_patch(
         Polygon(
-            _outline(kind, row, *size),
+            outline(kind, row, *size),
             closed=True,
             facecolor=color,
             edgecolor="black",
@@ -73,7 +73,7 @@ def _size(sizes: dict, name: str, length: float, width: float) -> tuple[float, f
     return float(info.get("length", length)), float(info.get("width", width))
 
 
-def _drawn_actors(trace: Trace, meta: dict) -> list[dict[str, Any]]:
+def drawn_actors(trace: Trace, meta: dict) -> list[dict[str, Any]]:
     """Every actor to draw: name, kind, rows, route, colour, size, legend label (ego first,
     then the primary OV, then ``actor2``, ``actor3``, ... in slot order)."""
     length, width = meta.get("length", 4.5), meta.get("width", 1.6)
@@ -189,34 +189,11 @@ def render_topdown(
 
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
-    from matplotlib.patches import Polygon
 
-    geometry = jmap.render_geometry()
     fig, ax = plt.subplots(figsize=(7, 7), dpi=110)
     try:
-        for poly in geometry["road_polygons"]:
-            ax.add_patch(
-                Polygon(poly, closed=True, facecolor="#bdbdbd", edgecolor="none", zorder=1)
-            )
-        for key, color in (("sidewalks", "#9e9e9e"), ("crosswalks", "#eeeeee")):
-            for poly in geometry.get(key, ()):
-                ax.add_patch(
-                    Polygon(poly, closed=True, facecolor=color, edgecolor="none", zorder=1)
-                )
-        for mark in geometry["markings"]:
-            xs, ys = zip(*mark["points"], strict=False)
-            ax.plot(
-                xs,
-                ys,
-                color="#fbc02d" if mark["color"] == "yellow" else "white",
-                linestyle="--" if mark["style"] == "dashed" else "-",
-                linewidth=1,
-                zorder=2,
-            )
-        for kerb in geometry["kerbs"]:
-            xs, ys = zip(*kerb, strict=False)
-            ax.plot(xs, ys, color="#555555", linewidth=1.2, zorder=2)
-        handles = [_draw_actor(ax, actor) for actor in _drawn_actors(trace, meta)]
+        draw_map(ax, jmap)
+        handles = [_draw_actor(ax, actor) for actor in drawn_actors(trace, meta)]
         if meta.get("conflict_point"):
             cx, cy = meta["conflict_point"]
             handles += ax.plot(
@@ -234,17 +211,10 @@ def render_topdown(
             handles += ax.plot(
                 cx, cy, marker="*", color="black", markersize=16, zorder=6, ls="", label="collision"
             )
-        pts = [p for r in (trace.ego, trace.ov) for p in ((row[1], row[2]) for row in r)]
-        for rows in (trace.actors or {}).values():
-            pts += [(row[1], row[2]) for row in rows]
-        pts += [tuple(p) for p in meta.get("ego_route", [])]
-        if pts:
-            xs, ys = zip(*pts, strict=False)
-            pad = 8.0
-            span = max(max(xs) - min(xs), max(ys) - min(ys)) / 2 + pad
-            mx, my = (max(xs) + min(xs)) / 2, (max(ys) + min(ys)) / 2
-            ax.set_xlim(mx - span, mx + span)
-            ax.set_ylim(my - span, my + span)
+        limits = view_limits(trace)
+        if limits is not None:
+            ax.set_xlim(*limits[0])
+            ax.set_ylim(*limits[1])
         ax.set_aspect("equal")
         ax.set_facecolor("#7cb342")
         ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
@@ -258,3 +228,45 @@ def render_topdown(
     finally:
         plt.close(fig)
     return out
+
+
+def draw_map(ax: Any, jmap: JunctionMap) -> None:
+    """Draw a map's road, sidewalks, crosswalks, markings and kerbs on a matplotlib axis."""
+    from matplotlib.patches import Polygon
+
+    geometry = jmap.render_geometry()
+    for poly in geometry["road_polygons"]:
+        ax.add_patch(Polygon(poly, closed=True, facecolor="#bdbdbd", edgecolor="none", zorder=1))
+    for key, color in (("sidewalks", "#9e9e9e"), ("crosswalks", "#eeeeee")):
+        for poly in geometry.get(key, ()):
+            ax.add_patch(Polygon(poly, closed=True, facecolor=color, edgecolor="none", zorder=1))
+    for mark in geometry["markings"]:
+        xs, ys = zip(*mark["points"], strict=False)
+        ax.plot(
+            xs,
+            ys,
+            color="#fbc02d" if mark["color"] == "yellow" else "white",
+            linestyle="--" if mark["style"] == "dashed" else "-",
+            linewidth=1,
+            zorder=2,
+        )
+    for kerb in geometry["kerbs"]:
+        xs, ys = zip(*kerb, strict=False)
+        ax.plot(xs, ys, color="#555555", linewidth=1.2, zorder=2)
+    ax.set_aspect("equal")
+    ax.set_facecolor("#7cb342")
+
+
+def view_limits(trace: Trace, pad: float = 8.0) -> tuple[tuple[float, float], ...] | None:
+    """Square (x, y) limits around every actor's trajectory and the ego's route [m]."""
+    meta = trace.meta or {}
+    pts = [p for r in (trace.ego, trace.ov) for p in ((row[1], row[2]) for row in r)]
+    for rows in (trace.actors or {}).values():
+        pts += [(row[1], row[2]) for row in rows]
+    pts += [tuple(p) for p in meta.get("ego_route", [])]
+    if not pts:
+        return None
+    xs, ys = zip(*pts, strict=False)
+    span = max(max(xs) - min(xs), max(ys) - min(ys)) / 2 + pad
+    mx, my = (max(xs) + min(xs)) / 2, (max(ys) + min(ys)) / 2
+    return (mx - span, mx + span), (my - span, my + span)

@@ -53,6 +53,8 @@ def actor_route(map: JunctionMap, kind: str, route: str) -> Path:  # noqa: A002
             expected=f"one of {list(route_names(map, kind))} on map {map.name}",
         )
     if kind == "pedestrian":
+        if hasattr(map, "crosswalk_route"):  # a map with crosswalk polygons (layout: lanes)
+            return map.crosswalk_route(route[1:-1], route[-1])[0]
         return _crosswalk_path(map, map.legs[route[1:-1]], route[-1])
     path = map.route(*route.split("-", 1))
     if kind == "cyclist":
@@ -63,6 +65,9 @@ def actor_route(map: JunctionMap, kind: str, route: str) -> Path:  # noqa: A002
 def kerb_positions(map: JunctionMap, route: str) -> tuple[float, float]:  # noqa: A002
     """Arc lengths [m] on a pedestrian route where it steps onto and off the road."""
     actor_route(map, "pedestrian", route)  # validates the name
+    if hasattr(map, "crosswalk_route"):
+        _, on, off = map.crosswalk_route(route[1:-1], route[-1])
+        return on, off
     return map.sidewalk_width, map.sidewalk_width + 2.0 * map.lane_width
 
 

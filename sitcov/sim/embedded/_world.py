@@ -84,6 +84,7 @@ class World:
         self.k = 0
         self.ego_speed = 0.0
         self.collision: Actor | None = None  # the actor the ego hit (CollisionMonitor)
+        self.end_reason: str | None = None  # why the run ended (set by the backend)
 
     def bodies_except(self, actor: Actor) -> Iterator[Actor]:
         """Every active actor (the ego included) but ``actor``."""

@@ -12,9 +12,10 @@ import pytest
 from carla_testkit import WEATHER, DrivingStack, centred_car, fake_backend, situation, small_map
 from needs import need_module
 
-from sitcov.av import ReferenceStack
+from sitcov.av import LatchedReferenceStack
 from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
-from sitcov.sim import Backend, conditions_from_values, make_backend
+from sitcov.sim import Backend, Judge, conditions_from_values, make_backend
+from sitcov.sim._progress import RouteProgress
 from sitcov.sim.carla import CarlaBackend
 from sitcov.sim.carla._fake import BASE_TIRE_FRICTION
 
@@ -123,6 +124,9 @@ def test_ego_follows_left_and_right_turns_to_its_goal(tmp_path, intsit) -> None:
     route = stack.info.route  # sitcov frame, like the trace
     worst = max(min(math.dist((x, y), p) for p in route) for _, x, y, _, _ in ego)
     assert worst < 3.0  # a wrong steering sign would leave the route at once
+    m = outcome.metrics  # route progress facts, as the embedded world reports them
+    assert m["route_completion"] == 1.0 and m["time_to_goal"] is not None
+    assert m["route_incomplete_time"] is None and not m["ego_stopped"]
 
 
 def test_scripted_collision_fails_the_run(tmp_path) -> None:
@@ -146,11 +150,29 @@ def test_adversary_meets_a_blind_ego(tmp_path) -> None:
 def test_aeb_time_recorded_and_run_ends(tmp_path) -> None:
     backend, server = fake_backend(small_map(tmp_path))
     server.collision_radius = 0.0
-    stack = ReferenceStack(detector=centred_car)
+    stack = LatchedReferenceStack(detector=centred_car)
     outcome = backend.run(situation(), stack, seed=1)
     assert outcome.aeb_fired and outcome.aeb_time == pytest.approx(0.0)
     assert outcome.end_reason in ("stopped", "sim_timeout") and outcome.status == "pass"
     assert not server.actors
+    m = outcome.metrics  # braked at once: no progress, the route never completed
+    assert m["route_completion"] < 0.05 and m["time_to_goal"] is None
+    assert m["route_incomplete_time"] == m["time_budget"] and m["ego_stopped"]
+    assert Judge.from_spec("route_incomplete")(outcome).kind == "route_incomplete"
+
+
+def test_route_progress_follows_the_pose_along_the_route() -> None:
+    progress = RouteProgress([(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)], 1.0, 60.0)
+    poses = [(0, 0.5, 0.0), (6, 0.4, 5.0), (10.2, 4.0, 5.0), (9.8, 3.0, 0.1)]
+    for t, (x, y, v) in enumerate(poses):
+        progress.update(float(t), x, y, v, 1.0)
+    facts = progress.facts("sim_timeout", latched=False)
+    assert facts["route_completion"] == pytest.approx(14.0 / 19.0)  # the farthest point
+    assert facts["standstill_time"] == 2.0 and facts["ego_stopped"]
+    assert facts["route_incomplete_time"] == 60.0 and facts["time_to_goal"] is None
+    progress.update(4.0, 10.0, 9.5, 3.0, 1.0)
+    done = progress.facts("goal", latched=False)
+    assert done["route_completion"] == 1.0 and done["time_to_goal"] == 4.0
 
 
 def test_everything_destroyed_and_settings_restored_when_the_stack_raises(tmp_path) -> None:

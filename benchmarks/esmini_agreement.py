@@ -1,0 +1,156 @@
+"""Verdicts of the esmini backend against the embedded backend on the same situations.
+
+Usage: python benchmarks/esmini_agreement.py --db DB --campaign NAME [--speed-sample 60]
+       [--speed-only] [--out FILE.json] [--rows FILE.csv]
+
+Every judged run (pass or fail) of an esmini campaign (``sitcov run --backend esmini``) is
+run again, with its stored situation and run seed, on the embedded backend with the
+campaign's stack, physics profile and judge; the two verdicts (``failed``) are compared.
+Printed (and written as JSON with ``--out``): the agreement with its Wilson 95 % interval,
+the 2x2 table, the failure kinds on each side, and the disagreements by ``intsit`` and by
+the pair of end reasons, which is where the causes of the differences are read (see
+docs/esmini.md).
+
+``--speed-sample N`` also times the first N situations on both backends in this process,
+one after the other, in CPU seconds (``time.process_time``, esmini's C library included):
+runs per CPU second, i.e. runs/s per core, measured at the same moment of the machine
+(the embedded side only for situations it can play, i.e. with an ``intsit``);
+``--speed-only`` skips the comparison (e.g. for a campaign on a user's scenario).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import csv
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from sitcov.analysis._stats import wilson_interval
+from sitcov.campaign import open_store
+from sitcov.campaign._build import build_backend, build_stack
+from sitcov.campaign._config import CampaignConfig
+from sitcov.sim import Judge
+
+
+def _embedded_config(config: CampaignConfig) -> CampaignConfig:
+    return config.model_copy(update={"backend": "embedded", "backend_options": {}})
+
+
+def compare(db: str, campaign: str) -> dict[str, Any]:
+    """Re-run the campaign's judged runs on the embedded backend; the comparison."""
+    store = open_store(db)
+    try:
+        info = store.campaign(campaign)
+        config = CampaignConfig(**info.config)
+        records = [r for r in store.iter_runs(campaign) if r.status in ("pass", "fail")]
+    finally:
+        store.close()
+    emb_config = _embedded_config(config)
+    backend, stack = build_backend(emb_config), build_stack(emb_config)
+    judge = Judge.from_spec(config.judge)
+    table: collections.Counter[str] = collections.Counter()
+    kinds: dict[str, collections.Counter[str]] = {
+        "esmini": collections.Counter(),
+        "embedded": collections.Counter(),
+    }
+    by_intsit: dict[str, list[int]] = collections.defaultdict(lambda: [0, 0])
+    reasons: collections.Counter[str] = collections.Counter()
+    rows: list[dict[str, Any]] = []
+    for rec in records:
+        emb = judge(backend.run(rec.situation, stack, rec.seed))
+        es = rec.outcome
+        table[f"esmini_{es.status}/embedded_{emb.status}"] += 1
+        kinds["esmini"][es.kind] += 1
+        kinds["embedded"][emb.kind] += 1
+        label = rec.situation.bins.get("intsit", "-")
+        agree = es.failed == emb.failed
+        by_intsit[label][0] += 1
+        by_intsit[label][1] += 0 if agree else 1
+        if not agree:
+            pair = f"esmini {es.kind}/{es.end_reason} vs embedded {emb.kind}/{emb.end_reason}"
+            reasons[pair] += 1
+        rows.append(
+            {
+                "index": rec.index,
+                **{f"bin_{k}": v for k, v in rec.situation.bins.items()},
+                "esmini": f"{es.kind}/{es.end_reason}",
+                "embedded": f"{emb.kind}/{emb.end_reason}",
+                "esmini_aeb": es.aeb_fired,
+                "embedded_aeb": emb.aeb_fired,
+            }
+        )
+    stack.close()
+    backend.close()
+    n = len(records)
+    agreeing = table["esmini_pass/embedded_pass"] + table["esmini_fail/embedded_fail"]
+    return {
+        "db": db,
+        "campaign": campaign,
+        "runs": n,
+        "agreeing": agreeing,
+        "agreement": agreeing / n if n else None,
+        "agreement_ci95": wilson_interval(agreeing, n),
+        "table": dict(table),
+        "kinds": {k: dict(v) for k, v in kinds.items()},
+        "disagreements_by_intsit": {
+            k: {"runs": v[0], "disagree": v[1]} for k, v in sorted(by_intsit.items())
+        },
+        "disagreement_reasons": dict(reasons.most_common()),
+        "rows": rows,
+    }
+
+
+def speed(db: str, campaign: str, n: int) -> dict[str, Any]:
+    """Runs per CPU second of both backends on the campaign's first ``n`` situations."""
+    store = open_store(db)
+    try:
+        config = CampaignConfig(**store.campaign(campaign).config)
+        records = [r for r in store.iter_runs(campaign) if r.status in ("pass", "fail")][:n]
+    finally:
+        store.close()
+    out: dict[str, Any] = {"runs": len(records)}
+    sides = [("esmini", config)]
+    if "intsit" in records[0].situation.values:  # the embedded world plays it too
+        sides.append(("embedded", _embedded_config(config)))
+    for name, cfg in sides:
+        backend, stack = build_backend(cfg), build_stack(cfg)
+        backend.run(records[0].situation, stack, records[0].seed)  # warm-up (JIT, road)
+        start = time.process_time()
+        for rec in records:
+            backend.run(rec.situation, stack, rec.seed)
+        cpu = time.process_time() - start
+        out[name] = {"cpu_s": round(cpu, 3), "runs_per_cpu_s": round(len(records) / cpu, 2)}
+        stack.close()
+        backend.close()
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--db", required=True)
+    parser.add_argument("--campaign", required=True)
+    parser.add_argument("--speed-sample", type=int, default=0)
+    parser.add_argument("--speed-only", action="store_true", help="no verdict comparison")
+    parser.add_argument("--out", default=None)
+    parser.add_argument("--rows", default=None, help="CSV of every run's two verdicts")
+    args = parser.parse_args()
+    result = {} if args.speed_only else compare(args.db, args.campaign)
+    rows = result.pop("rows", [])
+    if args.rows and rows:
+        with open(args.rows, "w", newline="", encoding="utf-8") as fh:
+            writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    if args.speed_sample:
+        result["speed"] = speed(args.db, args.campaign, args.speed_sample)
+    text = json.dumps(result, indent=2)
+    print(text)
+    if args.out:
+        Path(args.out).write_text(text + "\n")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,528 @@
+"""The esmini backend: OpenSCENARIO files played by esmini, the stack under test driving the ego.
+
+One run: the scenario's XML for the situation (a user's file with its parameters set, or
+a situation of sitcov's hyperspace through the OpenSCENARIO exporter), esmini initialised
+from it with the ego under an ``ExternalController``; every control period the stack gets
+an observation (the PEM on esmini's object states, through the embedded backend's
+``EgoDriver``, so delays, AEB latch and noise draws are the same code), its controls drive
+sitcov's single-track vehicle (friction acts), the ego's new pose and speed are reported to
+esmini, and esmini steps the storyboard and every other object by ``dt``. Facts for the
+judge: collision (oriented-box overlap of the ego with any object), road departure (a
+corner of the ego's box on no drivable lane, esmini's RoadManager), route completion.
+The run ends at a collision, the goal, the storyboard's end, a standstill of
+``stop_patience`` seconds, or ``sim_timeout``.
+"""
+
+from __future__ import annotations
+
+import math
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from sitcov.av._base import RunInfo
+from sitcov.errors import ConfigError
+from sitcov.sim._base import Backend, Outcome, Trace
+from sitcov.sim._metrics import disc_radius, time_to_collision
+from sitcov.sim.embedded._collision import box_distance, corners, overlap
+from sitcov.sim.embedded._dynamics import Vehicle, default_params
+from sitcov.sim.embedded._ego import EgoDriver
+from sitcov.sim.embedded._monitors import GOAL_TOLERANCE, STOPPED_SPEED
+from sitcov.sim.esmini._lib import library
+from sitcov.sim.esmini._scenario import (
+    SCENARIO_ELEMENT,
+    WEATHER_NAMES,
+    ScenarioFile,
+    scenario_files,
+)
+from sitcov.sim.esmini._session import RoadProbe, Session, kind_of
+from sitcov.weather._conditions import check_profile, conditions_from_values
+
+if TYPE_CHECKING:
+    from sitcov.av import AVStack
+    from sitcov.hyperspace import Situation
+
+#: Spacing of the ego's route points given to the stack [m].
+ROUTE_SPACING = 1.0
+#: Route length when the ego has no assigned route: its lane ahead [m].
+DEFAULT_ROUTE_LENGTH = 200.0
+
+
+class _Body:
+    """A pose (what the sensor and the driver read of a body)."""
+
+    __slots__ = ("x", "y", "yaw")
+
+    def __init__(self) -> None:
+        self.x = self.y = self.yaw = 0.0
+
+
+class _Actor:
+    """An esmini object as the ``EgoDriver`` sees an actor."""
+
+    __slots__ = (
+        "active",
+        "body",
+        "height",
+        "kind",
+        "length",
+        "name",
+        "oid",
+        "rows",
+        "speed",
+        "width",
+    )
+
+    def __init__(self, oid: int, name: str, kind: str, length: float, width: float, height: float):
+        self.oid, self.name, self.kind = oid, name, kind
+        self.length, self.width, self.height = length, width, height
+        self.body = _Body()
+        self.speed = 0.0
+        self.active = True
+        self.rows: list[tuple[float, float, float, float, float]] = []
+
+    def view(self) -> Any:
+        from sitcov.perception._base import ActorView, Pose
+
+        b = self.body
+        return ActorView(
+            Pose(b.x, b.y, b.yaw), self.length, self.width, self.height, self.speed, kind=self.kind
+        )
+
+
+class _Ego:
+    __slots__ = ("body", "length", "width")
+
+    def __init__(self, body: Vehicle, length: float, width: float) -> None:
+        self.body, self.length, self.width = body, length, width
+
+
+class _World:
+    """What ``EgoDriver.command`` reads: the ego's body and speed, the other actors."""
+
+    def __init__(self, ego: _Ego, actors: list[_Actor]) -> None:
+        self.ego, self.actors = ego, actors
+        self.ego_speed = 0.0
+
+
+def _center(st: Any) -> tuple[float, float]:
+    """The centre of an object's bounding box [m] from its reference point."""
+    c, s = math.cos(st.h), math.sin(st.h)
+    return st.x + c * st.centerOffsetX - s * st.centerOffsetY, st.y + s * st.centerOffsetX + (
+        c * st.centerOffsetY
+    )
+
+
+class EsminiBackend(Backend):
+    """OpenSCENARIO scenarios in esmini with the stack under test driving the ego.
+
+    Args:
+        scenario: a ``.xosc`` file whose parameters the hyperspace sets, or a folder of
+            them (the ``scenario`` element picks one per run); None: every situation of
+            sitcov's hyperspace is turned into a scenario by the OpenSCENARIO exporter
+            (``sitcov.sim.carla.situation_scenario``) on ``map``.
+        road: an OpenDRIVE file replacing the scenario's road (required without
+            ``scenario``: the exported scenarios name the CARLA map, e.g. Town03).
+        map: the CARLA map file/name the exporter places situations on (no scenario).
+        ego: the entity the stack drives (default: see ``ScenarioFile``).
+        dt: control period [s] (esmini is stepped by the same).
+        sim_timeout: simulated time after which a run ends as a pass [s].
+        stop_patience: a run ends as ``stopped`` after the ego stood this long [s].
+        sensor_rate_hz: perception frame rate [Hz].
+        sensor: the PEM-mode sensor (default ``PEMSensor()``).
+        physics: ``carla`` or ``physical`` (mu; no crosswind force here).
+        grey_box: give the stack the situation at reset.
+        route_length: the ego's route when the scenario assigns none: its lane ahead [m].
+    """
+
+    name: ClassVar[str] = "esmini"
+
+    def __init__(
+        self,
+        scenario: str | None = None,
+        road: str | None = None,
+        map: str = "Town03",  # noqa: A002 - the documented option name
+        ego: str | None = None,
+        dt: float = 0.05,
+        sim_timeout: float = 60.0,
+        stop_patience: float = 10.0,
+        sensor_rate_hz: float = 10.0,
+        sensor: Any = None,
+        physics: str = "carla",
+        grey_box: bool = False,
+        route_length: float = DEFAULT_ROUTE_LENGTH,
+    ) -> None:
+        library()  # a missing esmini is one error before any run
+        self.physics = check_profile(physics)
+        if not dt > 0 or not sim_timeout > 0 or not sensor_rate_hz > 0 or not stop_patience > 0:
+            raise ConfigError(
+                field="dt/sim_timeout/sensor_rate_hz/stop_patience",
+                value=(dt, sim_timeout, sensor_rate_hz, stop_patience),
+                expected="positive numbers",
+            )
+        self.dt, self.sim_timeout = float(dt), float(sim_timeout)
+        self.stop_patience = float(stop_patience)
+        self.sensor_every = max(1, round(1.0 / (sensor_rate_hz * self.dt)))
+        self.sensor = sensor
+        self.grey_box = bool(grey_box)
+        self.route_length = float(route_length)
+        self.ego_name = ego
+        self.road = Path(road).resolve() if road else None
+        if self.road is not None and not self.road.is_file():
+            raise ConfigError(file=str(road), field="road", expected="an OpenDRIVE (.xodr) file")
+        self.files: dict[str, ScenarioFile] = {}
+        self.folder = False
+        self.scenario = scenario
+        if scenario is not None:
+            path = Path(scenario)
+            if path.is_dir():
+                self.folder = True
+                for name, file in scenario_files(path).items():
+                    self.files[name] = ScenarioFile(file, ego)
+            elif path.is_file():
+                self.files[path.stem] = ScenarioFile(path, ego)
+            else:
+                raise ConfigError(
+                    file=str(scenario), field="scenario", expected="a .xosc file or a folder"
+                )
+        else:
+            from sitcov.sim.carla import load_carla_map
+
+            self.map = load_carla_map(map)
+            if self.road is None:
+                raise ConfigError(
+                    field="road",
+                    value=None,
+                    expected=f"an OpenDRIVE file of map {self.map.town!r} (--road FILE.xodr): "
+                    "the exported scenarios are placed on it",
+                )
+
+    # --- the hyperspace -----------------------------------------------------------------------
+
+    def effects(self) -> dict[str, str]:
+        """Every element this backend reads, and how."""
+        weather = {
+            name: "the scenario's Environment (where it has one) and the run's perception "
+            "and friction, as in the embedded backend's carla profile"
+            for name in WEATHER_NAMES
+        }
+        if not self.files:
+            return {
+                **weather,
+                "intsit": "ego and OV routes on the map (OpenSCENARIO exporter)",
+                **{f"actor{n}": "an extra road user (OpenSCENARIO exporter)" for n in range(2, 33)},
+            }
+        out = dict(weather)
+        for file in self.files.values():
+            for name in file.declarations:
+                out.setdefault(name, f"ParameterDeclaration {name!r} of {file.path.name}")
+        if self.folder:
+            out[SCENARIO_ELEMENT] = "which scenario file of the folder is played"
+        return out
+
+    def check_hyperspace(self, hyperspace: Any) -> None:
+        """Refuse elements a user's scenario does not declare (one line naming the file and
+        the element); with a folder, the ``scenario`` element must name its files.
+
+        Raises:
+            ConfigError: an unknown element or scenario name.
+        """
+        if not self.files:
+            return
+        names = tuple(hyperspace.element_names)
+        if not self.folder:
+            next(iter(self.files.values())).check_names(names)
+            return
+        if SCENARIO_ELEMENT not in names:
+            raise ConfigError(
+                f"{self.scenario}: a folder of scenarios needs a hyperspace element "
+                f"{SCENARIO_ELEMENT!r} whose bins name its files ({', '.join(self.files)})"
+            )
+        for label in hyperspace.labels(SCENARIO_ELEMENT):
+            value = _bin_value(hyperspace, label)
+            if str(value) not in self.files:
+                raise ConfigError(
+                    f"{self.scenario}: element {SCENARIO_ELEMENT!r} bin {label!r}: expected one "
+                    f"of the folder's scenarios ({', '.join(self.files)}), got {value!r}"
+                )
+        declared = set(WEATHER_NAMES) | {SCENARIO_ELEMENT}
+        for file in self.files.values():
+            declared |= set(file.declarations)
+        for name in names:
+            if name not in declared:
+                first = next(iter(self.files.values()))
+                first.check_names([name], folder=True)  # raises, naming the file
+
+    # --- one run ------------------------------------------------------------------------------
+
+    def _scenario_xml(self, situation: Situation) -> tuple[str, str, dict[str, Any]]:
+        """(XML, scenario name, parameters set) of a situation."""
+        values = dict(situation.values)
+        weather = {k: v for k, v in values.items() if k in WEATHER_NAMES}
+        if not self.files:
+            from sitcov.sim.carla import situation_scenario
+
+            scenario = situation_scenario(situation, self.map)
+            with tempfile.TemporaryDirectory(prefix="sitcov-esmini-") as tmp:
+                path = Path(tmp) / f"{situation.id}.xosc"
+                scenario.write_xml(str(path))
+                file = ScenarioFile(path, self.ego_name)
+                xml = file.render(values, road=self.road)
+            return xml, f"export:{situation.id}", {}
+        if self.folder:
+            name = str(values.get(SCENARIO_ELEMENT))
+            if name not in self.files:
+                raise ConfigError(
+                    field=SCENARIO_ELEMENT, value=name, expected=f"one of {sorted(self.files)}"
+                )
+        else:
+            name = next(iter(self.files))
+        file = self.files[name]
+        params = file.parameter_values(values)
+        xml = file.render(values, road=self.road, weather=weather if file.has_environment else None)
+        return xml, name, params
+
+    def _conditions(self, situation: Situation, rng: np.random.Generator) -> tuple[Any, float]:
+        values = dict(situation.values)
+        if "friction" not in values and self.files:
+            name = str(values.get(SCENARIO_ELEMENT)) if self.folder else next(iter(self.files))
+            file = self.files.get(name)
+            friction = file.environment_friction() if file is not None else None
+            if friction is not None:
+                values["friction"] = min(1.0, max(0.1, friction))
+        wind_direction = float(rng.uniform(-math.pi, math.pi))
+        weather = {k: v for k, v in values.items() if k in WEATHER_NAMES}
+        cond = conditions_from_values(weather, wind_direction=wind_direction, profile=self.physics)
+        return cond, wind_direction
+
+    def _get_sensor(self) -> Any:
+        if self.sensor is None:
+            from sitcov.perception import PEMSensor
+
+            self.sensor = PEMSensor()
+        return self.sensor
+
+    def run(
+        self, situation: Situation, av_stack: AVStack, seed: int, *, record: bool = False
+    ) -> Outcome:
+        """Play ``situation`` in esmini with ``av_stack`` driving the ego (deterministic)."""
+        seed = int(seed)
+        rng = np.random.default_rng(seed)
+        xml, scenario_name, params = self._scenario_xml(situation)
+        cond, wind_direction = self._conditions(situation, rng)
+        paths = tuple(str(f.path.parent) for f in self.files.values())[:1]
+        with Session(xml, seed, paths) as session:
+            return self._play(
+                session, situation, av_stack, seed, rng, cond, record,
+                {"scenario": scenario_name, "parameters": params, "wind_direction": wind_direction},
+            )  # fmt: skip
+
+    def _play(self, session, situation, stack, seed, rng, cond, record, info) -> Outcome:  # noqa: C901, PLR0912, PLR0915
+        objects = session.objects()
+        ego_name = self._ego_name(objects)
+        ego_id = next(oid for oid, name in objects if name == ego_name)
+        st = session.state(ego_id)
+        ego_len, ego_wid = st.length, st.width
+        cox, coy = st.centerOffsetX, st.centerOffsetY
+        cx, cy = _center(st)
+        vehicle = Vehicle(default_params(), cx, cy, st.h, max(0.0, st.speed))
+        ego = _Ego(vehicle, ego_len, ego_wid)
+        actors = []
+        for oid, name in objects:
+            if oid == ego_id:
+                continue
+            s = session.state(oid)
+            actor = _Actor(oid, name, kind_of(s), s.length, s.width, s.height or 1.5)
+            actors.append(actor)
+        world = _World(ego, actors)
+        self._read(session, actors)
+        route = session.lane_points(ego_id, ROUTE_SPACING, self.route_length)
+        if len(route) < 2:
+            route = [(cx, cy), (cx + math.cos(st.h), cy + math.sin(st.h))]
+        goal = route[-1]
+        road = RoadProbe(session.road_file())
+        stack.reset(
+            RunInfo(
+                dt=self.dt,
+                route=tuple(route),
+                goal=goal,
+                map_name=Path(session.road_file()).stem,
+                camera=stack.camera,
+                seed=seed,
+                situation=situation if self.grey_box else None,
+            )
+        )
+        sensor = self._get_sensor()
+        if hasattr(sensor, "reset"):
+            sensor.reset(frame_dt=self.sensor_every * self.dt)
+        driver = EgoDriver(self, stack, sensor, cond, rng, seed, 0, 0, 0.0)
+        dt, mu = self.dt, cond.mu
+        n_max = int(math.ceil(self.sim_timeout / dt - 1e-9))
+        hl, hw = 0.5 * ego_len, 0.5 * ego_wid
+        radius_e = disc_radius(ego_len, ego_wid)
+        min_distance: float | None = None
+        min_ttc: float | None = None
+        hit: _Actor | None = None
+        collision_speed: float | None = None
+        road_departure: float | None = None
+        idx = start = _advance(route, 0, cx, cy)  # the point the ego starts at
+        still = 0.0
+        ego_rows: list[tuple[float, float, float, float, float]] = []
+        reason = "sim_timeout"
+        k, t = 0, 0.0
+        while True:
+            if record:
+                ego_rows.append((t, vehicle.x, vehicle.y, vehicle.yaw, vehicle.speed))
+                for a in actors:
+                    if a.active:
+                        b = a.body
+                        a.rows.append((t, b.x, b.y, b.yaw, a.speed))
+            world.ego_speed = vehicle.speed
+            throttle, brake, steer = driver.command(world, k, t)
+            vehicle.step(throttle, brake, steer, mu, 0.0, dt)
+            c, s = math.cos(vehicle.yaw), math.sin(vehicle.yaw)
+            session.report(
+                ego_id, vehicle.x - c * cox + s * coy, vehicle.y - s * cox - c * coy,
+                vehicle.yaw, vehicle.speed,
+            )  # fmt: skip
+            session.step(dt)
+            k += 1
+            t = k * dt
+            self._read(session, actors)
+            ebox = (vehicle.x, vehicle.y, vehicle.yaw, hl, hw)
+            evx, evy = vehicle.vx * c - vehicle.vy * s, vehicle.vx * s + vehicle.vy * c
+            for a in actors:
+                if not a.active:
+                    continue
+                b = a.body
+                abox = (b.x, b.y, b.yaw, 0.5 * a.length, 0.5 * a.width)
+                d = box_distance(ebox, abox)
+                if min_distance is None or d < min_distance:
+                    min_distance = d
+                avx, avy = a.speed * math.cos(b.yaw), a.speed * math.sin(b.yaw)
+                ttc = time_to_collision(
+                    b.x - vehicle.x, b.y - vehicle.y, avx - evx, avy - evy,
+                    radius_e + disc_radius(a.length, a.width),
+                )  # fmt: skip
+                if ttc is not None and (min_ttc is None or ttc < min_ttc):
+                    min_ttc = ttc
+                if hit is None and overlap(ebox, abox):
+                    hit = a
+                    collision_speed = math.hypot(avx - evx, avy - evy)
+            if road_departure is None and road.off_road(corners(ebox), vehicle.yaw):
+                road_departure = t
+            idx = _advance(route, idx, vehicle.x, vehicle.y)
+            still = still + dt if vehicle.speed < STOPPED_SPEED else 0.0
+            if hit is not None:
+                reason = "collision"
+                break
+            if math.dist((vehicle.x, vehicle.y), goal) <= GOAL_TOLERANCE:
+                reason = "goal"
+                break
+            if session.ended():
+                reason = "scenario_end"
+                break
+            if still >= self.stop_patience:
+                reason = "stopped"
+                break
+            if k >= n_max:
+                break
+        length = _length(route[start:])
+        progress = _length(route[start : idx + 1])
+        collided = hit is not None
+        metrics = {
+            "steps": k,
+            "mu": mu,
+            "physics": self.physics,
+            **info,
+            "road": Path(session.road_file()).name,
+            "road_departure_time": road_departure,
+            "lane_departure_time": None,
+            "route_length": round(length, 6),
+            "route_completion": round(min(1.0, progress / length), 6) if length > 0 else None,
+            "collision_actor": hit.name if hit else None,
+            "collision_kind": hit.kind if hit else None,
+            "ego_final_speed": vehicle.speed,
+        }
+        trace = None
+        if record:
+            trace = self._trace(ego_rows, actors, route, ego_len, ego_wid, session)
+        return Outcome(
+            status="fail" if collided else "pass",
+            end_reason=reason,
+            sim_time=round(t, 10),
+            collision=collided,
+            collision_time=round(t, 10) if collided else None,
+            collision_speed=collision_speed,
+            min_distance=min_distance,
+            min_ttc=min_ttc,
+            pet=None,
+            aeb_fired=driver.aeb_time is not None,
+            aeb_time=driver.aeb_time,
+            metrics=metrics,
+            trace=trace,
+        )
+
+    def _ego_name(self, objects: list[tuple[int, str]]) -> str:
+        names = [n for _, n in objects]
+        if self.files:
+            file = next(iter(self.files.values()))
+            if file.ego in names:
+                return file.ego
+        for name in names:
+            if name.lower() in ("hero", "ego"):
+                return name
+        return names[0]
+
+    @staticmethod
+    def _read(session: Session, actors: list[_Actor]) -> None:
+        for a in actors:
+            st = session.state(a.oid)
+            b = a.body
+            b.x, b.y = _center(st)
+            b.yaw = st.h
+            a.speed = st.speed
+            a.active = bool(st.visibilityMask & 2) or st.visibilityMask == 0
+
+    def _trace(self, ego_rows, actors, route, length, width, session) -> Trace:
+        ov = actors[0].rows if actors else []
+        return Trace(
+            ego=ego_rows,
+            ov=ov,
+            meta={
+                "map": session.road_file(),
+                "ego_route": [list(p) for p in route],
+                "length": length,
+                "width": width,
+                "dt": self.dt,
+                "actors": {
+                    a.name: {"kind": a.kind, "length": a.length, "width": a.width} for a in actors
+                },
+            },
+            actors={a.name: a.rows for a in actors},
+        )
+
+
+def _bin_value(hyperspace: Any, label: str) -> Any:
+    for element in hyperspace.to_dict().get("axes", []):
+        for el in element.get("elements", []):
+            if el.get("name") != SCENARIO_ELEMENT:
+                continue
+            for b in el.get("bins", []):
+                if str(b.get("label", b.get("value"))) == label:
+                    return b.get("value", label)
+    return label
+
+
+def _length(points: list[tuple[float, float]]) -> float:
+    return sum(math.dist(a, b) for a, b in zip(points, points[1:], strict=False))
+
+
+def _advance(route: list[tuple[float, float]], idx: int, x: float, y: float) -> int:
+    """The route index moved forward while the next point is nearer to (x, y)."""
+    n = len(route)
+    while idx + 1 < n and math.dist(route[idx + 1], (x, y)) <= math.dist(route[idx], (x, y)):
+        idx += 1
+    return idx

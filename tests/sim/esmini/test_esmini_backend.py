@@ -1,0 +1,256 @@
+"""The esmini backend with esmini's library: the ego under the stack, facts, determinism.
+
+Needs esmini (``SITCOV_ESMINI`` or ``SITCOV_ESMINI_LIB``; CI sets it to the shared build):
+skipped locally without it, a failure in CI (tests/needs.py).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from needs import missing, need_esmini_library
+
+from sitcov.av import AVStack, Control, Observation, RunInfo, make_stack
+from sitcov.errors import ConfigError
+from sitcov.hyperspace import Situation, load_hyperspace
+from sitcov.sim import Judge, make_backend
+
+need_esmini_library()
+
+ROOT = Path(__file__).resolve().parents[3]
+EXAMPLES = ROOT / "examples" / "esmini"
+CROSSING = EXAMPLES / "crossing.xosc"
+TOWN03 = ROOT.parent / "shared" / "maps" / "Town03.xodr"
+
+
+def situation(**values: float) -> Situation:
+    return Situation(bins={k: str(v) for k, v in values.items()}, values=values)
+
+
+class Scripted(AVStack):
+    """Drives by a fixed law of time: throttle until ``brake_at`` [s], then full brake;
+    constant ``steer``. Records the ego states it was shown."""
+
+    def __init__(self, brake_at: float = math.inf, steer: float = 0.0) -> None:
+        self.brake_at, self.steer = brake_at, steer
+        self.states: list = []
+        self.info: RunInfo | None = None
+
+    def reset(self, info: RunInfo) -> None:
+        self.info, self.states = info, []
+
+    def step(self, observation: Observation) -> Control:
+        self.states.append(observation.ego)
+        if observation.t >= self.brake_at:
+            return Control(throttle=0.0, brake=1.0, steer=self.steer)
+        return Control(throttle=0.6, brake=0.0, steer=self.steer)
+
+
+@pytest.fixture(scope="module")
+def backend():
+    return make_backend("esmini", scenario=str(CROSSING))
+
+
+def test_the_parameter_reaches_esmini(backend) -> None:
+    """The substituted declaration is what esmini evaluates (read back through its API)."""
+    from sitcov.sim.esmini._session import Session
+
+    xml = backend.files["crossing"].render({"TriggerDistance": 23.5})
+    with Session(xml, 0, (str(EXAMPLES),)) as session:
+        value = ctypes.c_double()
+        session.lib.SE_GetParameterDouble(b"TriggerDistance", ctypes.byref(value))
+        assert value.value == 23.5
+
+
+def test_the_stack_drives_the_ego_not_the_storyboard(backend) -> None:
+    """A stack that never moves keeps the ego at its start: esmini does not move it."""
+    still = Scripted(brake_at=0.0)
+    out = backend.run(situation(TriggerDistance=30.0), still, 1, record=True)
+    assert out.end_reason == "stopped" and out.status == "pass"
+    xs = {round(row[1], 9) for row in out.trace.ego}
+    assert len(xs) == 1 and out.metrics["route_completion"] == 0.0
+    assert out.trace.ego[0][1] == pytest.approx(20.0 + 1.4, abs=1e-6)  # s = 20 + box offset
+    assert still.info.route[0][0] == pytest.approx(20.0, abs=0.1)
+    assert still.info.goal[0] == pytest.approx(160.0, abs=0.5)  # the file's route end
+
+
+def test_friction_acts_through_sitcov_s_dynamics(backend) -> None:
+    """The same throttle-then-brake law decelerates about mu * g: far less on ice."""
+    decel = {}
+    for mu in (1.0, 0.2):
+        stack = Scripted(brake_at=8.0)
+        out = backend.run(situation(TriggerDistance=0.0, friction=mu), stack, 1, record=True)
+        assert out.metrics["mu"] == mu
+        at_brake = next(r for r in out.trace.ego if r[0] >= 8.0)
+        distance = out.trace.ego[-1][1] - at_brake[1]
+        decel[mu] = at_brake[4] ** 2 / (2.0 * distance)  # v^2 / (2 d) [m/s^2]
+    assert 0.6 * 9.81 < decel[1.0] < 1.05 * 9.81
+    assert 0.6 * 0.2 * 9.81 < decel[0.2] < 1.05 * 0.2 * 9.81
+
+
+def test_trigger_distance_decides_a_collision(backend) -> None:
+    """The crossing car hits the reference stack's ego when it starts late enough to be
+    unseen and early enough to reach the lane; far out it has long crossed."""
+    stack = make_stack("reference")
+    hit = backend.run(situation(TriggerDistance=17.0, CrossingSpeed=8.0), stack, 3)
+    assert hit.status == "fail" and hit.end_reason == "collision"
+    assert hit.metrics["collision_actor"] == "CrossingCar" and hit.collision_speed > 0
+    early = backend.run(situation(TriggerDistance=45.0, CrossingSpeed=8.0), stack, 3)
+    assert early.status == "pass" and early.min_distance > 0
+
+
+def test_road_departure_is_a_fact_for_the_judge(backend) -> None:
+    out = backend.run(situation(TriggerDistance=0.0), Scripted(steer=-0.4), 2)
+    t = out.metrics["road_departure_time"]
+    assert t is not None and 0 < t < out.sim_time + 1e-9
+    assert Judge.from_spec("default")(out).failure_kind == "road_departure"
+    straight = backend.run(situation(TriggerDistance=0.0), Scripted(brake_at=6.0), 2)
+    assert straight.metrics["road_departure_time"] is None
+
+
+def test_same_seed_same_outcome(backend) -> None:
+    s = situation(TriggerDistance=19.0, CrossingSpeed=8.0, OncomingSpeed=5.0, fog_density=50.0)
+    stack = make_stack("reference")
+    a = backend.run(s, stack, 11)
+    b = backend.run(s, stack, 11)
+    assert a == b and a.metrics == b.metrics
+
+
+def test_a_folder_is_an_element(tmp_path: Path) -> None:
+    for name in ("near", "far"):
+        shutil.copy(CROSSING, tmp_path / f"{name}.xosc")
+    shutil.copy(EXAMPLES / "straight.xodr", tmp_path)
+    folder = make_backend("esmini", scenario=str(tmp_path))
+    hs = load_hyperspace(
+        {
+            "name": "catalogue",
+            "axes": [
+                {
+                    "name": "files",
+                    "elements": [
+                        {"name": "scenario", "bins": [{"value": "near"}, {"value": "far"}]},
+                        {"name": "TriggerDistance", "bins": [{"value": 17}, {"value": 45}]},
+                    ],
+                }
+            ],
+        }
+    )
+    folder.check_hyperspace(hs)
+    assert "scenario" in folder.effects()
+    out = folder.run(situation(scenario="far", TriggerDistance=45.0), Scripted(0.0), 0)
+    assert out.metrics["scenario"] == "far"
+    bad = hs.to_dict()
+    bad["axes"][0]["elements"][0]["bins"][1] = {"value": "nowhere"}
+    with pytest.raises(ConfigError, match="'nowhere'"):
+        folder.check_hyperspace(load_hyperspace(bad))
+
+
+def test_an_exported_paper_situation_plays_on_town03() -> None:
+    """IntSit-3 of the paper's hyperspace through the OpenSCENARIO exporter: the ego follows
+    its exported route on Town03 to the goal, on the road all the way."""
+    if not TOWN03.is_file():
+        missing(f"{TOWN03} (test data next to the repository, with the esmini build)")
+    hs = load_hyperspace()
+    labels = {e: hs.labels(e)[0] for e in hs.element_names}
+    labels.update(intsit="IntSit-3", friction="1.0")
+    s = hs.situation_from_bins(labels, np.random.default_rng(0))
+    b = make_backend("esmini", road=str(TOWN03))
+    out = b.run(s, make_stack("reference"), 5)
+    assert out.end_reason == "goal" and out.metrics["route_completion"] > 0.98
+    assert out.metrics["road_departure_time"] is None and out.metrics["road"] == "Town03.xodr"
+
+
+def test_exported_situations_need_a_road() -> None:
+    with pytest.raises(ConfigError, match="--road"):
+        make_backend("esmini")
+
+
+def test_a_campaign_on_a_user_scenario_is_deterministic(tmp_path: Path) -> None:
+    """Same seed, same rows: two campaigns of the example, in worker processes."""
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+
+    rows = []
+    for name in ("a", "b"):
+        config = CampaignConfig(
+            name="c",
+            hyperspace=str(EXAMPLES / "crossing.yaml"),
+            backend="esmini",
+            backend_options={"scenario": str(CROSSING)},
+            runs=12,
+            seed=4,
+            workers=1,
+            executor="processes",
+        )
+        with open_store(tmp_path / f"{name}.db") as store:
+            run_campaign(config, store)
+            rows.append([(r.situation, r.seed, r.outcome) for r in store.iter_runs("c")])
+    assert len(rows[0]) == 12 and rows[0] == rows[1]
+    assert all(o.metrics["parameters"]["TriggerDistance"] for _, _, o in rows[0])
+
+
+def test_unknown_element_stops_the_campaign_before_the_database(tmp_path: Path) -> None:
+    from sitcov.campaign import CampaignConfig
+    from sitcov.campaign._build import check_parts
+
+    bad = tmp_path / "bad.yaml"
+    bad.write_text((EXAMPLES / "crossing.yaml").read_text().replace("OncomingSpeed", "Oncoming"))
+    config = CampaignConfig(
+        hyperspace=str(bad), backend="esmini", backend_options={"scenario": str(CROSSING)}
+    )
+    with pytest.raises(ConfigError, match="'Oncoming'"):
+        check_parts(config)
+
+
+def test_a_scenario_esmini_refuses_is_an_error_with_esmini_s_reason(tmp_path: Path) -> None:
+    """The run raises (the campaign stores it as ``error``) with esmini's own reason; the
+    next run in the same process plays normally (the failed scenario was closed)."""
+    from sitcov.sim.esmini._session import EsminiError
+
+    broken = tmp_path / "broken.xosc"
+    broken.write_text(CROSSING.read_text().replace("straight.xodr", "missing.xodr"))
+    with pytest.raises(EsminiError, match="missing.xodr"):
+        make_backend("esmini", scenario=str(broken)).run(situation(), Scripted(0.0), 0)
+    ok = make_backend("esmini", scenario=str(CROSSING)).run(situation(), Scripted(0.0), 0)
+    assert ok.status == "pass"
+
+
+def test_a_wall_time_out_is_stored_and_leaves_esmini_usable(tmp_path: Path) -> None:
+    """The serial executor's alarm interrupts a run mid-scenario: stored as ``timeout``;
+    the scenario was closed and the lock released, so the next run plays."""
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+
+    config = CampaignConfig(
+        hyperspace=str(EXAMPLES / "crossing.yaml"),
+        backend="esmini",
+        backend_options={"scenario": str(CROSSING)},
+        runs=2,
+        executor="serial",
+        run_timeout=0.001,
+    )
+    with open_store(tmp_path / "t.db") as store:
+        run_campaign(config, store)
+        assert store.status_counts()["timeout"] == 2
+    again = make_backend("esmini", scenario=str(CROSSING))
+    assert again.run(situation(), Scripted(0.0), 0).status == "pass"
+
+
+def test_without_a_route_the_ego_follows_its_lane_ahead(tmp_path: Path) -> None:
+    text = CROSSING.read_text()
+    routing = text.index("<RoutingAction>")
+    start = text.rindex("<PrivateAction>", 0, routing)
+    end = text.index("</PrivateAction>", routing) + len("</PrivateAction>")
+    free = tmp_path / "free.xosc"
+    free.write_text(text[:start] + text[end:])
+    shutil.copy(EXAMPLES / "straight.xodr", tmp_path)
+    stack = Scripted(0.0)
+    make_backend("esmini", scenario=str(free), route_length=120.0).run(situation(), stack, 0)
+    route = stack.info.route
+    assert route[0][0] == pytest.approx(20.0, abs=0.1) and stack.info.goal[0] == pytest.approx(
+        140.0, abs=1.0
+    )
+    assert all(y == pytest.approx(-1.75, abs=1e-6) for _, y in route)  # lane -1's centre

@@ -1,0 +1,172 @@
+"""Route progress facts of the embedded world: completion, goal, blocked, incomplete, blame."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import pytest
+from _sim_helpers import make_situation
+
+from sitcov._seeding import ask_rng, run_seed
+from sitcov.av import AVStack, Control, make_stack
+from sitcov.generation import make_generator
+from sitcov.hyperspace import load_hyperspace
+from sitcov.sim import Judge
+from sitcov.sim.embedded import EmbeddedBackend, Path
+from sitcov.sim.embedded._progress import BLOCKED_TIME, STILL_SPEED, path_occupied
+
+
+class AlwaysBrake(AVStack):
+    """Never drives."""
+
+    def reset(self, info) -> None:
+        pass
+
+    def step(self, observation) -> Control:
+        return Control(0.0, 1.0, 0.0)
+
+
+@pytest.mark.parametrize("intsit", [1, 5, 9])
+def test_a_stack_that_never_drives_is_blocked_and_never_completes(intsit):
+    backend = EmbeddedBackend()
+    out = backend.run(make_situation(intsit, friction=1.0), AlwaysBrake(), seed=intsit)
+    m = out.metrics
+    assert out.end_reason == "sim_timeout" and not out.collision
+    assert m["route_completion"] == 0.0 and m["time_to_goal"] is None
+    # stands from the first step with a clear path: blocked BLOCKED_TIME later
+    assert m["blocked_time"] == pytest.approx(backend.dt + BLOCKED_TIME)
+    assert m["route_incomplete_time"] == m["time_budget"] == backend.sim_timeout
+    assert m["ego_stopped"] and m["stop_reason"] == "path_clear"
+    assert m["standstill_time"] == pytest.approx(backend.sim_timeout)
+    assert Judge.from_spec("default")(out).kind == "blocked"
+    assert Judge.from_spec("route_incomplete")(out).kind == "route_incomplete"
+    assert Judge.from_spec("paper")(out).status == "pass"  # the paper's judge cannot tell
+
+
+def test_runs_that_reach_the_goal_complete_their_route():
+    """On a dry road the reference stack (its AEB stops it, then hands back) reaches its
+    goal in most of the paper's situations, well within half the time budget: the budget
+    leaves room for a stack that yields once (docs/campaigns.md, "The time budget")."""
+    backend = EmbeddedBackend()
+    stack = make_stack("reference")
+    reached = 0
+    for intsit in range(1, 13):
+        out = backend.run(make_situation(intsit, friction=1.0), stack, seed=intsit)
+        m = out.metrics
+        assert 0.0 <= m["route_completion"] <= 1.0
+        if out.end_reason == "goal":
+            reached += 1
+            assert m["route_completion"] == 1.0 and m["time_to_goal"] == out.sim_time
+            assert m["route_incomplete_time"] is None and not m["ego_stopped"]
+            assert m["stop_reason"] is None and m["blocked_time"] is None
+            assert m["time_to_goal"] <= 0.5 * backend.sim_timeout
+        else:
+            assert m["time_to_goal"] is None and m["route_completion"] < 1.0
+    assert reached >= 8
+
+
+def test_a_shorter_budget_leaves_the_route_incomplete():
+    out = EmbeddedBackend(sim_timeout=5.0).run(
+        make_situation(3, friction=1.0), make_stack("no-perception"), seed=1
+    )
+    m = out.metrics
+    assert out.end_reason == "sim_timeout" and m["route_incomplete_time"] == 5.0
+    assert 0.1 < m["route_completion"] < 0.6 and m["blocked_time"] is None
+    assert not m["ego_stopped"] and m["stop_reason"] is None  # still driving at the end
+
+
+def test_early_end_gives_the_facts_of_the_whole_run():
+    """The latched stack's runs that end early as ``stopped`` have the blocked and
+    incomplete facts the same run gets when it runs on to the time limit."""
+    hs = load_hyperspace()
+    generator = make_generator("random", hs)
+    early, full = EmbeddedBackend(), EmbeddedBackend(early_end=False)
+    stack = make_stack("reference-latched")
+    stopped = 0
+    keys = ("blocked_time", "route_incomplete_time", "route_completion", "stop_reason")
+    for i in range(40):
+        situation, seed = generator.ask(ask_rng(0, i)), run_seed(0, i)
+        a = early.run(situation, stack, seed)
+        if a.end_reason != "stopped":
+            continue
+        stopped += 1
+        b = full.run(situation, stack, seed)
+        assert a.metrics["stop_reason"] == "aeb_latched"
+        for key in keys:
+            assert a.metrics[key] == pytest.approx(b.metrics[key]), (i, key)
+    assert stopped >= 10
+
+
+def test_stationary_collisions_are_the_ones_with_the_ego_standing():
+    """Over the latched stack's runs: a collision is ``ego_stationary`` exactly when the
+    ego's speed at the impact is below the threshold, and only the paper's judge counts
+    it; the default judge then looks at what else the run did."""
+    generator = make_generator("random", load_hyperspace())
+    backend = EmbeddedBackend()
+    stack = make_stack("reference-latched")
+    collisions = 0
+    for i in range(60):
+        out = backend.run(generator.ask(ask_rng(0, i)), stack, run_seed(0, i))
+        m = out.metrics
+        if not out.collision:
+            assert m["ego_collision_speed"] is None and m["ego_stationary"] is False
+            continue
+        collisions += 1
+        assert m["ego_stationary"] == (m["ego_collision_speed"] < STILL_SPEED)
+        kind = Judge.from_spec("paper").kind(out)
+        assert kind == ("ego_stationary" if m["ego_stationary"] else "collision")
+        assert (Judge.from_spec("default").kind(out) == "collision") != m["ego_stationary"]
+    assert collisions >= 10
+
+
+def _world(actor_at: tuple[float, float], *, speed: float = 0.0, conflict=None):
+    """A standing ego at the start of a straight 100 m route along x and one 4 x 2 m
+    actor at ``actor_at`` heading along x."""
+    route = Path.from_points([(float(x), 0.0) for x in range(101)])
+    ego = SimpleNamespace(s=2.25, half_l=2.25, half_w=0.9, route=route)
+    x, y = actor_at
+    actor = SimpleNamespace(
+        active=True,
+        conflict=conflict,
+        s=0.0,
+        half_l=2.0,
+        half_w=1.0,
+        radius=math.hypot(2.0, 1.0),
+        gap=math.hypot(x - 2.25, y),
+        body=SimpleNamespace(speed=speed),
+        box=lambda: (x, y, 0.0, 2.0, 1.0),
+    )
+    return SimpleNamespace(ego=ego, actors=[actor]), route
+
+
+@pytest.mark.parametrize(
+    ("at", "occupied"),
+    [
+        ((12.0, 0.0), True),  # on the route, 5.5 m ahead of the front
+        ((12.0, 2.2), True),  # its side 1.2 m from the route: within half width + margin
+        ((12.0, 2.5), False),  # 1.5 m: beside the path
+        ((-8.0, 0.0), False),  # behind the ego
+        ((30.0, 0.0), False),  # more than PATH_AHEAD beyond the front
+    ],
+)
+def test_path_occupied_looks_along_the_route_ahead(at, occupied):
+    world, route = _world(at)
+    assert path_occupied(world, route.xs, route.ys, route.ss) is occupied
+
+
+@pytest.mark.parametrize(
+    ("actor_s", "speed", "occupied"),
+    [
+        (25.0, 0.0, True),  # inside its conflict zone (s_ov 24-30), standing
+        (10.0, 5.0, True),  # 12 m before the zone at 5 m/s: due in 2.4 s
+        (10.0, 2.0, False),  # ... at 2 m/s: 6 s away
+        (10.0, 0.0, False),  # standing before the zone (waiting for the ego)
+        (33.0, 5.0, False),  # past it
+    ],
+)
+def test_path_occupied_counts_who_is_in_or_due_at_the_conflict_zone(actor_s, speed, occupied):
+    conflict = SimpleNamespace(s_ego=15.0, s_ego_end=20.0, s_ov=24.0, s_ov_end=30.0)
+    world, route = _world((60.0, -40.0), speed=speed, conflict=conflict)  # far off the path
+    world.actors[0].s = actor_s
+    assert path_occupied(world, route.xs, route.ys, route.ss) is occupied
