@@ -3,7 +3,14 @@
 from typing import Any
 
 from sitcov.av._aeb import aeb_test
-from sitcov.av._base import AVStack, Control, EgoState, Observation, RunInfo
+from sitcov.av._base import (
+    OBSERVATION_KINDS,
+    AVStack,
+    Control,
+    EgoState,
+    Observation,
+    RunInfo,
+)
 from sitcov.av._external import ExternalProcessStack, external_stack
 from sitcov.av._factory import make_stack
 from sitcov.av._faults import DEFAULT_PARAMS, FAULT_DESCRIPTIONS, FAULTS, resolve_params
@@ -14,6 +21,7 @@ __all__ = [
     "DEFAULT_PARAMS",
     "FAULTS",
     "FAULT_DESCRIPTIONS",
+    "OBSERVATION_KINDS",
     "AVStack",
     "Control",
     "EgoState",

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 from sitcov._frozen import fast_init
 from sitcov.perception._base import CameraSpec, Detection
+from sitcov.perception._objects import ObjectState
 
 if TYPE_CHECKING:
     import numpy as np
@@ -52,20 +53,33 @@ class EgoState:
     t: float
 
 
+#: What a stack may observe each frame (``AVStack.wants``, the external protocol's hello).
+OBSERVATION_KINDS = ("detections", "image", "objects")
+
+
 @fast_init
 @dataclass(frozen=True)
 class Observation:
-    """What the stack sees at one control step.
+    """What the stack sees at one control step: one of three kinds, as the stack wants
+    (:attr:`AVStack.wants`); the others are None. All are None on steps without a new
+    frame (frames come at the sensor rate, 10 Hz; steps at 20 Hz).
 
-    ``detections`` is set in PEM mode (the sensor model's detections, None on steps
-    without a new frame); ``image`` is an HxWx3 uint8 frame in camera mode (None on steps
-    without a new frame).
+    Attributes:
+        t: simulation time [s].
+        ego: the ego's own state.
+        detections: image boxes with scores and classes: the PEM's in PEM mode, the real
+            detector's on the rendered frame in camera mode.
+        image: an HxWx3 uint8 camera frame (camera mode only).
+        objects: the object list, every road user in the ego frame
+            (:class:`sitcov.perception.ObjectState`; both modes, from the world state plus
+            the backend's optional noise and miss model).
     """
 
     t: float
     ego: EgoState
     detections: tuple[Detection, ...] | None = None
     image: np.ndarray | None = None
+    objects: tuple[ObjectState, ...] | None = None
 
 
 @fast_init
@@ -103,6 +117,12 @@ class AVStack(abc.ABC):
 
     #: Registry name, e.g. ``"reference"``.
     name: ClassVar[str] = "custom"
+    #: What the stack observes (:data:`OBSERVATION_KINDS`): ``"detections"``, ``"image"``
+    #: or ``"objects"``; None (the default) takes what the backend's perception gives
+    #: natively: detections from the PEM, images in camera mode. A backend that cannot
+    #: serve the kind (images from the PEM) refuses the campaign with one line
+    #: (``SetupError``). Read after ``reset`` (an external stack says it in its hello).
+    wants: str | None = None
     #: The dash-cam the stack expects; backends simulate or render this camera.
     camera: CameraSpec = CameraSpec()
     #: The narrowest box, as a fraction of the image width, that the stack ever acts on

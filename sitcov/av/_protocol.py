@@ -24,7 +24,7 @@ if TYPE_CHECKING:
 #: The protocol version this sitcov speaks; a stack must answer the hello with it.
 PROTOCOL_VERSION = 1
 #: What a stack may ask to receive each step.
-WANTS = ("detections", "image")
+WANTS = ("detections", "image", "objects")
 #: How a stack may ask to receive camera frames.
 IMAGE_TRANSPORTS = ("file", "stdin")
 #: Longest piece of a bad message quoted in an error [characters].
@@ -158,7 +158,7 @@ def step(observation: Observation, image: dict[str, Any] | None) -> dict[str, An
     """The per-step message; ``image`` is the frame reference built by the caller."""
     ego = observation.ego
     detections = observation.detections
-    return {
+    message = {
         "type": "step",
         "t": observation.t,
         "ego": {"x": ego.x, "y": ego.y, "yaw": ego.yaw, "speed": ego.speed},
@@ -167,6 +167,9 @@ def step(observation: Observation, image: dict[str, Any] | None) -> dict[str, An
         else [{"box": list(d.box), "score": d.score, "label": d.label} for d in detections],
         "image": image,
     }
+    if observation.objects is not None:
+        message["objects"] = [o.to_dict() for o in observation.objects]
+    return message
 
 
 def _number(message: dict[str, Any], key: str, lo: float, hi: float, who: str) -> float:

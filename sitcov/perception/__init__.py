@@ -10,11 +10,23 @@ from sitcov.perception._models import (
     model_dir,
     model_path,
 )
+from sitcov.perception._objects import (
+    OBJECT_NOISE_FILE,
+    ObjectNoise,
+    ObjectState,
+    load_object_noise,
+    object_list,
+)
 from sitcov.perception._pem import PEMFeatures, PEMSensor, pem_logit, pem_score
 from sitcov.perception._pem_params import PEM_PARAMS_FILE, PEMParams, load_pem_params
 from sitcov.perception._renderer import render_frame
 
 __all__ = [
+    "OBJECT_NOISE_FILE",
+    "ObjectNoise",
+    "ObjectState",
+    "load_object_noise",
+    "object_list",
     "PEM_PARAMS_FILE",
     "ActorView",
     "CameraSpec",

@@ -25,6 +25,7 @@ from collections.abc import Callable, Sequence
 
 from sitcov._geometry import convex_hull
 from sitcov.perception._base import ActorView, CameraSpec, Pose
+from sitcov.weather import fog_transmittance
 
 Vec3 = tuple[float, float, float]
 Sphere = tuple[Vec3, float]
@@ -190,9 +191,9 @@ class ActorFrame:
         return (self.cx + self.f * q[1] / q[0], self.cy - self.f * q[2] / q[0])
 
     def final(self, color: Sequence[float], dist: float) -> tuple[int, int, int]:
-        """Colour after fog (Beer-Lambert by distance) and far haze."""
+        """Colour after fog (:func:`sitcov.weather.fog_transmittance`) and far haze."""
         beta, start = self.weather["beta"], self.weather["fog_start"]
-        t = math.exp(-beta * max(0.0, dist - start)) if beta > 0 else 1.0
+        t = fog_transmittance(beta, start, dist) if beta > 0 else 1.0
         t *= 1.0 - min(1.0, max(0.0, (dist - 0.5 * self.far) / (0.5 * self.far)))
         fc = self.fog_color
         return tuple(int(min(255.0, color[k]) * t + fc[k] * (1 - t)) for k in range(3))  # type: ignore[return-value]

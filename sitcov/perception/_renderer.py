@@ -13,12 +13,16 @@ The frame is built in three passes, each cheap enough for 10 Hz campaigns:
    (:mod:`sitcov.perception._cyclist`); clipped at the near plane, depth-sorted far to near
    (painter's algorithm: actors by distance, then their parts) and filled with Pillow. The
    projection is the one of :func:`sitcov.perception.project_box`.
-3. Weather: fog by the extinction law per pixel depth, light level and contrast from the
-   illumination, wet-road darkening and sky reflections in puddles, rain streaks.
+3. Weather: fog by Koschmieder's law (:func:`sitcov.weather.fog_transmittance`, the one
+   the PEM uses): every colour the camera sees, a road user's face, a ground pixel or the
+   sky, blends towards the airlight (fog colour) by ``1 - T(distance)``; the light level
+   from the illumination, wet-road darkening and sky reflections in puddles, rain streaks.
 4. Auto-exposure, as CARLA's RGB camera does by default (``exposure_mode`` histogram): the
    frame is metered on its luminance histogram and scaled so that the metered luminance
    matches clear noon's, within CARLA's exposure window (:func:`exposure_gain`). So cloud
-   changes contrast, shadows and colour, not the overall brightness.
+   changes what diffuse light changes, the shading of a body's faces, the contact shadow,
+   the sky and the white balance, not the overall brightness nor the contrast between
+   surfaces of different colour (their reflectances do not change with the light).
 
 Only ``rng`` supplies randomness (rain streak positions), so frames are reproducible.
 """
@@ -45,6 +49,7 @@ from sitcov.perception._vehicle import (
     draw_supersampled,
     vehicle_polygons,
 )
+from sitcov.weather import fog_transmittance
 
 if TYPE_CHECKING:
     from sitcov.weather import Conditions
@@ -324,12 +329,12 @@ def _layers(
     _, _, dist, haze, first, _ = _ground_rays(camera)
     # Sky under fog: infinitely far, so fully fog-coloured once there is any fog.
     if w["beta"] > 0:
-        t_sky = math.exp(-w["beta"] * max(0.0, FAR * 2 - w["fog_start"]))
+        t_sky = fog_transmittance(w["beta"], w["fog_start"], FAR * 2)
         sky[:first] = sky[:first] * t_sky + _fog_color(w, hor) * (1 - t_sky)
     hor32 = hor.astype(np.float32)
     fog = None
     if w["beta"] > 0:
-        t = np.exp(np.float32(-w["beta"]) * np.maximum(dist - np.float32(w["fog_start"]), 0))
+        t = _FOG_T(w["beta"], w["fog_start"], dist.astype(np.float64)).astype(np.float32)
         t = _full(t[..., None])
         fog = (t, _fog_color(w, hor).astype(np.float32) * (1 - t))
     reflect, graze = _mirrored_sky(sky_row, first, dist.shape[0], horizon)
@@ -343,6 +348,11 @@ def _layers(
     puddle = 0.55 * w["deposits"] if w["deposits"] > 0 else None
     haze_blend = (_full(1 - haze), hor32 * haze)
     return _Layers(sky, haze_blend, fog, wet, puddle, reflect[:, 0] * 0.55)
+
+
+#: :func:`fog_transmittance` over an array of distances (once per camera and weather:
+#: ~10 ms for the half-resolution ground, then cached with the other layers).
+_FOG_T = np.frompyfunc(fog_transmittance, 3, 1)
 
 
 def _full(a: np.ndarray, width: int | None = None) -> np.ndarray:
@@ -368,7 +378,7 @@ def _fog_color(w: dict[str, float], hor: np.ndarray) -> np.ndarray:
 
 
 def _fog(ground: np.ndarray, layers: _Layers) -> np.ndarray:
-    """Blend to the fog colour by Beer-Lambert transmittance; far ground fades into haze."""
+    """Blend to the fog colour by the fog's transmittance; far ground fades into haze."""
     keep, hazed = layers.haze
     hazy = keep.shape[0]
     if hazy:
@@ -429,13 +439,16 @@ def exposure_gain(img: np.ndarray) -> float:
 
 def _light(img: np.ndarray, w: dict[str, float]) -> tuple[float, np.ndarray]:
     """The affine light map ``c -> c * gain + offset`` before exposure: the scene's light
-    (``illumination`` scales the linear radiance, so display values by its 1/2.2 power),
-    flatter (pulled towards the mean colour: diffuse light, no sun) under cloud."""
+    (``illumination`` scales the linear radiance, so display values by its 1/2.2 power).
+
+    No offset: cloud does not pull colours towards grey. Diffuse light changes the
+    shading of faces and the shadows (``_vehicle._shade``, ``contact_shadow``), not the
+    ratio of two surfaces' reflectances, so after the exposure a car keeps its contrast
+    against the road (an earlier version flattened the whole frame by 35 % at full cloud,
+    which made cloud a stronger blinder than dense fog)."""
+    del img  # the light map is uniform: it does not depend on the frame
     illum = max(0.05, min(1.0, w["illum"]))
-    flat = 0.35 * w["cloud"]
-    gain = illum ** (1.0 / 2.2)
-    mean = img[::4, ::4].mean(axis=(0, 1)) if flat > 0 else np.zeros(3, dtype=np.float32)
-    return (1 - flat) * gain, (mean * flat * gain).astype(np.float32)
+    return illum ** (1.0 / 2.2), np.zeros(3, dtype=np.float32)
 
 
 @lru_cache(maxsize=8)

@@ -18,6 +18,7 @@ from PIL import Image, ImageDraw
 
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 from sitcov.perception._camera import NEAR
+from sitcov.weather import fog_transmittance
 
 Vec3 = tuple[float, float, float]
 Poly = tuple[list[tuple[float, float]], tuple[int, int, int]]
@@ -180,7 +181,7 @@ def vehicle_polygons(
         return [(cx + f * p[1] / p[0], cy - f * p[2] / p[0]) for p in pts], d
 
     def final(color: Sequence[float], dist: float) -> tuple[int, int, int]:
-        t = math.exp(-beta * max(0.0, dist - start)) if beta > 0 else 1.0
+        t = fog_transmittance(beta, start, dist) if beta > 0 else 1.0
         t *= 1.0 - min(1.0, max(0.0, (dist - 0.5 * far) / (0.5 * far)))
         return tuple(int(color[k] * t + fog_color[k] * (1 - t)) for k in range(3))  # type: ignore[return-value]
 

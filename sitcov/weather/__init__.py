@@ -12,6 +12,7 @@ from sitcov.weather._conditions import (
     Conditions,
     check_profile,
     conditions_from_values,
+    fog_transmittance,
 )
 
 __all__ = [
@@ -20,4 +21,5 @@ __all__ = [
     "Conditions",
     "check_profile",
     "conditions_from_values",
+    "fog_transmittance",
 ]

@@ -51,7 +51,8 @@ class Conditions:
     raw: dict[str, Any] = field(default_factory=dict)
 
     def transmittance(self, distance: float) -> float:
-        """Fraction of contrast that survives fog over ``distance`` metres (Beer-Lambert)."""
+        """Fraction of contrast that survives fog over ``distance`` metres
+        (Koschmieder, :func:`fog_transmittance`)."""
         return fog_transmittance(self.fog_extinction, self.fog_start, distance)
 
     @property
@@ -59,12 +60,38 @@ class Conditions:
         """Meteorological visibility [m] (inf without fog)."""
         if self.fog_extinction <= 0:
             return math.inf
-        return self.fog_start + 3.912 / self.fog_extinction
+        return self.fog_start + KOSCHMIEDER / self.fog_extinction
+
+
+#: Koschmieder's constant: -ln(0.02), the 2 % contrast threshold that defines the
+#: meteorological visibility V (contrast transmittance exp(-3.912 d / V) = 0.02 at d = V).
+KOSCHMIEDER = 3.912
 
 
 def fog_transmittance(extinction: float, start: float, distance: float) -> float:
-    """:meth:`Conditions.transmittance` on plain floats: ``exp(-extinction * max(0,
-    distance - start))`` (the PEM's compiled score calls it too, ``perception._pem``)."""
+    """Contrast transmittance of the air between the camera and a point ``distance`` m away.
+
+    Koschmieder's law, ``T = exp(-3.912 * d_fog / V)``: ``V = 3.912 / extinction`` is the
+    visibility [m] of the fog itself and ``d_fog = max(0, distance - start)`` the part of
+    the line of sight inside it [m]. That is CARLA's exponential (height) fog seen along a
+    level ray: no fog before ``fog_distance`` metres from the camera, then a constant
+    density (its height falloff does not act at the camera's height). An object's colour
+    reaches the camera as ``T * colour + (1 - T) * airlight`` (the renderer) and its
+    contrast against the fog as ``T`` times its own (the PEM's contrast term).
+
+    This is THE fog law of sitcov: :meth:`Conditions.transmittance`, the renderer (every
+    road user's faces, the ground per pixel and the sky) and the PEM's compiled score
+    (``perception._pem``, as a numba helper: keep it scalar, plain ``math``) all call it.
+
+    Args:
+        extinction: the fog's extinction coefficient beta = 3.912 / V [1/m]
+            (``Conditions.fog_extinction``).
+        start: where the fog starts, from the camera [m] (``Conditions.fog_start``).
+        distance: length of the line of sight [m].
+
+    Returns:
+        T in (0, 1]: 1 before the fog starts.
+    """
     beyond = distance - start
     return math.exp(-extinction * (beyond if beyond > 0.0 else 0.0))
 
@@ -107,9 +134,9 @@ WET_GRIP_RATIO = 0.55
 FILM_CRITICAL = 0.1
 
 #: Extinction coefficient at fog_density 100 [1/m]: Koschmieder visibility 3.912/0.1565 = 25 m.
-FOG_BETA_MAX = 3.912 / 25.0
+FOG_BETA_MAX = KOSCHMIEDER / 25.0
 #: Clear-air extinction [1/m] (visibility ~ 20 km).
-CLEAR_AIR_BETA = 3.912 / 20000.0
+CLEAR_AIR_BETA = KOSCHMIEDER / 20000.0
 
 #: Kasten-Czeplak cloud factor: G/G_clear = 1 - K_A * N**K_B, N = cloud fraction.
 KASTEN_A = 0.75

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from sitcov.av._base import RunInfo
-from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError
+from sitcov.errors import BackendUnavailableError, ConfigError, MissingExtraError, SetupError
 from sitcov.perception._colors import ov_color
 from sitcov.sim._base import Backend, Outcome
 from sitcov.sim.carla._actors import (
@@ -63,6 +63,18 @@ FRICTION_MODES = ("wheels", "trigger", "both")
 LAUNCH_TIMEOUT = 120.0
 #: Pause between connection attempts while a launched server starts [s].
 LAUNCH_POLL = 1.0
+
+
+def _check_wants(stack: AVStack) -> None:
+    """The carla backend gives camera images only: a stack that wants detections or objects
+    (``AVStack.wants``) stops the campaign with one line instead of getting none."""
+    wants = getattr(stack, "wants", None)
+    if wants not in (None, "image"):
+        who = getattr(stack, "who", None) or f"stack {getattr(stack, 'name', '?')!r}"
+        raise SetupError(
+            f"{who} wants {wants}, which the carla backend does not give (it gives camera "
+            "images): run it with --backend embedded (pem or camera perception)"
+        )
 
 
 @dataclass(frozen=True)
@@ -530,6 +542,7 @@ class CarlaBackend(Backend):
             stack.reset(info)
         except Exception as exc:
             raise StackFailure() from exc
+        _check_wants(stack)
         ov_sit = [(x, -y) for x, y in plan.ov_route] if plan.car_ov else twins[0].route
         driver = None
         if plan.conflict is not None:

@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from sitcov.av._base import RunInfo
-from sitcov.errors import ConfigError
+from sitcov.av._base import OBSERVATION_KINDS, RunInfo
+from sitcov.errors import ConfigError, SetupError
 from sitcov.perception._base import CameraSpec, Sensor
 from sitcov.sim._adversary import AdversaryParams
 from sitcov.sim._base import Backend, Outcome, Trace
@@ -144,6 +144,15 @@ class EmbeddedBackend(Backend):
             box is at least ``frame_gate`` times the narrowest box the stack acts on
             (``AVStack.min_box_width``); 0 renders every frame with a vehicle in view.
             See docs/camera.md for the measured effect on verdicts.
+        object_noise: the object lists' noise and miss model for stacks that want
+            ``objects``: None (default) gives the ground truth, ``"default"`` the shipped
+            model (``sitcov/perception/data/objects.yaml``), else a YAML file of its
+            parameters, or an ``ObjectNoise``.
+
+    What a stack observes is what it wants (``AVStack.wants``): in PEM mode detections
+    (the PEM) or objects; in camera mode images, detections (the real detector on the
+    rendered frame, at its output floor) or objects. Images from the PEM cannot be
+    served: the run raises a one-line ``SetupError``, which stops a campaign.
     """
 
     name: ClassVar[str] = "embedded"
@@ -164,6 +173,7 @@ class EmbeddedBackend(Backend):
         physics: str = "carla",
         perception_delay: float | None = None,
         brake_delay: float | None = None,
+        object_noise: Any = None,
     ) -> None:
         self.physics = check_profile(physics)
         defaults = DEFAULT_DELAYS[self.physics]
@@ -203,6 +213,16 @@ class EmbeddedBackend(Backend):
         self._render_frame: Any = None
         self._geometry: dict[str, Any] | None = None
         self._min_sizes: dict[str, tuple[float, float]] = {}  # per class, this run's gate
+        self.object_noise = _object_noise(object_noise)
+        #: Camera mode, stacks that want detections: ``image -> detections`` (default: the
+        #: SSD detector at its output floor, made at first use).
+        self.detector: Any = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Cross processes without the detector (a TFLite interpreter; made again there)."""
+        state = dict(self.__dict__)
+        state["detector"] = None
+        return state
 
     def effects(self) -> dict[str, str]:
         """Every element this backend uses, and how (in this backend's physics profile)."""
@@ -221,6 +241,38 @@ class EmbeddedBackend(Backend):
 
             self.sensor = PEMSensor()
         return self.sensor
+
+    def _detect(self, image: np.ndarray) -> Any:
+        """The camera-mode detector's detections in ``image`` (every class it reports)."""
+        if self.detector is None:
+            from sitcov.perception import SSDDetector  # lazy: needs the camera extra
+
+            self.detector = SSDDetector()
+        return self.detector(image)
+
+    def observation_kind(self, stack: AVStack) -> str:
+        """What this backend gives ``stack`` each frame (read after its ``reset``):
+        ``detections`` (PEM), ``camera-detections`` (the detector on rendered frames),
+        ``image`` or ``objects``.
+
+        Raises:
+            ConfigError: the stack wants something that is no observation kind.
+            SetupError: the stack wants images in PEM mode (one line, naming the stack).
+        """
+        wants = getattr(stack, "wants", None)
+        if wants is None:
+            return "detections" if self.perception == "pem" else "image"
+        if wants not in OBSERVATION_KINDS:
+            raise ConfigError(field="wants", value=wants, expected=" | ".join(OBSERVATION_KINDS))
+        if wants == "image" and self.perception == "pem":
+            who = getattr(stack, "who", None) or f"stack {getattr(stack, 'name', '?')!r}"
+            raise SetupError(
+                f"{who} wants camera images, which perception 'pem' cannot give (it gives "
+                "detections or objects): run it with --perception camera"
+            )
+        if wants == "detections" and self.perception == "camera":
+            return "camera-detections"
+        return wants
 
     def _frame(self, camera, pose, actors, conditions, rng) -> np.ndarray:
         if self._render_frame is None:
@@ -321,10 +373,11 @@ class EmbeddedBackend(Backend):
                 situation=situation if self.grey_box else None,
             )
         )
-        sensor = self._get_sensor() if self.perception == "pem" else None
+        kind = self.observation_kind(av_stack)
+        sensor = self._get_sensor() if kind == "detections" else None
         if sensor is not None and hasattr(sensor, "reset"):
             sensor.reset(frame_dt=self.sensor_every * self.dt)  # per-run noise state (PEM)
-        gate_px = self._gate_px(av_stack, camera) if sensor is None else 0.0
+        gate_px = self._gate_px(av_stack, camera) if kind in ("image", "camera-detections") else 0.0
         self._min_sizes = self._gate_sizes(av_stack, camera)
         return EgoDriver(
             self,
@@ -336,6 +389,7 @@ class EmbeddedBackend(Backend):
             round(self.perception_delay / self.dt),
             round(self.brake_delay / self.dt),
             gate_px,
+            kind,
         )
 
     def _monitors(self, world: World) -> list[Any]:
@@ -435,6 +489,21 @@ class EmbeddedBackend(Backend):
             },
             actors={a.name: a.rows for a in world.actors},
         )
+
+
+def _object_noise(value: Any) -> Any:
+    """The ``object_noise`` option as an ``ObjectNoise`` (None: ground truth)."""
+    if value is None:
+        return None
+    from sitcov.perception._objects import ObjectNoise, load_object_noise
+
+    if isinstance(value, ObjectNoise):
+        return value
+    if not isinstance(value, str):
+        raise ConfigError(
+            field="object_noise", value=value, expected="'default' or a YAML file of parameters"
+        )
+    return load_object_noise(None if value == "default" else value)
 
 
 def run_loop(world: World, monitors: list[Any], n_max: int, record: bool) -> str:

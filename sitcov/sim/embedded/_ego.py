@@ -1,9 +1,11 @@
 """The ego's controller: the AV stack under test, fed by simulated perception.
 
 :class:`EgoDriver` does per step what stands between the world and the stack: at the
-sensor rate it shows the sensor every active actor (PEM mode: ``Sensor.detect`` with an
-``ActorView`` per actor, ``kind`` set, or for the built-in PEM the same through
-``PEMSensor.detect_prepared``; camera mode: a rendered frame), delays frames by
+sensor rate it makes the observation the stack wants (``EmbeddedBackend.observation_kind``):
+detections from the sensor (PEM mode: ``Sensor.detect`` with an ``ActorView`` per actor,
+``kind`` set, or for the built-in PEM the same through ``PEMSensor.detect_prepared``), a
+rendered frame (camera mode), the real detector's detections on that frame (camera mode,
+a stack that wants detections) or an object list (either mode), delays frames by
 the perception delay, asks the stack for a ``Control``, notes when its AEB fired (if it
 latched, perception stops from then on: the stack ignores it; an AEB that releases keeps
 receiving frames), and delays the brake command by the
@@ -19,12 +21,16 @@ import numpy as np
 
 from sitcov.av._base import EgoState, Observation
 from sitcov.perception._base import Pose
+from sitcov.perception._objects import object_list
 from sitcov.perception._pem import NormalStream, PEMSensor
 
 #: The built-in PEM's normals are drawn this many at a time (``NormalStream``): its noise
 #: is the run generator's last consumer (the wind's draws come first), so drawing ahead
 #: changes no value (``tests/sim/test_sim_world.py`` checks that no draw follows).
 NOISE_BLOCK = 128
+#: Spawn key of the object lists' noise stream (``default_rng(SeedSequence(seed,
+#: spawn_key=(OBJECTS_KEY,)))``): its draws shift no other draw of the run. "OBJ" in ASCII.
+OBJECTS_KEY = 0x4F424A
 
 
 class EgoDriver:
@@ -39,6 +45,8 @@ class EgoDriver:
         seed: the run's seed (camera frames get their own generators).
         delay_p, delay_b: perception and brake delays in control periods.
         gate_px: camera mode: the true box width below which no frame is rendered.
+        kind: what the stack observes: ``detections`` (the sensor), ``image``,
+            ``camera-detections`` (the backend's detector on the frame) or ``objects``.
     """
 
     def __init__(
@@ -52,6 +60,7 @@ class EgoDriver:
         delay_p: int,
         delay_b: int,
         gate_px: float,
+        kind: str = "detections",
     ) -> None:
         self.backend, self.stack, self.sensor = backend, stack, sensor
         self.cond, self.rng, self.seed = conditions, rng, seed
@@ -62,15 +71,21 @@ class EgoDriver:
         self.gate_px = gate_px
         self.camera = stack.camera
         self.latched = False  # the AEB latched: no more frames or detections
-        self.camera_mode = sensor is None
+        self.kind = kind
+        self.camera_mode = kind in ("image", "camera-detections")
+        self.objects_rng = (
+            np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(OBJECTS_KEY,)))
+            if kind == "objects" and backend.object_noise is not None
+            else None
+        )
         self.aeb_time: float | None = None
         plain = getattr(type(stack), "plain_step", None)  # the built-in stack's fast path
-        self.plain_step = plain(stack) if callable(plain) else None
+        self.plain_step = plain(stack) if callable(plain) and kind != "objects" else None
         # whether the built-in stack's AEB latches when it fires (else it releases)
         self.plain_latches = bool(getattr(stack, "aeb_latches", True))
         # the built-in PEM (its detect not overridden): each actor prepared once per run,
         # then shown by its body's pose (no Pose or ActorView per frame)
-        self.prepared = getattr(type(sensor), "detect", None) is PEMSensor.detect
+        self.prepared = sensor is not None and type(sensor).detect is PEMSensor.detect
         self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
         self._normals = NormalStream(rng, NOISE_BLOCK)
 
@@ -83,6 +98,19 @@ class EgoDriver:
         ego = world.ego.body
         seen = [(look, a.body) for a, look in looks if a.active]
         return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self._normals)
+
+    def _objects(self, world: Any) -> Any:
+        """The object list of this frame (ground truth + the backend's noise model)."""
+        ego = world.ego.body
+        seen = [(i + 1, a.view(), *a.velocity()) for i, a in enumerate(world.actors) if a.active]
+        return object_list(
+            Pose(ego.x, ego.y, ego.yaw),
+            seen,
+            mount_x=self.camera.mount_x,
+            conditions=self.cond,
+            noise=self.backend.object_noise,
+            rng=self.objects_rng,
+        )
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
         """(detections, image) captured at step ``k`` (a frame step)."""
@@ -98,22 +126,29 @@ class EgoDriver:
             backend.frame_observer(self.camera, pose, actors, self.cond)
         # one generator per frame: which frames are rendered changes no other draw
         frame_rng = np.random.default_rng([self.seed, k])
-        return None, backend._frame(self.camera, pose, actors, self.cond, frame_rng)
+        image = backend._frame(self.camera, pose, actors, self.cond, frame_rng)
+        if self.kind == "camera-detections":
+            return backend._detect(image), None
+        return None, image
 
     def command(self, world: Any, k: int, t: float) -> tuple[float, float, float]:
         """(throttle, brake, steer) of the ego for step ``k`` at time ``t``."""
+        objects = None
         if k % self.every or self.latched:
             detections = image = None
         elif self.prepared:
             detections, image = self._detect_prepared(world), None
+        elif self.kind == "objects":
+            detections = image = None
+            objects = self._objects(world)
         else:
             detections, image = self._perceive(world, k)
         if self.delay_p:
-            if detections is not None or image is not None:
-                self.frames.append((k + self.delay_p, detections, image))
-            detections = image = None
+            if detections is not None or image is not None or objects is not None:
+                self.frames.append((k + self.delay_p, detections, image, objects))
+            detections = image = objects = None
             if self.frames and self.frames[0][0] == k:
-                _, detections, image = self.frames.popleft()
+                _, detections, image, objects = self.frames.popleft()
         ego = world.ego.body
         if self.plain_step is not None:  # the built-in stack: no per-step objects
             throttle, brake, steer, fired = self.plain_step(
@@ -121,7 +156,9 @@ class EgoDriver:
             )
             latches = fired is not None and self.plain_latches
         else:
-            throttle, brake, steer, fired = self._step(ego, world.ego_speed, t, detections, image)
+            throttle, brake, steer, fired = self._step(
+                ego, world.ego_speed, t, detections, image, objects
+            )
             latches = fired is True
         if fired is not None:
             if self.aeb_time is None:
@@ -137,12 +174,12 @@ class EgoDriver:
         return throttle, brake, steer
 
     def _step(
-        self, ego: Any, speed: float, t: float, detections: Any, image: Any
+        self, ego: Any, speed: float, t: float, detections: Any, image: Any, objects: Any = None
     ) -> tuple[float, float, float, bool | None]:
         """The AV stack's step through its protocol: (throttle, brake, steer, True once
         its ``Control.info["aeb"]`` says the AEB latched, False while
         ``Control.info["aeb_active"]`` says an AEB that will release brakes, else None)."""
-        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, speed, t), detections, image)
+        obs = Observation(t, EgoState(ego.x, ego.y, ego.yaw, speed, t), detections, image, objects)
         ctrl = self.stack.step(obs)
         info = ctrl.info
         fired = None

@@ -313,3 +313,18 @@ def test_server_gone_between_runs_is_an_error_outcome_then_unavailable(tmp_path)
     assert outcome.status == "error" and "no CARLA server" in outcome.message
     with pytest.raises(BackendUnavailableError):
         backend.run(situation(), DrivingStack(), seed=1)
+
+
+def test_a_stack_that_wants_objects_stops_with_one_line_and_leaves_nothing(tmp_path) -> None:
+    """CARLA gives images only: a stack wanting objects (or detections) is refused in one
+    line (a SetupError stops the campaign) and every actor is still destroyed."""
+    from sitcov.errors import SetupError
+
+    backend, server = fake_backend(small_map(tmp_path))
+    stack = DrivingStack()
+    stack.wants = "objects"
+    with pytest.raises(SetupError, match="wants objects, which the carla backend does not give"):
+        backend.run(situation(), stack, seed=3)
+    spawned = sum(entry[0] == "spawn" for entry in server.log)
+    destroyed = sum(entry[0] == "destroy" for entry in server.log)
+    assert spawned and destroyed == spawned

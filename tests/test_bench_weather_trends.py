@@ -1,0 +1,65 @@
+"""benchmarks/bench_weather_trends.py, whose trend table docs/weather.md quotes: pairing,
+the sign test, pooling of disjoint measurements, and a real (PEM) run of every arm."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def bench() -> ModuleType:
+    spec = importlib.util.spec_from_file_location(
+        "bench_weather_trends", ROOT / "benchmarks/bench_weather_trends.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_sign_test_is_the_exact_two_sided_binomial(bench) -> None:
+    assert bench.sign_test(0, 0) == 1.0
+    assert bench.sign_test(5, 0) == pytest.approx(2 / 32)
+    assert bench.sign_test(3, 3) == 1.0
+    assert bench.sign_test(9, 1) == pytest.approx(2 * 11 / 1024)
+    assert bench.sign_test(1, 9) == bench.sign_test(9, 1)
+
+
+ARMS = ("baseline", "fog_density", "fog_distance", "cloudiness", "precipitation")
+
+
+def _rows(n: int, fail_high: set[int], fail_base: set[int]) -> list[dict]:
+    """``n`` runs: those in ``fail_high`` fail in dense fog, those in ``fail_base`` elsewhere."""
+    return [
+        {"index": i, **{a: (i in fail_high if a == "fog_density" else i in fail_base)
+                        for a in ARMS}}
+        for i in range(n)
+    ]  # fmt: skip
+
+
+def test_changes_are_paired_and_pooling_adds_counts(bench) -> None:
+    a = bench.summarize(_rows(10, {1, 2, 3}, {3, 4}))
+    fog = a["elements"]["fog_density"]
+    assert (fog["fail_only_high"], fog["fail_only_low"]) == (2, 1)  # 1, 2 vs 4
+    assert fog["change"] == pytest.approx(0.1)
+    b = bench.summarize(_rows(20, {0, 5}, set()))
+    pooled = bench.merge([{"pem": a}, {"pem": b}])["pem"]
+    assert pooled["runs"] == 30
+    assert pooled["arms"]["fog_density"]["failures"] == 5
+    e = pooled["elements"]["fog_density"]
+    assert (e["fail_only_high"], e["fail_only_low"]) == (4, 1)
+    assert e["sign_test_p"] == pytest.approx(bench.sign_test(4, 1), abs=1e-4)
+    assert "| fog_density (baseline -> fog_density) |" in bench.table({"pem": pooled})
+
+
+def test_every_arm_runs_on_the_same_situation(bench) -> None:
+    row = bench._run(("pem", 7, 0, 1.0))
+    assert set(row) == {"mode", "index", *bench.ARMS}
+    assert all(isinstance(row[a], bool) for a in bench.ARMS)
+    assert tuple(bench.ARMS) == ARMS
