@@ -432,7 +432,7 @@ def animate_run(db: str | Path, run_id: str, out: str | Path, **options: Any) ->
     """
     from sitcov.campaign._console import existing_store
     from sitcov.campaign._replay import parse_run_id
-    from sitcov.report._pictures import close_builders, traced_outcome
+    from sitcov.report._traces import close_builders, traced_outcome
 
     builders: dict = {}
     with existing_store(Path(db)) as store:

@@ -15,7 +15,7 @@ from sitcov.campaign import CampaignInfo, PlannedRun, open_store
 from sitcov.campaign._breakdown import slot_types
 from sitcov.hyperspace import load_hyperspace
 from sitcov.report import build_report
-from sitcov.report._pictures import _complete
+from sitcov.report._traces import _complete
 from sitcov.sim import Outcome, Trace
 
 CROSSROADS = Path(__file__).resolve().parents[2] / "sitcov/hyperspace/data/derived/crossroads.yaml"

@@ -59,6 +59,7 @@ from sitcov.sim.embedded._collision import (
     overlap,
 )
 from sitcov.sim.embedded._dynamics import G
+from sitcov.sim.embedded._progress import GOAL_TOLERANCE, ProgressMonitor
 
 #: How far the ego's box may reach beyond its lane's edge before it counts as a lane
 #: departure [m] (a wheel over the marking is normal driving; half a metre is not).
@@ -69,9 +70,6 @@ LANE_TOLERANCE = 0.5
 CLEARANCE_SLACK = 0.5
 #: Ego speed below which it counts as stopped [m/s].
 STOPPED_SPEED = 0.05
-#: The ego has reached its goal (an actor has left) within this arc length of its
-#: route's end [m].
-GOAL_TOLERANCE = 1.5
 #: Safety factor on the friction an actor needs to hold its lane (for the early end) [-].
 LANE_HOLD_MARGIN = 1.5
 #: Tracking margin of an actor around its route for the early end [m].
@@ -653,8 +651,6 @@ def default_monitors(
     """The monitors of an embedded run, in the order the loop calls them (``budget``: the
     run's time limit [s], for the route progress facts; without ``early_end`` there is no
     early-end monitor)."""
-    from sitcov.sim.embedded._progress import ProgressMonitor  # it imports this module
-
     progress = ProgressMonitor(world, budget)  # also the goal monitor
     return [
         EgoRouteMonitor(world.ego.route, lane, road),

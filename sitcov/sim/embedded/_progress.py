@@ -7,7 +7,7 @@ failure kinds and what the summary shows next to the failure rate:
 
 - ``route_completion``: the largest arc length the ego reached along its route, over the
   arc length at which the goal counts as reached (route length minus
-  :data:`~sitcov.sim.embedded._monitors.GOAL_TOLERANCE`), capped at 1 [-];
+  :data:`~sitcov.sim.embedded._progress.GOAL_TOLERANCE`), capped at 1 [-];
 - ``time_to_goal``: when the ego reached its goal [s], or None;
 - ``standstill_time``: how long the ego stood (speed below :data:`STILL_SPEED`) [s];
 - ``blocked_time``: the first time [s] the ego had stood for :data:`BLOCKED_TIME` without
@@ -31,7 +31,10 @@ from typing import Any
 
 from sitcov.sim._judge import STATIONARY_SPEED
 from sitcov.sim.embedded._collision import _point_box_distance
-from sitcov.sim.embedded._monitors import GOAL_TOLERANCE
+
+#: The ego has reached its goal (an actor has left) within this arc length of its
+#: route's end [m].
+GOAL_TOLERANCE = 1.5
 
 #: Ego speed below which it stands still [m/s] (for ``blocked``, ``standstill_time`` and
 #: the ``ego_stationary`` collisions: a car below 0.3 m/s moves less than its own length
