@@ -5,13 +5,17 @@ from __future__ import annotations
 import bisect
 import functools
 import math
+import os
 import random
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from needs import need_module
 
-from sitcov._jit import _hypot_cr, compiled, enabled
+from sitcov._jit import _hypot_cr, compiled, enabled, typed_entry
 from sitcov.av import _reference
 from sitcov.av._pid import window_pid
 from sitcov.perception import _camera, _pem
@@ -451,3 +455,60 @@ def test_the_disk_cache_name_changes_with_any_helper(monkeypatch) -> None:
     assert one.py_func.__qualname__ == again.py_func.__qualname__
     assert one.py_func.__qualname__ != other.py_func.__qualname__
     assert one.py_func.__qualname__.startswith("_calls_helper_")
+
+
+def _twice(x: float, n: int) -> float:
+    return x * n
+
+
+def test_typed_entry_is_the_compiled_code_without_dispatch(monkeypatch) -> None:
+    """The entry point of the one compiled signature gives the dispatcher's results; a
+    kernel with no or several signatures stays the dispatcher; in check mode a call with
+    other types than the signature's raises TypeError (a float where an int was compiled
+    would be truncated silently)."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)
+    monkeypatch.delenv("SITCOV_JIT_CHECK", raising=False)
+    assert typed_entry(None) is None
+    fast = compiled(_twice, 1.5, 2)
+    entry = typed_entry(fast)
+    assert entry is not fast and type(entry).__name__ == "builtin_function_or_method"
+    assert repr(entry(0.1, 3)) == repr(fast(0.1, 3)) == repr(_twice(0.1, 3))
+    monkeypatch.setenv("SITCOV_JIT_CHECK", "1")
+    checked = typed_entry(fast)
+    assert checked(0.1, 3) == _twice(0.1, 3)
+    with pytest.raises(TypeError, match="_twice"):
+        checked(0.1, 2.5)
+    fast(0.1, 2.5)  # a second signature: the dispatcher must choose
+    assert typed_entry(fast) is fast
+    assert typed_entry(compiled(_twice)) is not None  # not called yet: no signature
+
+
+HERE = Path(__file__).parent
+
+
+@pytest.mark.slow
+def test_every_kernel_call_of_the_golden_runs_has_the_compiled_types() -> None:
+    """The hot loop calls the kernels' entry points without numba's type checks
+    (``typed_entry``): a process with ``SITCOV_JIT_CHECK=1`` checks every call's argument
+    types against the compiled signature while it runs the fast subsets of both golden
+    files (two cars; many actors, every controller, every shipped map), which must also
+    still land on the golden bits."""
+    need_module("numba", "fast")
+    env = {**os.environ, "SITCOV_JIT_CHECK": "1", "PYTHONPATH": str(HERE.parent.parent)}
+    env.pop("SITCOV_NO_JIT", None)
+    tests = [
+        f"{HERE / 'test_sim_world_golden.py'}::test_every_seventh_golden_run_is_reproduced_exactly",
+        f"{HERE / 'test_sim_world_actors_golden.py'}"
+        "::test_every_fifth_golden_multi_actor_run_is_reproduced_exactly",
+    ]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", *tests],
+        cwd=HERE.parent.parent,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    assert "2 passed" in done.stdout, done.stdout[-2000:]

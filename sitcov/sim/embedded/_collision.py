@@ -137,11 +137,12 @@ def box_distance_flat_fn() -> Any:
     else itself. Loaded once per process, on first use."""
     global _FLAT
     if _FLAT is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         example = (0.0, 0.0, 0.3, 2.3, 0.9, 4.0, 1.0, 1.2, 2.3, 0.9)
         helpers = (_axes_overlap, _corners_to_box, box_distance)
-        _FLAT = compiled(box_distance_flat, *example, helpers=helpers) or box_distance_flat
+        _FLAT = compiled(box_distance_flat, *example, helpers=helpers)
+        _FLAT = typed_entry(_FLAT) or box_distance_flat
     return _FLAT
 
 

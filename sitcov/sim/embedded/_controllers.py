@@ -128,12 +128,12 @@ def _car_kernel() -> Any:
     bits), else itself. Loaded once per process."""
     global _CAR
     if _CAR is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
         example = (pts, 1.5, 0.0, 0.1, 0.2, 1.4, 2.7, 0.6)
         helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit)
-        _CAR = compiled(_car_steer, *example, helpers=helpers) or _car_steer
+        _CAR = typed_entry(compiled(_car_steer, *example, helpers=helpers)) or _car_steer
     return _CAR
 
 
@@ -173,13 +173,13 @@ def _timed_kernel() -> Any:
     itself. Loaded once per process."""
     global _TIMED
     if _TIMED is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
         k = np.array([3.0, 20.0, 4.2, 0.5, 0.5, 0.1, 1.0, 30.0, 25.0, 0.8, 4.0, 1.4, 2.7, 0.6])
         example = (pts, k, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01)
         helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit, _car_steer, timing_law)
-        _TIMED = compiled(_timed_car, *example, helpers=helpers) or _timed_car
+        _TIMED = typed_entry(compiled(_timed_car, *example, helpers=helpers)) or _timed_car
     return _TIMED
 
 

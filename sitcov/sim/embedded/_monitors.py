@@ -418,7 +418,7 @@ def proximity_fn() -> Any:
     itself. Loaded once per process, on first use."""
     global _PROXIMITY
     if _PROXIMITY is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         k = np.array([2.3, 0.9, 0.25, 0.25, 3.0])
         example = (0.0, 0.0, 0.3, 5.0, 0.1, 4.0, 1.0, 1.2, 1.0, 0.0, k, True)
@@ -429,7 +429,7 @@ def proximity_fn() -> Any:
             box_distance_flat,
             time_to_collision,
         )
-        _PROXIMITY = compiled(proximity, *example, helpers=helpers) or proximity
+        _PROXIMITY = typed_entry(compiled(proximity, *example, helpers=helpers)) or proximity
     return _PROXIMITY
 
 
