@@ -512,3 +512,59 @@ def test_every_kernel_call_of_the_golden_runs_has_the_compiled_types() -> None:
     )
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
     assert "2 passed" in done.stdout, done.stdout[-2000:]
+
+
+def _bits(values: tuple) -> list:
+    """Each float as its exact hex text (numpy and Python floats alike), ints as they are."""
+    return [float(v).hex() if isinstance(v, float | np.floating) else v for v in values]
+
+
+def test_compiled_timed_car_move_is_bit_identical_and_is_the_law_then_the_move(
+    monkeypatch,
+) -> None:
+    """The timed car's whole step (law, steering, then the body's move on its route) is
+    the compiled kernel's and the Python code's bit for bit, and is what ``_timed_car``
+    then ``Vehicle.step`` give: every phase, standing and moving cars, the watcher's say
+    (nothing moves), crosswind and low friction."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_controllers, "_TIMED_MOVE", None)  # load it now, compiled
+    fast = _controllers._timed_move_kernel()
+    assert fast is not _controllers._timed_car_move  # numba compiled it
+    path = _path.Path(tuple(float(k) for k in range(120)), tuple(0.01 * k * k for k in range(120)))
+    pts = (path.xs, path.ys, path.hs, path.ss)
+    arr = np.array(pts)
+    route = path.tracker().args[0]
+    rnd = random.Random(9)
+    moved = set()
+    for _ in range(5000):
+        vehicle = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+        p = vehicle.p
+        k = (3.0, rnd.uniform(10, 30), 4.17, 0.5, 0.5, 0.1, rnd.choice([0.0, 1.0]))
+        k += (rnd.choice([40.0, math.inf]), 45.0, 0.8, 4.0, p.lr, p.wheelbase, p.steer_max)
+        s = rnd.uniform(-5, 125)
+        x, y, _ = path.point_at(s)
+        speed = rnd.choice([0.0, 0.0, rnd.uniform(0.0, 0.2), rnd.uniform(0.0, 12.0)])
+        yaw = rnd.uniform(-4, 4)
+        vx, vy, r = speed, rnd.choice([0.0, rnd.uniform(-0.3, 0.3)]), rnd.choice([0.0, 0.1])
+        vx, vy, r = (0.0, 0.0, 0.0) if speed == 0.0 else (vx, vy, r)
+        law = (rnd.randint(0, 2), rnd.uniform(-5, 60), rnd.choice([0.0, speed, 5.0]))
+        hint = rnd.randint(0, 110)
+        mu, lat = rnd.choice([1.0, 0.1]), rnd.choice([0.0, 0.7])
+        react = rnd.choice([0, 0, 1, 2, 3])
+        kc = _dynamics._constants(vehicle._k, True)
+        args = (*law, s, x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), yaw, vx, vy, r)
+        tail = (route, hint, mu, lat, _dynamics.DT, _dynamics.SUBSTEPS, react)
+        want = _controllers._timed_car_move(pts, k, *args, vehicle._k, *tail)
+        assert _bits(fast(arr, np.array(k), *args, kc, *tail)) == _bits(want), (k, args, tail)
+        moved.add((want[0], want[4]))
+        # the law, then Vehicle.step (when the watcher has no say)
+        phase, thr, brk, steer = _controllers._timed_car(pts, k, *args[:-1])
+        assert want[:4] == (phase, thr, brk, steer)
+        if want[4]:
+            vehicle.x, vehicle.y, vehicle.yaw = args[4], args[5], args[6]
+            vehicle.vx, vehicle.vy, vehicle.r = vx, vy, r
+            tracked = vehicle.step(thr, brk, steer, mu, lat, route=route, hint=hint)
+            state = (vehicle.x, vehicle.y, vehicle.yaw, vehicle.vx, vehicle.vy, vehicle.r)
+            assert _bits(want[5:]) == _bits((*state, *tracked))
+    assert {(0, 1), (1, 1), (1, 2), (2, 2), (1, 0), (2, 0)} <= moved
