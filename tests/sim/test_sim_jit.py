@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bisect
 import functools
+import itertools
 import math
 import os
 import random
@@ -568,3 +569,35 @@ def test_compiled_timed_car_move_is_bit_identical_and_is_the_law_then_the_move(
             state = (vehicle.x, vehicle.y, vehicle.yaw, vehicle.vx, vehicle.vy, vehicle.r)
             assert _bits(want[5:]) == _bits((*state, *tracked))
     assert {(0, 1), (1, 1), (1, 2), (2, 2), (1, 0), (2, 0)} <= moved
+
+
+def test_compiled_box_on_area_gives_the_corner_tests_answers(monkeypatch) -> None:
+    """The road monitor's exact test (all four corners on the drivable area, compiled)
+    says what ``DrivableArea.contains`` of each corner says, on every shipped map, for
+    boxes on, across and off the road edges at any heading (both answers tested)."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_collision, "_AREA", None)  # load it now, compiled
+    assert _collision.box_on_area_fn() is not _collision.box_on_area  # numba compiled it
+    from sitcov.sim.embedded._map import load_map
+
+    rnd = random.Random(12)
+    answers = []
+    for name in ("t-junction", "crossroads", "roundabout", "merge"):
+        area = load_map(name).drivable_area
+        flat = [v for edges in area._edges for edge in edges for v in edge]
+        ends = list(itertools.accumulate(len(edges) for edges in area._edges))
+        for _ in range(3000):
+            poly = rnd.choice(area.polygons)  # a point in it, then up to 3 m away
+            w = [rnd.random() for _ in poly]
+            x = sum(wi * px for wi, (px, _) in zip(w, poly, strict=True)) / sum(w)
+            y = sum(wi * py for wi, (_, py) in zip(w, poly, strict=True)) / sum(w)
+            x, y = x + rnd.uniform(-3.0, 3.0), y + rnd.uniform(-3.0, 3.0)
+            yaw, hl, hw = rnd.uniform(-4.0, 4.0), rnd.uniform(0.2, 2.5), rnd.uniform(0.2, 1.0)
+            c, s = math.cos(yaw), math.sin(yaw)
+            corners = ((hl, hw), (hl, -hw), (-hl, -hw), (-hl, hw))
+            want = all(area.contains(x + a * c - b * s, y + a * s + b * c) for a, b in corners)
+            assert _collision.box_on_area(flat, ends, x, y, yaw, hl, hw) is want
+            assert area.contains_box(x, y, yaw, hl, hw) is want
+            answers.append(want)
+    assert 1000 < sum(answers) < len(answers) - 1000
