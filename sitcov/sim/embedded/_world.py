@@ -18,6 +18,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any
 
 from sitcov.sim.embedded._actors import Actor
+from sitcov.sim.embedded._dynamics import SUBSTEPS
 
 
 class Wind:
@@ -111,7 +112,8 @@ class World:
     def step(self) -> None:
         """One control period for every actor (see the module docstring)."""
         ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
-        speed = ego.body.speed
+        eb = ego.body
+        speed = eb.speed
         self.ego_decel = (self.ego_speed - speed) / dt
         self.ego_speed = speed
         throttle, brake, steer = self.driver.command(self, self.k, self.t)
@@ -129,10 +131,15 @@ class World:
                 else:
                     thr, brk, st = a.controller.command(a, self)
                     a.move(thr, brk, st, mu, lat, dt)
-        ego.move(throttle, brake, steer, mu, lat_e, dt)
+        points = ego._points
+        if points is not None:  # Actor.move of a car, written out (this runs every step)
+            ego.s, ego.hint = eb.step(
+                throttle, brake, steer, mu, lat_e, dt, SUBSTEPS, points, ego.hint
+            )
+        else:
+            ego.move(throttle, brake, steer, mu, lat_e, dt)
         self.k += 1
         self.t = self.k * dt
-        eb = ego.body
         ex, ey = eb.x, eb.y
         hypot = math.hypot
         for a in self.actors:
