@@ -1,0 +1,168 @@
+"""The report's collision map: where on the junction the ego collided, over every run.
+
+Each collision a run stores (``outcome.metrics["collision_point"]``: the centroid of the
+two boxes' overlap at the first step they touched, map frame [m]; the embedded, esmini and
+CARLA backends record it) is drawn on the junction of the campaign's map, coloured by the
+kind of road user hit (``collision_kind``), filled when the campaign's judge counts the run
+as a failure and hollow when it does not (e.g. a standing ego was hit under the default
+judge). Campaigns on different maps get a panel each. Runs stored before the point was
+recorded (store schema < 5) are counted in the caption, not drawn.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from sitcov.report import _figures
+from sitcov.report._sections import b64
+
+#: Marker colour per kind of road user hit (Okabe-Ito: colour-blind safe); others grey.
+KIND_COLOURS = {
+    "car": "#0072B2",
+    "truck": "#56B4E9",
+    "pedestrian": "#D55E00",
+    "cyclist": "#009E73",
+}
+OTHER_COLOUR = "#999999"
+#: The view around the drawn points: padding [m] and the smallest half side [m].
+PAD, MIN_HALF = 8.0, 22.0
+#: Panels per row of the figure.
+COLUMNS = 2
+
+
+@dataclass(frozen=True)
+class CollisionPoint:
+    """One collision: map, where [m], the kind hit, whether the run failed."""
+
+    map: str
+    x: float
+    y: float
+    kind: str
+    failed: bool
+
+
+def campaign_map(config: Mapping[str, Any]) -> str:
+    """The embedded map a campaign ran on (its ``backend_options.map``, else the default)."""
+    from sitcov.campaign._build import DEFAULT_EMBEDDED_MAP
+
+    options = config.get("backend_options") or {}
+    ref = options.get("map") if isinstance(options, Mapping) else None
+    return str(ref) if ref else DEFAULT_EMBEDDED_MAP
+
+
+def collision_point(run: Any, map_ref: str) -> CollisionPoint | None | bool:
+    """The run's :class:`CollisionPoint`; False for a collision stored without a point
+    (older stores), None without a collision."""
+    outcome = run.outcome
+    if outcome is None or not outcome.collision:
+        return None
+    metrics = outcome.metrics or {}
+    point = metrics.get("collision_point")
+    if not (isinstance(point, list | tuple) and len(point) == 2):
+        return False
+    x, y = point
+    if not all(isinstance(v, int | float) and math.isfinite(v) for v in (x, y)):
+        return False
+    kind = metrics.get("collision_kind") or "car"
+    return CollisionPoint(map_ref, float(x), float(y), str(kind), run.status == "fail")
+
+
+def collision_map_section(
+    points: Sequence[CollisionPoint], unlocated: int, fig_dir: Path
+) -> dict[str, Any]:
+    """The page's ``collision_map``: the figure and its caption (None without collisions)."""
+    if not points and not unlocated:
+        return {"collision_map": None}
+    png = None
+    if points:
+        png = b64(_figures.save(collision_figure(points), fig_dir / "collision_map.png"))
+    kinds: dict[str, int] = {}
+    for p in points:
+        kinds[p.kind] = kinds.get(p.kind, 0) + 1
+    counted = sum(p.failed for p in points)
+    caption = (
+        f"{len(points)} collisions drawn ("
+        + ", ".join(f"{n} with a {k}" for k, n in sorted(kinds.items(), key=lambda kv: -kv[1]))
+        + f"); {counted} count as failures (filled), {len(points) - counted} do not (hollow)."
+    )
+    if unlocated:
+        caption += (
+            f" {unlocated} collisions were stored without a location (runs stored before "
+            "sitcov recorded it) and are not drawn."
+        )
+    return {"collision_map": {"png": png, "caption": caption}}
+
+
+def collision_figure(points: Sequence[CollisionPoint]) -> Any:
+    """One panel per map: the junction drawn as the top-down pictures draw it, every
+    collision a dot coloured by the kind hit, filled for failures, hollow otherwise."""
+    plt = _figures._plt()
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._render import draw_map
+
+    maps = list(dict.fromkeys(p.map for p in points))
+    cols = min(COLUMNS, len(maps))
+    rows = -(-len(maps) // cols)
+    side = _figures.WIDTH / cols
+    fig, axes = plt.subplots(rows, cols, figsize=(_figures.WIDTH, side * rows + 0.5), squeeze=False)
+    for ax in axes.flat[len(maps) :]:
+        ax.set_visible(False)
+    for ax, ref in zip(axes.flat, maps, strict=False):
+        mine = [p for p in points if p.map == ref]
+        jmap = load_map(ref)
+        draw_map(ax, jmap)
+        ax.grid(False)
+        (x0, x1), (y0, y1) = _limits(mine)
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        kinds = sorted({p.kind for p in mine}, key=lambda k: (k not in KIND_COLOURS, k))
+        for kind in kinds:
+            colour = KIND_COLOURS.get(kind, OTHER_COLOUR)
+            for failed in (True, False):
+                group = [p for p in mine if p.kind == kind and p.failed == failed]
+                if not group:
+                    continue
+                n = len(group)
+                ax.scatter(
+                    [p.x for p in group],
+                    [p.y for p in group],
+                    s=_size(len(mine)),
+                    facecolors=colour if failed else "none",
+                    edgecolors=colour if not failed else "black",
+                    linewidths=0.9 if not failed else 0.3,
+                    alpha=0.8,
+                    zorder=5 if failed else 6,
+                    label=f"{kind}, {'failure' if failed else 'not a failure'} ({n})",
+                )
+        ax.set_title(f"{jmap.name}: {len(mine)} collisions", fontsize=10)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.tick_params(labelsize=8)
+        ax.legend(
+            loc="upper center",
+            bbox_to_anchor=(0.5, -0.12),
+            ncol=2,
+            fontsize=8,
+            frameon=False,
+            markerscale=1.5,
+        )
+    fig.suptitle("Where the ego collided, by the road user it hit", fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+def _size(n: int) -> float:
+    """Marker area [pt^2]: smaller when there are many points."""
+    return max(8.0, min(40.0, 4000.0 / max(1, n)))
+
+
+def _limits(points: Sequence[CollisionPoint]) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A square view around the points, at least ``2 * MIN_HALF`` metres wide."""
+    xs, ys = [p.x for p in points], [p.y for p in points]
+    half = max(MIN_HALF, 0.5 * max(max(xs) - min(xs), max(ys) - min(ys)) + PAD)
+    mx, my = 0.5 * (max(xs) + min(xs)), 0.5 * (max(ys) + min(ys))
+    return (mx - half, mx + half), (my - half, my + half)
