@@ -28,6 +28,8 @@ KIND_COLOURS = {
     "cyclist": "#009E73",
 }
 OTHER_COLOUR = "#999999"
+#: Marker per kind (shape tells the kinds apart without colour too); others a cross.
+KIND_MARKERS = {"car": "s", "truck": "D", "pedestrian": "o", "cyclist": "^"}
 #: The view around the drawn points: padding [m] and the smallest half side [m].
 PAD, MIN_HALF = 8.0, 22.0
 #: Panels per row of the figure.
@@ -99,18 +101,36 @@ def collision_map_section(
 
 def collision_figure(points: Sequence[CollisionPoint]) -> Any:
     """One panel per map: the junction drawn as the top-down pictures draw it, every
-    collision a dot coloured by the kind hit, filled for failures, hollow otherwise."""
+    collision a marker coloured and shaped by the kind hit, filled for failures, hollow
+    otherwise; one legend for all panels below them (counts over every map)."""
     plt = _figures._plt()
+    from matplotlib.lines import Line2D
+
     from sitcov.sim.embedded import load_map
     from sitcov.sim.embedded._render import draw_map
 
     maps = list(dict.fromkeys(p.map for p in points))
     cols = min(COLUMNS, len(maps))
     rows = -(-len(maps) // cols)
-    side = _figures.WIDTH / cols
-    fig, axes = plt.subplots(rows, cols, figsize=(_figures.WIDTH, side * rows + 0.5), squeeze=False)
+    side = min(_figures.WIDTH / cols, 6.0)
+    groups = sorted(
+        {(p.kind, p.failed) for p in points},
+        key=lambda kf: (kf[0] not in KIND_COLOURS, kf[0], not kf[1]),
+    )
+    legend_rows = -(-len(groups) // 3)
+    height = 0.86 * side * rows + 0.5 + 0.25 * legend_rows + 0.35  # square panels, legend
+    fig, axes = plt.subplots(rows, cols, figsize=(_figures.WIDTH, height), squeeze=False)
+    fig.subplots_adjust(
+        left=0.07,
+        right=0.98,
+        top=1 - 0.35 / height,
+        bottom=(0.5 + 0.25 * legend_rows + 0.1) / height,
+        wspace=0.22,
+        hspace=0.25,
+    )
     for ax in axes.flat[len(maps) :]:
         ax.set_visible(False)
+    size = _size(max(sum(p.map == m for p in points) for m in maps))
     for ax, ref in zip(axes.flat, maps, strict=False):
         mine = [p for p in points if p.map == ref]
         jmap = load_map(ref)
@@ -119,45 +139,54 @@ def collision_figure(points: Sequence[CollisionPoint]) -> Any:
         (x0, x1), (y0, y1) = _limits(mine)
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
-        kinds = sorted({p.kind for p in mine}, key=lambda k: (k not in KIND_COLOURS, k))
-        for kind in kinds:
-            colour = KIND_COLOURS.get(kind, OTHER_COLOUR)
-            for failed in (True, False):
-                group = [p for p in mine if p.kind == kind and p.failed == failed]
-                if not group:
-                    continue
-                n = len(group)
+        for kind, failed in groups:
+            group = [p for p in mine if p.kind == kind and p.failed == failed]
+            if group:
                 ax.scatter(
                     [p.x for p in group],
                     [p.y for p in group],
-                    s=_size(len(mine)),
-                    facecolors=colour if failed else "none",
-                    edgecolors=colour if not failed else "black",
-                    linewidths=0.9 if not failed else 0.3,
-                    alpha=0.8,
-                    zorder=5 if failed else 6,
-                    label=f"{kind}, {'failure' if failed else 'not a failure'} ({n})",
+                    s=size,
+                    marker=KIND_MARKERS.get(kind, "X"),
+                    **_style(kind, failed),
+                    zorder=6 if not failed else 5,
                 )
-        ax.set_title(f"{jmap.name}: {len(mine)} collisions", fontsize=10)
+        failed = sum(p.failed for p in mine)
+        ax.set_title(f"{jmap.name}: {len(mine)} collisions, {failed} failures", fontsize=10)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         ax.tick_params(labelsize=8)
-        ax.legend(
-            loc="upper center",
-            bbox_to_anchor=(0.5, -0.12),
-            ncol=2,
-            fontsize=8,
-            frameon=False,
-            markerscale=1.5,
+    handles = [
+        Line2D(
+            [],
+            [],
+            ls="",
+            marker=KIND_MARKERS.get(kind, "X"),
+            markersize=8,
+            markerfacecolor=_style(kind, failed)["facecolors"],
+            markeredgecolor=_style(kind, failed)["edgecolors"],
+            label=f"{kind}, {'failure' if failed else 'not a failure'} "
+            f"({sum(p.kind == kind and p.failed == failed for p in points)})",
         )
-    fig.suptitle("Where the ego collided, by the road user it hit", fontsize=11)
-    fig.tight_layout()
+        for kind, failed in groups
+    ]
+    fig.legend(
+        handles=handles, loc="lower center", ncol=min(3, len(handles)), fontsize=9, frameon=False
+    )
     return fig
+
+
+def _style(kind: str, failed: bool) -> dict[str, Any]:
+    """Marker colours: filled in the kind's colour for a failure, hollow (edge only, drawn
+    thicker) for a collision the judge does not count."""
+    colour = KIND_COLOURS.get(kind, OTHER_COLOUR)
+    if failed:
+        return {"facecolors": colour, "edgecolors": "white", "linewidths": 0.4, "alpha": 0.85}
+    return {"facecolors": "none", "edgecolors": colour, "linewidths": 1.4, "alpha": 1.0}
 
 
 def _size(n: int) -> float:
     """Marker area [pt^2]: smaller when there are many points."""
-    return max(8.0, min(40.0, 4000.0 / max(1, n)))
+    return max(14.0, min(48.0, 6000.0 / max(1, n)))
 
 
 def _limits(points: Sequence[CollisionPoint]) -> tuple[tuple[float, float], tuple[float, float]]:
