@@ -152,3 +152,33 @@ def test_a_read_only_version_4_file_is_read_as_it_is(old_db: Path, tmp_path: Pat
         assert summarize_store(store, "c")["runs"] == N
         assert all(math.isfinite(r.outcome.sim_time) for r in store.runs("c"))
         store.close()
+
+
+def test_exports_carry_the_collision_location_and_drac_typed(new_db: Path, tmp_path: Path):
+    """CSV and Parquet: the contact point, heading, speed and DRAC of each run as floats
+    (pandas reads them as float64), equal to the stored metrics; the actor table's DRAC."""
+    pd = pytest.importorskip("pandas")
+    pytest.importorskip("pyarrow")
+    from sitcov.campaign._export import COLLISION_COLUMNS, export_parquet
+
+    out, actors = tmp_path / "runs.parquet", tmp_path / "actors.parquet"
+    with open_store(new_db) as store:
+        export_parquet(store, str(out))
+        export_parquet(store, str(actors), per_actor=True)
+    frame = pd.read_parquet(out)
+    assert all(str(frame[c].dtype) == "float64" for c in COLLISION_COLUMNS)
+    with open_store(new_db) as store:
+        metrics = {r.index: r.outcome.metrics for r in store.runs("c")}
+    for _, row in frame.iterrows():
+        m = metrics[int(row["index"])]
+        point = m["collision_point"]
+        if point is None:
+            assert math.isnan(row["collision_x"]) and math.isnan(row["collision_heading"])
+        else:
+            assert (row["collision_x"], row["collision_y"]) == tuple(point)
+            assert row["collision_heading"] == m["collision_heading"]
+            assert row["ego_collision_speed"] == m["ego_collision_speed"]
+        drac = m["max_drac"]
+        assert math.isnan(row["max_drac"]) if drac is None else row["max_drac"] == drac
+    table = pd.read_parquet(actors)
+    assert str(table["max_drac"].dtype) == "float64" and table["max_drac"].notna().any()
