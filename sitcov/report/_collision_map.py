@@ -12,6 +12,7 @@ recorded (store schema < 5) are counted in the caption, not drawn.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +35,9 @@ KIND_MARKERS = {"car": "s", "truck": "D", "pedestrian": "o", "cyclist": "^"}
 PAD, MIN_HALF = 8.0, 22.0
 #: Panels per row of the figure.
 COLUMNS = 2
+#: Collisions closer than this [m] (same kind and verdict) share one marker, its area
+#: growing with their number.
+GRID = 1.0
 
 
 @dataclass(frozen=True)
@@ -100,9 +104,11 @@ def collision_map_section(
 
 
 def collision_figure(points: Sequence[CollisionPoint]) -> Any:
-    """One panel per map: the junction drawn as the top-down pictures draw it, every
-    collision a marker coloured and shaped by the kind hit, filled for failures, hollow
-    otherwise; one legend for all panels below them (counts over every map)."""
+    """One panel per map: the junction drawn as the top-down pictures draw it, the
+    collisions as markers coloured and shaped by the kind hit, filled for failures, hollow
+    otherwise, those within :data:`GRID` metres of each other as one marker whose area
+    grows with their number; one legend for all panels below them (counts over every map,
+    and the marker sizes)."""
     plt = _figures._plt()
     from matplotlib.lines import Line2D
 
@@ -117,7 +123,7 @@ def collision_figure(points: Sequence[CollisionPoint]) -> Any:
         {(p.kind, p.failed) for p in points},
         key=lambda kf: (kf[0] not in KIND_COLOURS, kf[0], not kf[1]),
     )
-    legend_rows = -(-len(groups) // 3)
+    legend_rows = -(-(len(groups) + 4) // 3)  # the kinds, then up to 4 marker sizes
     height = 0.86 * side * rows + 0.5 + 0.25 * legend_rows + 0.35  # square panels, legend
     fig, axes = plt.subplots(rows, cols, figsize=(_figures.WIDTH, height), squeeze=False)
     fig.subplots_adjust(
@@ -130,7 +136,6 @@ def collision_figure(points: Sequence[CollisionPoint]) -> Any:
     )
     for ax in axes.flat[len(maps) :]:
         ax.set_visible(False)
-    size = _size(max(sum(p.map == m for p in points) for m in maps))
     for ax, ref in zip(axes.flat, maps, strict=False):
         mine = [p for p in points if p.map == ref]
         jmap = load_map(ref)
@@ -140,12 +145,12 @@ def collision_figure(points: Sequence[CollisionPoint]) -> Any:
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
         for kind, failed in groups:
-            group = [p for p in mine if p.kind == kind and p.failed == failed]
-            if group:
+            cells = _cells([p for p in mine if p.kind == kind and p.failed == failed])
+            if cells:
                 ax.scatter(
-                    [p.x for p in group],
-                    [p.y for p in group],
-                    s=size,
+                    [c[0] for c in cells],
+                    [c[1] for c in cells],
+                    s=[_area(c[2]) for c in cells],
                     marker=KIND_MARKERS.get(kind, "X"),
                     **_style(kind, failed),
                     zorder=6 if not failed else 5,
@@ -169,6 +174,22 @@ def collision_figure(points: Sequence[CollisionPoint]) -> Any:
         )
         for kind, failed in groups
     ]
+    most = max(Counter(_key(p) for p in points).values())
+    handles += [
+        Line2D(
+            [],
+            [],
+            ls="",
+            marker="o",
+            markersize=_area(n) ** 0.5,
+            markerfacecolor="#bdbdbd",
+            markeredgecolor="black",
+            markeredgewidth=0.5,
+            label=f"{n} at one place" if n == 1 else f"{n} within {GRID:g} m",
+        )
+        for n in (1, 10, 100, 1000)
+        if n == 1 or n <= most
+    ]
     fig.legend(
         handles=handles, loc="lower center", ncol=min(3, len(handles)), fontsize=9, frameon=False
     )
@@ -184,9 +205,28 @@ def _style(kind: str, failed: bool) -> dict[str, Any]:
     return {"facecolors": "none", "edgecolors": colour, "linewidths": 1.4, "alpha": 1.0}
 
 
-def _size(n: int) -> float:
-    """Marker area [pt^2]: smaller when there are many points."""
-    return max(14.0, min(48.0, 6000.0 / max(1, n)))
+def _key(p: CollisionPoint) -> tuple:
+    """The cell of :data:`GRID` metres a point falls in, with its map, kind and verdict."""
+    return (p.map, p.kind, p.failed, round(p.x / GRID), round(p.y / GRID))
+
+
+def _cells(points: Sequence[CollisionPoint]) -> list[tuple[float, float, int]]:
+    """Collisions within one :data:`GRID` cell drawn as one marker: (mean x, mean y, count)
+    per cell, so that a place where hundreds of runs collided shows as a large marker,
+    not as one dot with the others hidden under it."""
+    cells: dict[tuple, list[CollisionPoint]] = {}
+    for p in points:
+        cells.setdefault(_key(p), []).append(p)
+    return [
+        (sum(p.x for p in ps) / len(ps), sum(p.y for p in ps) / len(ps), len(ps))
+        for ps in cells.values()
+    ]
+
+
+def _area(count: int) -> float:
+    """Marker area [pt^2] of a cell with ``count`` collisions: grows with its square root
+    (1: 16, 100: 160, 1000: 506)."""
+    return 16.0 * count**0.5
 
 
 def _limits(points: Sequence[CollisionPoint]) -> tuple[tuple[float, float], tuple[float, float]]:
