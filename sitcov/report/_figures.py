@@ -251,8 +251,10 @@ def histograms_figure(
         ax.set_xlabel(f"{label} (last bin: >= {cap:g})")
         ax.set_ylabel("runs")
         # the tall bars sit at either end (TTC near 0, DRAC in its last bin): a framed
-        # legend where it covers least stays readable over a bar
-        ax.legend(fontsize=8, loc="best", frameon=True, framealpha=0.85, edgecolor="none")
+        # legend where it covers least stays readable over a bar; with a threshold mark
+        # (DRAC: tall bars at both ends) between the ends
+        where = "upper center" if marks and label in marks else "best"
+        ax.legend(fontsize=8, loc=where, frameon=True, framealpha=0.85, edgecolor="none")
     fig.suptitle("Criticality of every judged run (most critical over its road users)", fontsize=10)
     return fig
 
