@@ -137,11 +137,12 @@ def box_distance_flat_fn() -> Any:
     else itself. Loaded once per process, on first use."""
     global _FLAT
     if _FLAT is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         example = (0.0, 0.0, 0.3, 2.3, 0.9, 4.0, 1.0, 1.2, 2.3, 0.9)
         helpers = (_axes_overlap, _corners_to_box, box_distance)
-        _FLAT = compiled(box_distance_flat, *example, helpers=helpers) or box_distance_flat
+        _FLAT = compiled(box_distance_flat, *example, helpers=helpers)
+        _FLAT = typed_entry(_FLAT) or box_distance_flat
     return _FLAT
 
 
@@ -193,3 +194,55 @@ def corridor_gap(path: Any, s_from: float, box: Box) -> float:
             if d < best:
                 best = d
     return best
+
+
+def box_on_area(
+    edges: Any, ends: Any, x: float, y: float, yaw: float, half_l: float, half_w: float
+) -> bool:
+    """Whether all four corners of the box (centre, heading, half sizes) lie on a union of
+    convex polygons (``_monitors.DrivableArea.contains_box``: the same operations in the
+    same order, so the same answer). ``edges``: every polygon's edges as a flat sequence
+    ``ax, ay, ex, ey, ...`` (a corner is inside a polygon iff ``ex * (py - ay) - ey * (px -
+    ax) >= -1e-6`` for each of its edges); ``ends``: where each polygon's edges end (edge
+    counts, accumulated)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    for k in range(4):
+        a = half_l if k < 2 else -half_l
+        b = half_w if k == 0 or k == 3 else -half_w
+        px = x + a * c - b * s
+        py = y + a * s + b * c
+        start = 0
+        inside = False
+        for end in ends:
+            ok = True
+            for j in range(start, end):
+                o = 4 * j
+                if edges[o + 2] * (py - edges[o + 1]) - edges[o + 3] * (px - edges[o]) < -1e-6:
+                    ok = False
+                    break
+            if ok:
+                inside = True
+                break
+            start = end
+        if not inside:
+            return False
+    return True
+
+
+_AREA: Any = None
+
+
+def box_on_area_fn() -> Any:
+    """:func:`box_on_area` compiled by numba when it is installed (the same answers), else
+    itself. Loaded once per process, on first use."""
+    global _AREA
+    if _AREA is None:
+        import numpy as np
+
+        from sitcov._jit import compiled, typed_entry
+
+        edges = np.array([0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0, -1.0, -1.0])
+        ends = np.array([3], dtype=np.int64)
+        fast = compiled(box_on_area, edges, ends, 0.3, 0.3, 0.0, 0.1, 0.1)
+        _AREA = typed_entry(fast) or box_on_area
+    return _AREA

@@ -44,6 +44,7 @@ simulated facts are the same whatever counts as a failure.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -57,6 +58,8 @@ from sitcov.sim.embedded._collision import (
     box_distance,
     box_distance_flat,
     box_distance_flat_fn,
+    box_on_area,
+    box_on_area_fn,
     contact_point,
     corridor_gap,
     overlap,
@@ -102,6 +105,9 @@ class DrivableArea:
             [(a[0], a[1], b[0] - a[0], b[1] - a[1]) for a, b in zip(p, p[1:] + p[:1], strict=True)]
             for p in self.polygons
         ]
+        #: the same edges flat with each polygon's end, as ``box_on_area`` takes them
+        #: (float and int arrays for the compiled one), made at the first box test
+        self._flat: tuple[bool, Any, Any] | None = None
 
     def contains(self, x: float, y: float, eps: float = 1e-6) -> bool:
         """Whether (x, y) lies on the drivable area (edges included)."""
@@ -114,12 +120,18 @@ class DrivableArea:
         return False
 
     def contains_box(self, x: float, y: float, yaw: float, half_l: float, half_w: float) -> bool:
-        """Whether all four corners of a box (centre, heading, half sizes) are on the area."""
-        c, s = math.cos(yaw), math.sin(yaw)
-        for a, b in ((half_l, half_w), (half_l, -half_w), (-half_l, -half_w), (-half_l, half_w)):
-            if not self.contains(x + a * c - b * s, y + a * s + b * c):
-                return False
-        return True
+        """Whether all four corners of a box (centre, heading, half sizes) are on the area
+        (:meth:`contains` of each corner, in one compiled call: ``_collision.box_on_area``)."""
+        fn = box_on_area_fn()
+        fast = fn is not box_on_area
+        if self._flat is None or self._flat[0] != fast:
+            flat = [v for edges in self._edges for edge in edges for v in edge]
+            ends = list(itertools.accumulate(len(edges) for edges in self._edges))
+            if fast:
+                flat, ends = np.array(flat, dtype=np.float64), np.array(ends, dtype=np.int64)
+            self._flat = (fast, flat, ends)
+        _, edges, ends = self._flat
+        return bool(fn(edges, ends, x, y, yaw, half_l, half_w))
 
     def contains_many(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         """Vectorised :meth:`contains` for arrays of points."""
@@ -443,7 +455,7 @@ def proximity_fn() -> Any:
     itself. Loaded once per process, on first use."""
     global _PROXIMITY
     if _PROXIMITY is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         k = np.array([2.3, 0.9, 0.25, 0.25, 3.0])
         example = (0.0, 0.0, 0.3, 5.0, 0.1, 4.0, 1.0, 1.2, 1.0, 0.0, k, True)
@@ -454,7 +466,7 @@ def proximity_fn() -> Any:
             box_distance_flat,
             time_to_collision,
         )
-        _PROXIMITY = compiled(proximity, *example, helpers=helpers) or proximity
+        _PROXIMITY = typed_entry(compiled(proximity, *example, helpers=helpers)) or proximity
     return _PROXIMITY
 
 
