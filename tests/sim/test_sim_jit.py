@@ -215,7 +215,7 @@ def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
 
 
 def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
-    """The proximity monitor's kernel (box distance and disc TTC of a pair) against the
+    """The proximity monitor's kernel (box distance, disc TTC and DRAC of a pair) against the
     Python code: overlapping, near and distant boxes, closing and receding velocities."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
@@ -223,7 +223,7 @@ def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
     fast = _monitors.proximity_fn()
     assert fast is not _monitors.proximity  # numba compiled it
     rnd = random.Random(11)
-    ttcs = []
+    ttcs, dracs = [], []
     for a, b in _boxes(20000, 3):
         ev, av = (rnd.uniform(-2.0, 12.0), rnd.uniform(-0.5, 0.5)), (rnd.uniform(0, 8), 0.0)
         k = (a[3], a[4], b[3], b[4], rnd.uniform(1.0, 3.0))
@@ -232,7 +232,9 @@ def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
         want = _monitors.proximity(*args, k, near)
         assert repr(fast(*args, np.array(k), near)) == repr(want), (args, k, near)
         ttcs.append(want[1])
+        dracs.append(want[2])
     assert min(ttcs) == -1.0 and 0.0 in ttcs and max(ttcs) > 1.0  # none, touching, ahead
+    assert min(dracs) == -1.0 and max(dracs) > 1.0  # none (touching or apart), decelerating
 
 
 def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:

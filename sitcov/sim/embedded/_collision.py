@@ -146,6 +146,40 @@ def box_distance_flat_fn() -> Any:
     return _FLAT
 
 
+def contact_point(a: Box, b: Box) -> tuple[float, float]:
+    """Where two overlapping boxes touch [m]: the centroid of their intersection (box
+    ``a`` clipped by each edge of box ``b``, Sutherland-Hodgman; both are convex and
+    counter-clockwise); the midpoint of the centres if they do not overlap. Called once
+    per collision (the collision map of the report draws it)."""
+    poly = corners(a)
+    clip = corners(b)
+    for (cx, cy), (dx, dy) in zip(clip, clip[1:] + clip[:1], strict=True):
+        ex, ey = dx - cx, dy - cy
+        # >= 0: inside (left of the edge c -> d)
+        sides = [ex * (p[1] - cy) - ey * (p[0] - cx) for p in poly]
+        out: list[tuple[float, float]] = []
+        for i, p in enumerate(poly):
+            q, sp, sq = poly[(i + 1) % len(poly)], sides[i], sides[(i + 1) % len(poly)]
+            if sp >= 0.0:
+                out.append(p)
+            if (sp >= 0.0) != (sq >= 0.0):
+                f = sp / (sp - sq)
+                out.append((p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1])))
+        poly = out
+        if not poly:
+            return 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])
+    area = cx_sum = cy_sum = 0.0
+    for (px, py), (qx, qy) in zip(poly, poly[1:] + poly[:1], strict=True):
+        cross = px * qy - qx * py
+        area += cross
+        cx_sum += (px + qx) * cross
+        cy_sum += (py + qy) * cross
+    if abs(area) < 1e-12:  # the boxes only touch: the mean of the touching points
+        n = len(poly)
+        return sum(p[0] for p in poly) / n, sum(p[1] for p in poly) / n
+    return cx_sum / (3.0 * area), cy_sum / (3.0 * area)
+
+
 def corridor_gap(path: Any, s_from: float, box: Box) -> float:
     """Smallest distance [m] from ``box`` to the points of ``path`` beyond arc length ``s_from``.
 
