@@ -584,8 +584,10 @@ class PEMSensor(Sensor):
         self._rng: Any = None
         self._normals: NormalStream | None = None
         self._tracks: dict[int, _Track] = {}
-        #: the compiled frame's noise state per actor (``_pem_frame``'s ``track``)
+        #: the compiled frame's noise state per actor (``_pem_frame``'s ``track``) and
+        #: the run its constants are for (``detect_prepared``)
         self._ftracks: dict[int, Any] = {}
+        self._fstate: tuple[Any, ...] | None = None
         self._frame = 0
         self._classes_file = classes if not isinstance(classes, Mapping) else None
         self._classes: dict[str, tuple[str, PEMParams]] | None = (
@@ -759,20 +761,14 @@ class PEMSensor(Sensor):
         """Whether :func:`_pem_frame` serves this run: the prepared arrays are float arrays
         (the view kernel is compiled) and no class drops frames in this scene's rain (it
         has no rain miss or the scene no rain: the miss test stays in Python). Decided once
-        per run (conditions)."""
-        views = self._view_arrays(conditions)
-        ready = views.get("frame_ready")
-        if ready is None:
-            rain = conditions.rain_noise
-            misses = [self.params.rain_miss]
-            if rain > 0.0:
-                self._class_params("pedestrian")  # loads every class
-                misses += [p.rain_miss for _, p in (self._classes or {}).values()]
-            compiled_view = (_VIEW_FN or _view_kernel()) is not _pem_view
-            ready = views["frame_ready"] = compiled_view and (
-                rain == 0.0 or all(m == 0.0 for m in misses)
-            )
-        return ready
+        per run (``detect_prepared``'s ``_fstate``)."""
+        rain = conditions.rain_noise
+        misses = [self.params.rain_miss]
+        if rain > 0.0:
+            self._class_params("pedestrian")  # loads every class
+            misses += [p.rain_miss for _, p in (self._classes or {}).values()]
+        compiled_view = (_VIEW_FN or _view_kernel()) is not _pem_view
+        return compiled_view and (rain == 0.0 or all(m == 0.0 for m in misses))
 
     def _frame_constants(self, p: PEMParams, conditions: Conditions) -> Any:
         """:func:`_pem_frame`'s constants for an actor class with parameters ``p``."""
@@ -795,22 +791,22 @@ class PEMSensor(Sensor):
         eyaw: float,
         actors: Sequence[tuple[Any, Any]],
         conditions: Conditions,
-        normals: NormalStream,
+        constants: dict[int, tuple[PEMParams, Any]],
     ) -> tuple[Detection, ...]:
         """:meth:`detect_prepared`'s loop, each actor in one :func:`_pem_frame` call (the
-        same draws and values as the Python loop; normals drawn ahead in blocks)."""
+        same draws and values as the Python loop; normals drawn ahead in blocks).
+        ``constants``: this run's ``id(class parameters) -> (them, their constants)``."""
         import numpy as np
 
-        views = self._view_arrays(conditions)
+        normals = self._normals
         tracks = self._ftracks
         frame = float(self._frame)
         out = []
         for key, ((q, p, label), pose) in enumerate(actors):
-            ckey = ("frame", id(p), self.frame_dt)
-            c = views.get(ckey)
-            if c is None:
-                c = views[ckey] = self._frame_constants(p, conditions)
-                views[("held", id(p))] = p  # holds p: no id reuse while cached
+            held = constants.get(id(p))
+            if held is None:  # holds p: no id reuse while cached
+                held = constants[id(p)] = (p, self._frame_constants(p, conditions))
+            c = held[1]
             track = tracks.get(key)
             if track is None:
                 track = tracks[key] = np.zeros(5)
@@ -844,10 +840,21 @@ class PEMSensor(Sensor):
             self._normals = rng if isinstance(rng, NormalStream) else NormalStream(rng)
         normals: Any = self._normals
         self._frame += 1
-        frame_fn = _FRAME_FN if _FRAME_FN is not None else _frame_kernel()
-        if frame_fn and normals.block and self._frame_ready(conditions):
-            return self._detect_compiled(frame_fn, ex, ey, eyaw, actors, conditions, normals)
         camera = self.camera
+        frame_fn = _FRAME_FN if _FRAME_FN is not None else _frame_kernel()
+        if frame_fn and normals.block:
+            fs = self._fstate  # this run's: (conditions, camera, params, frame_dt, ready, c)
+            if (
+                fs is None
+                or fs[0] is not conditions
+                or fs[1] is not camera
+                or fs[2] is not self.params
+                or fs[3] != self.frame_dt
+            ):
+                ready = self._frame_ready(conditions)
+                fs = self._fstate = (conditions, camera, self.params, self.frame_dt, ready, {})
+            if fs[4]:
+                return self._detect_compiled(frame_fn, ex, ey, eyaw, actors, conditions, fs[5])
         w, h = float(camera.width), float(camera.height)
         view = _VIEW_FN or _view_kernel()
         rain = conditions.rain_noise

@@ -113,7 +113,7 @@ class World:
         """One control period for every actor (see the module docstring)."""
         ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
         eb = ego.body
-        speed = eb.speed
+        speed = math.hypot(eb.vx, eb.vy)  # the ego's body is a Vehicle: its speed
         self.ego_decel = (self.ego_speed - speed) / dt
         self.ego_speed = speed
         throttle, brake, steer = self.driver.command(self, self.k, self.t)
