@@ -810,12 +810,14 @@ class PEMSensor(Sensor):
             track = tracks.get(key)
             if track is None:
                 track = tracks[key] = np.zeros(5)
-            buf, at = normals.ahead(FRAME_NORMALS)
+            at, buf = normals._at, normals._array  # normals.ahead, written out
+            if buf is None or at + FRAME_NORMALS > len(normals._buffer):
+                buf, at = normals.ahead(FRAME_NORMALS)
             code, at, x0, y0, x1, y1, score = frame_fn(
                 q, c, track, buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
             )
             if code:
-                normals.advance(at)
+                normals._at = at  # normals.advance(at)
                 if code == 2:
                     out.append(Detection((x0, y0, x1, y1), score, label))
         return tuple(out)
