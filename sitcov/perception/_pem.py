@@ -508,17 +508,18 @@ class NormalStream:
         self.rng, self.block = rng, int(block)
         self._buffer: list[float] = []
         self._at = 0
-        self._array: Any = None  # the buffer as a float array (ahead), made when asked
+        self._array: Any = None  # the buffer as a float array once ahead() is used
 
     def take(self, n: int) -> list[float]:
         """The next ``n`` standard normals of the generator."""
+        if self._array is not None:  # the array holds the buffer (ahead): back to a list
+            self._buffer, self._array = self._array.tolist(), None
         at, end = self._at, self._at + n
         if end > len(self._buffer):
             if not self.block:
                 return self.rng.standard_normal(n).tolist()
             fresh = self.rng.standard_normal(max(self.block, n)).tolist()
             self._buffer = self._buffer[at:] + fresh
-            self._array = None
             at, end = 0, n
         self._at = end
         return self._buffer[at:end]
@@ -527,18 +528,18 @@ class NormalStream:
         """The buffer as a float array and where the next normal is, with at least ``n``
         normals from there (drawn ahead in blocks: only for ``block`` > 0); the caller
         takes what it uses and says how far it got with :meth:`advance`. The same
-        values :meth:`take` gives, in the same order."""
-        at = self._at
-        if at + n > len(self._buffer):
-            fresh = self.rng.standard_normal(max(self.block, n)).tolist()
-            self._buffer = self._buffer[at:] + fresh
-            self._array = None
-            at = self._at = 0
+        values :meth:`take` gives, in the same order. From then on the array holds the
+        buffer (until :meth:`take`)."""
+        import numpy as np
+
         array = self._array
         if array is None:
-            import numpy as np
-
             array = self._array = np.array(self._buffer, dtype=np.float64)
+        at = self._at
+        if at + n > len(array):
+            fresh = self.rng.standard_normal(max(self.block, n))
+            array = self._array = np.concatenate((array[at:], fresh))
+            at = self._at = 0
         return array, at
 
     def advance(self, at: int) -> None:
@@ -811,7 +812,7 @@ class PEMSensor(Sensor):
             if track is None:
                 track = tracks[key] = np.zeros(5)
             at, buf = normals._at, normals._array  # normals.ahead, written out
-            if buf is None or at + FRAME_NORMALS > len(normals._buffer):
+            if buf is None or at + FRAME_NORMALS > len(buf):
                 buf, at = normals.ahead(FRAME_NORMALS)
             code, at, x0, y0, x1, y1, score = frame_fn(
                 q, c, track, buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
