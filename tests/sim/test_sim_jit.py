@@ -665,3 +665,39 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
         assert runs[False] == runs[None]
         assert sum(map(len, runs[None])) > 300  # detections of every kind
         assert {d.label for f in runs[None] for d in f} >= {"car", "person"}
+
+
+def test_compiled_move_tracked_is_bit_identical(monkeypatch) -> None:
+    """A car's move on its route with the commands' clamps (compiled) against the Python
+    code: commands out of range, standing with and without drive, crosswind, low
+    friction; and ``Vehicle.step`` returns its tracking and keeps its state so."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_dynamics, "_MOVE", None)  # load it now, compiled
+    fast = _dynamics._move_kernel()
+    assert fast is not _dynamics.move_tracked  # numba compiled it
+    path = _path.Path(tuple(float(k) for k in range(120)), tuple(0.01 * k * k for k in range(120)))
+    route = path.tracker().args[0]
+    rnd = random.Random(21)
+    moved = set()
+    for _ in range(5000):
+        vehicle = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+        kc = _dynamics._constants(vehicle._k, True)
+        s = rnd.uniform(0, 110)
+        x, y, yaw = path.point_at(s)
+        standing = rnd.random() < 0.3
+        state = (0.0, 0.0, 0.0) if standing else (rnd.uniform(0, 12), rnd.uniform(-0.3, 0.3), 0.1)
+        cmd = (rnd.choice([0.0, -0.2, rnd.uniform(0, 1.3)]), rnd.uniform(-0.2, 1.2))
+        cmd += (rnd.uniform(-1.5, 1.5),)
+        env = (rnd.choice([1.0, 0.1]), rnd.choice([0.0, 0.8]), _dynamics.DT, _dynamics.SUBSTEPS)
+        args = (vehicle.p.steer_max, x, y, yaw, *state, *cmd, *env, route, rnd.randint(0, 100))
+        want = _dynamics.move_tracked(vehicle._k, *args)
+        assert _bits(fast(kc, *args)) == _bits(want), args
+        moved.add(want[0])
+        vehicle.x, vehicle.y, vehicle.yaw = x, y, yaw
+        vehicle.vx, vehicle.vy, vehicle.r = state
+        tracked = vehicle.step(*cmd, *env, route=route, hint=args[-1])
+        assert _bits(tracked) == _bits(want[8:])
+        now = (vehicle.x, vehicle.y, vehicle.yaw, vehicle.vx, vehicle.vy, vehicle.r)
+        assert _bits(now) == _bits(want[2:8])
+    assert moved == {True, False}
