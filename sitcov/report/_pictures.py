@@ -146,8 +146,8 @@ REPORT_FPS, REPORT_FRAMES, REPORT_DPI = 5, 60, 60
 
 
 def _dashcam(store: Any, run: Any, outcome: Any) -> Any:
-    """The dash-cam strip of a run of a camera-mode campaign (no detector boxes: they would
-    cost ~0.16 s per frame), else None."""
+    """The dash-cam strip of a run of a camera-mode campaign (no detector boxes: running the
+    detector on every frame would cost most of the animation), else None."""
     from sitcov.report._animate import run_dashcam
     from sitcov.report._dashcam import camera_mode
 
