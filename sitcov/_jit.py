@@ -2,13 +2,17 @@
 
 numba is a dependency (until session 6 the optional ``fast`` extra): :func:`compiled` turns a
 plain-float function of the hot loop into machine code (a car's integrator and route
-tracking ``_dynamics.integrate_tracked``, the camera projection
+tracking ``_dynamics.integrate_tracked``, with the commands' clamps
+``_dynamics.move_tracked``, the camera projection
 ``perception._camera._project``, the PEM's projection, features and logit of one actor
 ``perception._pem._pem_view``, the box distance ``_collision.box_distance_flat``, the
 route tracking ``_path._track``, the cars' steering ``_controllers._car_steer``, a timed
-car's law and steering ``_controllers._timed_car``, the proximity monitor's distance and
-TTC ``_monitors.proximity``, the reference stack's route following
-``av._reference._route_step``); without
+car's law and steering ``_controllers._timed_car`` and with its move
+``_controllers._timed_car_move``, the proximity monitor's distance and TTC
+``_monitors.proximity``, the road monitor's exact test ``_collision.box_on_area``, the
+PEM's whole frame of one actor ``perception._pem._pem_frame``, the reference stack's route
+following ``av._reference._route_step``); the hot ones are called through
+:func:`typed_entry`; without
 numba, or with the environment variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or
 an empty string), the Python function runs as it is. Either way a run gives the same bits:
 

@@ -603,3 +603,101 @@ def test_compiled_box_on_area_gives_the_corner_tests_answers(monkeypatch) -> Non
             assert area.contains_box(x, y, yaw, hl, hw) is want
             answers.append(want)
     assert 1000 < sum(answers) < len(answers) - 1000
+
+
+def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monkeypatch) -> None:
+    """The PEM's per-actor frame kernel (view, noise, score, gate, jitter) is the Python
+    code's bit for bit, and a sensor using it gives the very detections of its Python
+    loop (the same draws in the same order): cars, cyclists and pedestrians in and out of
+    view, new and continued noise tracks, frames skipped, rain and dry scenes."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_pem, "_FRAME_FN", None)  # load it now, compiled
+    fast = _pem._frame_kernel()
+    assert fast and fast is not _pem._pem_frame  # numba compiled it
+    from types import SimpleNamespace
+
+    from sitcov.perception import PEMSensor
+    from sitcov.perception._base import ActorView, Pose
+    from sitcov.weather._conditions import Conditions
+
+    rnd = random.Random(13)
+    for _ in range(3000):  # the kernel against its Python code
+        q = np.array(_view_array(rnd))
+        c = [rnd.uniform(0.0, 0.9), rnd.choice([0.0, 0.2]), rnd.choice([0.0, 0.3]), 1.0, 0.5]
+        c += [rnd.choice([1.0, 0.7]), rnd.choice([0.0, -0.3]), rnd.choice([0.0, 0.4]), 1.2]
+        c += [rnd.choice([0.1, 0.5]), 0.05, rnd.choice([0.0, 0.02]), rnd.random(), 800.0, 450.0]
+        track = [rnd.gauss(0, 1), rnd.gauss(0, 1), rnd.gauss(0, 1), 3.0, rnd.choice([0.0, 1.0])]
+        normals = [rnd.gauss(0, 1) for _ in range(_pem.FRAME_NORMALS + 3)]
+        ex, ey, eyaw = rnd.uniform(-50, 50), rnd.uniform(-50, 50), rnd.uniform(-4, 4)
+        pose = (ex + rnd.uniform(-30, 30), ey + rnd.uniform(-30, 30), rnd.uniform(-4, 4))
+        args = (rnd.randint(0, 3), float(rnd.randint(4, 9)), ex, ey, eyaw, *pose)
+        t_py, t_c = list(track), np.array(track)
+        want = _pem._pem_frame(q, c, t_py, normals, *args)
+        got = fast(q, np.array(c), t_c, np.array(normals), *args)
+        assert _bits(got) == _bits(want) and _bits(t_c.tolist()) == _bits(t_py), (c, args)
+    ego = SimpleNamespace(x=0.0, y=0.0, yaw=0.0)
+    kinds = [("car", 4.6, 1.8, 1.5), ("cyclist", 1.8, 0.6, 1.7), ("pedestrian", 0.5, 0.5, 1.8)]
+    for rain in (0.0, 0.6):
+        cond = Conditions(rain_noise=rain)
+        runs = {}
+        for frame_fn in (False, None):  # the Python loop, then the compiled frame
+            monkeypatch.setattr(_pem, "_FRAME_FN", frame_fn)
+            sensor = PEMSensor()
+            sensor.reset(frame_dt=0.1)
+            looks = [
+                sensor.prepare(ActorView(Pose(0, 0, 0), ln, w, h, 0.0, (90, 90, 200), k), cond)
+                for k, ln, w, h in kinds
+            ]
+            normals = _pem.NormalStream(np.random.default_rng(4), 128)
+            walk = random.Random(5)
+            frames = []
+            for t in range(600):
+                seen = []
+                for i, look in enumerate(looks):
+                    far = 40.0 - 0.06 * t + 5.0 * i
+                    body = SimpleNamespace(x=far, y=walk.uniform(-6, 6), yaw=walk.uniform(-4, 4))
+                    if walk.random() < 0.85:
+                        seen.append((look, body))
+                out = sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, cond, normals)
+                frames.append(out)
+            runs[frame_fn] = frames
+        assert runs[False] == runs[None]
+        assert sum(map(len, runs[None])) > 300  # detections of every kind
+        assert {d.label for f in runs[None] for d in f} >= {"car", "person"}
+
+
+def test_compiled_move_tracked_is_bit_identical(monkeypatch) -> None:
+    """A car's move on its route with the commands' clamps (compiled) against the Python
+    code: commands out of range, standing with and without drive, crosswind, low
+    friction; and ``Vehicle.step`` returns its tracking and keeps its state so."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_dynamics, "_MOVE", None)  # load it now, compiled
+    fast = _dynamics._move_kernel()
+    assert fast is not _dynamics.move_tracked  # numba compiled it
+    path = _path.Path(tuple(float(k) for k in range(120)), tuple(0.01 * k * k for k in range(120)))
+    route = path.tracker().args[0]
+    rnd = random.Random(21)
+    moved = set()
+    for _ in range(5000):
+        vehicle = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+        kc = _dynamics._constants(vehicle._k, True)
+        s = rnd.uniform(0, 110)
+        x, y, yaw = path.point_at(s)
+        standing = rnd.random() < 0.3
+        state = (0.0, 0.0, 0.0) if standing else (rnd.uniform(0, 12), rnd.uniform(-0.3, 0.3), 0.1)
+        cmd = (rnd.choice([0.0, -0.2, rnd.uniform(0, 1.3)]), rnd.uniform(-0.2, 1.2))
+        cmd += (rnd.uniform(-1.5, 1.5),)
+        env = (rnd.choice([1.0, 0.1]), rnd.choice([0.0, 0.8]), _dynamics.DT, _dynamics.SUBSTEPS)
+        args = (vehicle.p.steer_max, x, y, yaw, *state, *cmd, *env, route, rnd.randint(0, 100))
+        want = _dynamics.move_tracked(vehicle._k, *args)
+        assert _bits(fast(kc, *args)) == _bits(want), args
+        moved.add(want[0])
+        vehicle.x, vehicle.y, vehicle.yaw = x, y, yaw
+        vehicle.vx, vehicle.vy, vehicle.r = state
+        tracked = vehicle.step(*cmd, *env, route=route, hint=args[-1])
+        assert _bits(tracked) == _bits(want[8:])
+        now = (vehicle.x, vehicle.y, vehicle.yaw, vehicle.vx, vehicle.vy, vehicle.r)
+        assert _bits(now) == _bits(want[2:8])
+    assert moved == {True, False}

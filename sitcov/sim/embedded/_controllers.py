@@ -440,7 +440,13 @@ class TimingController:
         kc = b._kc
         if kc is None:
             kc = b._kc = _constants(b._k)
-        reacts = self._reacts(actor, world) if self._looks else 0
+        reacts = 0  # _reacts, written out (this runs every step)
+        if self._looks:
+            others = self._others
+            if others or (
+                (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING) and actor.gap < NEAR
+            ):
+                reacts = 3 if others else 2
         phase, thr, brk, steer, moved, x, y, yaw, vx, vy, r, s, i = (
             _TIMED_MOVE or _timed_move_kernel()
         )(

@@ -17,8 +17,9 @@ import math
 from collections.abc import Iterator, Sequence
 from typing import Any
 
+from sitcov.sim.embedded import _dynamics
 from sitcov.sim.embedded._actors import Actor
-from sitcov.sim.embedded._dynamics import SUBSTEPS
+from sitcov.sim.embedded._dynamics import SUBSTEPS, _constants, _move_kernel
 
 
 class Wind:
@@ -113,7 +114,7 @@ class World:
         """One control period for every actor (see the module docstring)."""
         ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
         eb = ego.body
-        speed = eb.speed
+        speed = math.hypot(eb.vx, eb.vy)  # the ego's body is a Vehicle: its speed
         self.ego_decel = (self.ego_speed - speed) / dt
         self.ego_speed = speed
         throttle, brake, steer = self.driver.command(self, self.k, self.t)
@@ -132,10 +133,18 @@ class World:
                     thr, brk, st = a.controller.command(a, self)
                     a.move(thr, brk, st, mu, lat, dt)
         points = ego._points
-        if points is not None:  # Actor.move of a car, written out (this runs every step)
-            ego.s, ego.hint = eb.step(
-                throttle, brake, steer, mu, lat_e, dt, SUBSTEPS, points, ego.hint
-            )
+        if points is not None:  # Actor.move then Vehicle.step of a car, written out
+            kc = eb._kc
+            if kc is None:
+                kc = eb._kc = _constants(eb._k)
+            moved, delta, x, y, yaw, vx, vy, r, s, i = (_dynamics._MOVE or _move_kernel())(
+                kc, eb.p.steer_max, eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r,
+                throttle, brake, steer, mu, lat_e, dt, SUBSTEPS, points, ego.hint,
+            )  # fmt: skip
+            if moved:
+                eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r = x, y, yaw, vx, vy, r
+                eb.steer = delta
+            ego.s, ego.hint = s, i
         else:
             ego.move(throttle, brake, steer, mu, lat_e, dt)
         self.k += 1
