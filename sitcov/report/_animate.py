@@ -484,7 +484,8 @@ def animate_run(db: str | Path, run_id: str, out: str | Path, **options: Any) ->
     title = f"{campaign}:{index}  {run.status} ({outcome.kind.replace('_', ' ')})  " + ", ".join(
         f"{k}={v}" for k, v in run.bins.items()
     )
-    dashcam = run_dashcam(run, outcome, boxes=True)
+    values = run.situation.to_dict()["values"]
+    dashcam = run_dashcam(run.config, values, run.seed, outcome, boxes=True)
     try:
         return animate_outcome(outcome, out, title=_wrap(title), dashcam=dashcam, **options)
     finally:
@@ -492,18 +493,20 @@ def animate_run(db: str | Path, run_id: str, out: str | Path, **options: Any) ->
             dashcam.close()
 
 
-def run_dashcam(run: Any, outcome: Outcome, *, boxes: bool) -> Any:
-    """The run's :class:`~sitcov.report._dashcam.DashCam` when its campaign ran with camera
-    perception on the embedded backend, else None (PEM runs have no camera frames)."""
+def run_dashcam(
+    config: Any, values: dict[str, Any], seed: int, outcome: Outcome, *, boxes: bool
+) -> Any:
+    """The run's :class:`~sitcov.report._dashcam.DashCam` when its campaign (stored
+    ``config``) ran with camera perception on the embedded backend, else None (PEM runs
+    have no camera frames). ``values``: the run's situation values; ``seed``: its seed."""
     from sitcov.report._dashcam import DashCam, camera_mode
 
-    config = dict(run.config or {})
+    config = dict(config or {})
     if config.get("backend", "embedded") != "embedded" or not camera_mode(config):
         return None
     if outcome.trace is None or not outcome.trace.ego:
         return None
-    values = run.situation.to_dict()["values"]
-    return DashCam(outcome, values, run.seed, boxes=boxes)
+    return DashCam(outcome, values, seed, boxes=boxes)
 
 
 def _wrap(text: str, width: int = 110) -> str:

@@ -9,8 +9,8 @@ score. The frame is rendered again from the trace (the run does not store its fr
 it shows the detector's view of the same scene, with the same weather; the rain streaks'
 randomness is drawn per row, not the run's own.
 
-Cost (``sitcov animate`` of a camera-mode run, 2 loaded cores): rendering ~0.04 s per
-frame, the detector ~0.16 s per frame; the report's animations draw no boxes.
+Cost (``sitcov animate`` of a camera-mode run): ~0.075 CPU-s per frame for the frame and
+the detector (docs/report.md); the report's animations draw no boxes.
 """
 
 from __future__ import annotations

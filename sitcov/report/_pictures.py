@@ -105,7 +105,9 @@ def failure_pictures(
                 detail.append(f"re-simulation gave {outcome.status}, stored {run.status}")
             pictures.append(
                 {
-                    "gif": _animation(outcome, ref, run) if animate else None,
+                    "gif": _animation(outcome, ref, _dashcam(store, run, outcome))
+                    if animate
+                    else None,
                     "png": base64.b64encode(data).decode("ascii"),
                     "run": ref,
                     "bins": ", ".join(f"{k}={v}" for k, v in run.bins.items()),
@@ -143,15 +145,26 @@ def _what_happened(outcome: Any) -> str:
 REPORT_FPS, REPORT_FRAMES, REPORT_DPI = 5, 60, 60
 
 
-def _animation(outcome: Any, ref: str, run: Any = None) -> str | None:
-    """A small GIF of the run, base64 (None when the run has no trace to animate); runs
-    of camera-mode campaigns with the dash-cam strip (no detector boxes: they would cost
-    ~0.16 s per frame)."""
-    from sitcov.report._animate import gif_bytes, render_frames, run_dashcam
+def _dashcam(store: Any, run: Any, outcome: Any) -> Any:
+    """The dash-cam strip of a run of a camera-mode campaign (no detector boxes: running the
+    detector on every frame would cost most of the animation), else None."""
+    from sitcov.report._animate import run_dashcam
+    from sitcov.report._dashcam import camera_mode
+
+    if not camera_mode(dict(run.config or {})):
+        return None
+    stored = store.get_run(run.campaign, run.index, with_trace=False)
+    values = stored.situation.to_dict()["values"]
+    return run_dashcam(run.config, values, run.seed, outcome, boxes=False)
+
+
+def _animation(outcome: Any, ref: str, dashcam: Any = None) -> str | None:
+    """A small GIF of the run, base64 (None when the run has no trace to animate), with
+    ``dashcam``'s strip when given."""
+    from sitcov.report._animate import gif_bytes, render_frames
 
     if outcome.trace is None or not outcome.trace.ego:
         return None
-    dashcam = None if run is None else run_dashcam(run, outcome, boxes=False)
     frames = render_frames(
         outcome,
         title=ref,

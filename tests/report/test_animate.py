@@ -142,3 +142,18 @@ def test_a_camera_mode_run_has_a_dash_cam_strip_and_a_pem_run_none(tmp_path, cap
     strip = cam_first[pem_first.shape[0] + 30 :, :, :].astype(int)
     assert strip.std() > 20  # an image, not a blank panel
     assert n > 2 and (cam_last[pem_first.shape[0] :] != cam_first[pem_first.shape[0] :]).any()
+    # the report's animations (its runs are RunFacts, without values): the same strip
+    from sitcov.campaign._facts import iter_run_facts
+    from sitcov.report._pictures import _dashcam
+    from sitcov.report._traces import close_builders, traced_outcome
+
+    for perception in ("camera", "pem"):
+        builders: dict = {}
+        with open_store(tmp_path / f"{perception}.db") as store:
+            facts = next(iter_run_facts(store, "default"))
+            outcome = traced_outcome(store, facts, builders)
+            strip = _dashcam(store, facts, outcome)
+        close_builders(builders)
+        assert (strip is not None) == (perception == "camera")
+        if strip is not None:
+            assert strip.frame(0).shape == (*strip.shape, 3) and strip.detector is None
