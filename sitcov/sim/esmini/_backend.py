@@ -37,7 +37,7 @@ from sitcov.sim.esmini._scenario import (
     ScenarioFile,
     scenario_files,
 )
-from sitcov.sim.esmini._session import RoadProbe, Session, kind_of
+from sitcov.sim.esmini._session import RoadProbe, Session, kind_of, route_paths
 from sitcov.weather._conditions import check_profile, conditions_from_values
 
 if TYPE_CHECKING:
@@ -48,6 +48,10 @@ if TYPE_CHECKING:
 ROUTE_SPACING = 1.0
 #: Route length when the ego has no assigned route: its lane ahead [m].
 DEFAULT_ROUTE_LENGTH = 200.0
+#: The exported situations' car OV (``sitcov.sim.carla.situation_scenario``).
+OV_ENTITY = "adversary"
+#: How far along its route the OV's progress is followed [m].
+OV_ROUTE_LENGTH = 400.0
 
 
 class _Body:
@@ -173,6 +177,9 @@ class EsminiBackend(Backend):
         if self.road is not None and not self.road.is_file():
             raise ConfigError(file=str(road), field="road", expected="an OpenDRIVE (.xodr) file")
         self.files: dict[str, ScenarioFile] = {}
+        #: the entities' driven paths of exported situations, per (ego, OV) movement
+        self._paths: dict[tuple[str, str], dict[str, list[tuple[float, float]]]] = {}
+        self._run_paths: dict[str, list[tuple[float, float]]] = {}
         self.folder = False
         self.scenario = scenario
         if scenario is not None:
@@ -264,12 +271,23 @@ class EsminiBackend(Backend):
         if not self.files:
             from sitcov.sim.carla import situation_scenario
 
-            scenario = situation_scenario(situation, self.map)
+            # a car OV gets no speed events: _play times it with the paper's law
+            scenario = situation_scenario(situation, self.map, timed_ov=False)
             with tempfile.TemporaryDirectory(prefix="sitcov-esmini-") as tmp:
                 path = Path(tmp) / f"{situation.id}.xosc"
                 scenario.write_xml(str(path))
                 file = ScenarioFile(path, self.ego_name)
                 xml = file.render(values, road=self.road)
+                intsit = values.get("intsit")
+                key = (str(intsit.get("ego")), str(intsit.get("ov")))  # type: ignore[union-attr]
+                if key not in self._paths:  # the routes depend on the movements only
+                    self._paths[key] = route_paths(
+                        file.render(values, road=self.road, external=False),
+                        (file.ego, OV_ENTITY),
+                        ROUTE_SPACING,
+                        max(self.route_length, OV_ROUTE_LENGTH),
+                    )
+                self._run_paths = self._paths[key]
             return xml, f"export:{situation.id}", {}
         if self.folder:
             name = str(values.get(SCENARIO_ELEMENT))
@@ -310,16 +328,32 @@ class EsminiBackend(Backend):
         """Play ``situation`` in esmini with ``av_stack`` driving the ego (deterministic)."""
         seed = int(seed)
         rng = np.random.default_rng(seed)
+        self._run_paths = {}
         xml, scenario_name, params = self._scenario_xml(situation)
         cond, wind_direction = self._conditions(situation, rng)
         paths = tuple(str(f.path.parent) for f in self.files.values())[:1]
+        timing = self._ov_timing(situation)
         with Session(xml, seed, paths) as session:
             return self._play(
                 session, situation, av_stack, seed, rng, cond, record,
                 {"scenario": scenario_name, "parameters": params, "wind_direction": wind_direction},
+                timing,
             )  # fmt: skip
 
-    def _play(self, session, situation, stack, seed, rng, cond, record, info) -> Outcome:  # noqa: C901, PLR0912, PLR0915
+    def _ov_timing(self, situation: Situation) -> tuple[tuple[float, float], float] | None:
+        """(conflict point, switch distance) [m] of an exported situation's car OV in
+        OpenDRIVE coordinates, or None (a user's scenario, or no car OV)."""
+        if self.files:
+            return None
+        from sitcov.sim.carla import ov_timing
+
+        found = ov_timing(situation, self.map)
+        if found is None:
+            return None
+        (x, y), switch = found
+        return (x, -y), switch  # CARLA's frame is OpenDRIVE's mirrored in y
+
+    def _play(self, session, situation, stack, seed, rng, cond, record, info, timing=None) -> Outcome:  # noqa: C901, PLR0912, PLR0913, PLR0915
         objects = session.objects()
         ego_name = self._ego_name(objects)
         ego_id = next(oid for oid, name in objects if name == ego_name)
@@ -338,10 +372,17 @@ class EsminiBackend(Backend):
             actors.append(actor)
         world = _World(ego, actors)
         self._read(session, actors)
-        route = session.lane_points(ego_id, ROUTE_SPACING, self.route_length)
+        paths = self._run_paths
+        if paths.get(ego_name):
+            route = paths[ego_name][: int(self.route_length / ROUTE_SPACING) + 1]
+        else:
+            route = session.lane_points(ego_id, ROUTE_SPACING, self.route_length)
         if len(route) < 2:
             route = [(cx, cy), (cx + math.cos(st.h), cy + math.sin(st.h))]
         goal = route[-1]
+        ov = None
+        if timing is not None:
+            ov = _TimedOV.start(session, actors, route, ego_wid, timing, paths.get(OV_ENTITY))
         road = RoadProbe(session.road_file())
         stack.reset(
             RunInfo(
@@ -387,6 +428,8 @@ class EsminiBackend(Backend):
                 ego_id, vehicle.x - c * cox + s * coy, vehicle.y - s * cox - c * coy,
                 vehicle.yaw, vehicle.speed,
             )  # fmt: skip
+            if ov is not None:
+                ov.step(session, t, vehicle, mu, dt)
             session.step(dt)
             k += 1
             t = k * dt
@@ -446,6 +489,9 @@ class EsminiBackend(Backend):
             "collision_kind": hit.kind if hit else None,
             "ego_final_speed": vehicle.speed,
         }
+        if ov is not None:
+            metrics["ov_timing"] = "timing law (closed loop, sitcov)"
+            metrics["ov_switch_time"] = ov.driver.released_at
         trace = None
         if record:
             trace = self._trace(ego_rows, actors, route, ego_len, ego_wid, session)
@@ -503,6 +549,67 @@ class EsminiBackend(Backend):
             },
             actors={a.name: a.rows for a in actors},
         )
+
+
+class _TimedOV:
+    """The exported situation's car OV timed by the paper's law in closed loop.
+
+    esmini's default controller keeps moving the OV along its assigned route (lanes and
+    junction of the road file); its speed is sitcov's: every step the shared adversary
+    (``sitcov.sim.carla.OVDriver``, the CARLA backend's: the timing law on the remaining
+    distances along both routes to the conflict point, then the cruise once the ego is
+    within the switch distance) gives throttle and brake, a car body of the embedded
+    world (``Vehicle``, the same longitudinal dynamics and friction, steering 0: esmini
+    does the lateral part) turns them into a speed, and ``SE_ReportObjectSpeed`` hands it
+    to esmini before it steps.
+    """
+
+    def __init__(self, actor: _Actor, driver: Any, body: Vehicle) -> None:
+        self.actor, self.driver, self.body = actor, driver, body
+
+    @classmethod
+    def start(
+        cls,
+        session: Session,
+        actors: list[_Actor],
+        ego_route: list[tuple[float, float]],
+        ego_width: float,
+        timing: tuple[tuple[float, float], float],
+        path: list[tuple[float, float]] | None = None,
+    ) -> _TimedOV | None:
+        from sitcov.sim.carla._ovdriver import OVDriver
+
+        from sitcov.sim.embedded._map import route_conflict
+        from sitcov.sim.embedded._path import Path as Polyline
+
+        actor = next((a for a in actors if a.name == OV_ENTITY), None)
+        if actor is None:
+            return None
+        conflict, switch = timing
+        route = path or session.lane_points(actor.oid, ROUTE_SPACING, OV_ROUTE_LENGTH)
+        if len(route) < 2 or len(ego_route) < 2:
+            return None
+        # the embedded world's conflict: where the two swept paths (box widths) first
+        # overlap, on the routes esmini drives; the map's point only without an overlap
+        found = route_conflict(
+            Polyline(*zip(*ego_route, strict=True)),
+            Polyline(*zip(*route, strict=True)),
+            0.5 * (ego_width + actor.width),
+        )
+        targets = None if found is None else (found.s_ego, found.s_ov)
+        if found is not None:
+            conflict = found.point
+        driver = OVDriver(ego_route, route, conflict, switch_distance=switch, targets=targets)
+        b = actor.body
+        return cls(actor, driver, Vehicle(default_params(), b.x, b.y, b.yaw, 0.0))
+
+    def step(self, session: Session, t: float, ego: Vehicle, mu: float, dt: float) -> None:
+        """Set the OV's speed for the coming step from the law."""
+        a, body = self.actor, self.body
+        b = a.body
+        thr, brk, _ = self.driver.command(t, (ego.x, ego.y), ego.speed, (b.x, b.y, b.yaw), body.speed)
+        body.step(thr, brk, 0.0, mu, 0.0, dt)
+        session.report_speed(a.oid, body.speed)
 
 
 def _bin_value(hyperspace: Any, label: str) -> Any:

@@ -123,6 +123,7 @@ _SIGNATURES: dict[str, tuple[object, list[object]]] = {
     "SE_GetObjectCollision": (_I, [_I, _I]),
     "SE_ReportObjectPosXYH": (_I, [_I, _D, _D, _D]),
     "SE_ReportObjectSpeed": (_I, [_I, _D]),
+    "SE_ReportObjectLateralLanePosition": (_I, [_I, _I, _D]),
     "SE_GetRoadInfoAlongRoute": (_I, [_I, _D, ctypes.POINTER(RoadInfo), _I, _B]),
     "SE_GetRoadInfoAtDistance": (_I, [_I, _D, ctypes.POINTER(RoadInfo), _I, _B]),
     "SE_GetNumberOfRoutePoints": (_I, [_I]),
