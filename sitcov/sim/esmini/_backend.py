@@ -353,7 +353,9 @@ class EsminiBackend(Backend):
         (x, y), switch = found
         return (x, -y), switch  # CARLA's frame is OpenDRIVE's mirrored in y
 
-    def _play(self, session, situation, stack, seed, rng, cond, record, info, timing=None) -> Outcome:  # noqa: C901, PLR0912, PLR0913, PLR0915
+    def _play(  # noqa: C901, PLR0912, PLR0913, PLR0915
+        self, session, situation, stack, seed, rng, cond, record, info, timing=None
+    ) -> Outcome:
         objects = session.objects()
         ego_name = self._ego_name(objects)
         ego_id = next(oid for oid, name in objects if name == ego_name)
@@ -578,7 +580,6 @@ class _TimedOV:
         path: list[tuple[float, float]] | None = None,
     ) -> _TimedOV | None:
         from sitcov.sim.carla._ovdriver import OVDriver
-
         from sitcov.sim.embedded._map import route_conflict
         from sitcov.sim.embedded._path import Path as Polyline
 
@@ -607,7 +608,8 @@ class _TimedOV:
         """Set the OV's speed for the coming step from the law."""
         a, body = self.actor, self.body
         b = a.body
-        thr, brk, _ = self.driver.command(t, (ego.x, ego.y), ego.speed, (b.x, b.y, b.yaw), body.speed)
+        pose = (b.x, b.y, b.yaw)
+        thr, brk, _ = self.driver.command(t, (ego.x, ego.y), ego.speed, pose, body.speed)
         body.step(thr, brk, 0.0, mu, 0.0, dt)
         session.report_speed(a.oid, body.speed)
 

@@ -160,8 +160,9 @@ def route_paths(
 ) -> dict[str, list[tuple[float, float]]]:
     """The paths [m] esmini's default controller drives the named entities along their
     assigned routes, one point every ``spacing`` metres up to the route's length (or
-    ``max_length``), on the centre line of the lane each starts in: a dry run of ``xml`` (``ScenarioFile.render(..., external=False)``,
-    no story, no stop trigger) that moves each entity ``spacing`` per step.
+    ``max_length``), on the centre line of the lane each starts in: a dry run of ``xml``
+    (``ScenarioFile.render(..., external=False)``: no story, no stop trigger) that moves
+    each entity ``spacing`` per step.
 
     Why: esmini's route look-ahead (``SE_GetRoadInfoAlongRoute``) stops in some junction
     connecting roads of Town03 (END_OF_ROAD after the OV's left turn from the stem) where
