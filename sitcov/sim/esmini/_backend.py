@@ -494,6 +494,7 @@ class EsminiBackend(Backend):
         if ov is not None:
             metrics["ov_timing"] = "timing law (closed loop, sitcov)"
             metrics["ov_switch_time"] = ov.driver.released_at
+            metrics["ov_conflict"] = [round(v, 6) for v in ov.conflict]
         trace = None
         if record:
             trace = self._trace(ego_rows, actors, route, ego_len, ego_wid, session)
@@ -560,14 +561,19 @@ class _TimedOV:
     junction of the road file); its speed is sitcov's: every step the shared adversary
     (``sitcov.sim.carla.OVDriver``, the CARLA backend's: the timing law on the remaining
     distances along both routes to the conflict point, then the cruise once the ego is
-    within the switch distance) gives throttle and brake, a car body of the embedded
+    within the switch distance; past its goal it cruises on, where the embedded world
+    removes it) gives throttle and brake, a car body of the embedded
     world (``Vehicle``, the same longitudinal dynamics and friction, steering 0: esmini
     does the lateral part) turns them into a speed, and ``SE_ReportObjectSpeed`` hands it
     to esmini before it steps.
     """
 
-    def __init__(self, actor: _Actor, driver: Any, body: Vehicle) -> None:
+    def __init__(
+        self, actor: _Actor, driver: Any, body: Vehicle, conflict: tuple[float, float]
+    ) -> None:
         self.actor, self.driver, self.body = actor, driver, body
+        #: the point the arrivals are timed at (on the ego's route) [m]
+        self.conflict = conflict
 
     @classmethod
     def start(
@@ -602,14 +608,20 @@ class _TimedOV:
             conflict = found.point
         driver = OVDriver(ego_route, route, conflict, switch_distance=switch, targets=targets)
         b = actor.body
-        return cls(actor, driver, Vehicle(default_params(), b.x, b.y, b.yaw, 0.0))
+        body = Vehicle(default_params(), b.x, b.y, b.yaw, 0.0)
+        return cls(actor, driver, body, (float(conflict[0]), float(conflict[1])))
 
     def step(self, session: Session, t: float, ego: Vehicle, mu: float, dt: float) -> None:
         """Set the OV's speed for the coming step from the law."""
         a, body = self.actor, self.body
         b = a.body
-        pose = (b.x, b.y, b.yaw)
-        thr, brk, _ = self.driver.command(t, (ego.x, ego.y), ego.speed, pose, body.speed)
+        d = self.driver  # its longitudinal part: past its goal the OV drives on, as it
+        d.ego.update(ego.x, ego.y)  # leaves the embedded world at its route's end
+        d.ov.update(b.x, b.y)
+        law = d.controller
+        thr, brk = law.command(d.ego.remaining(), ego.speed, d.ov.remaining(), body.speed)
+        if d.released_at is None and law.phase == "cruise":
+            d.released_at = t
         body.step(thr, brk, 0.0, mu, 0.0, dt)
         session.report_speed(a.oid, body.speed)
 
