@@ -31,6 +31,7 @@ from sitcov.sim.embedded._dynamics import Vehicle, default_params
 from sitcov.sim.embedded._ego import EgoDriver
 from sitcov.sim.embedded._monitors import GOAL_TOLERANCE, STOPPED_SPEED
 from sitcov.sim.esmini._lib import library
+from sitcov.sim.esmini._road import cropped_road
 from sitcov.sim.esmini._scenario import (
     SCENARIO_ELEMENT,
     WEATHER_NAMES,
@@ -139,6 +140,8 @@ class EsminiBackend(Backend):
         physics: ``carla`` or ``physical`` (mu; no crosswind force here).
         grey_box: give the stack the situation at reset.
         route_length: the ego's route when the scenario assigns none: its lane ahead [m].
+        crop_road: give esmini only the part of ``road`` an exported situation's paths
+            come near (``_road.cropped_road``: loads faster, the same lanes).
     """
 
     name: ClassVar[str] = "esmini"
@@ -157,6 +160,7 @@ class EsminiBackend(Backend):
         physics: str = "carla",
         grey_box: bool = False,
         route_length: float = DEFAULT_ROUTE_LENGTH,
+        crop_road: bool = True,
     ) -> None:
         library()  # a missing esmini is one error before any run
         self.physics = check_profile(physics)
@@ -172,6 +176,7 @@ class EsminiBackend(Backend):
         self.sensor = sensor
         self.grey_box = bool(grey_box)
         self.route_length = float(route_length)
+        self.crop_road = bool(crop_road)
         self.ego_name = ego
         self.road = Path(road).resolve() if road else None
         if self.road is not None and not self.road.is_file():
@@ -288,6 +293,9 @@ class EsminiBackend(Backend):
                         max(self.route_length, OV_ROUTE_LENGTH),
                     )
                 self._run_paths = self._paths[key]
+                if self.crop_road:
+                    points = [p for path in self._run_paths.values() for p in path]
+                    xml = file.render(values, road=cropped_road(self.road, points))
             return xml, f"export:{situation.id}", {}
         if self.folder:
             name = str(values.get(SCENARIO_ELEMENT))
@@ -385,13 +393,14 @@ class EsminiBackend(Backend):
         ov = None
         if timing is not None:
             ov = _TimedOV.start(session, actors, route, ego_wid, timing, paths.get(OV_ENTITY))
-        road = RoadProbe(session.road_file())
+        road_file = str(self.road) if self.road is not None else session.road_file()
+        road = RoadProbe(road_file)
         stack.reset(
             RunInfo(
                 dt=self.dt,
                 route=tuple(route),
                 goal=goal,
-                map_name=Path(session.road_file()).stem,
+                map_name=Path(road_file).stem,
                 camera=stack.camera,
                 seed=seed,
                 situation=situation if self.grey_box else None,
@@ -482,7 +491,7 @@ class EsminiBackend(Backend):
             "mu": mu,
             "physics": self.physics,
             **info,
-            "road": Path(session.road_file()).name,
+            "road": Path(road_file).name,
             "road_departure_time": road_departure,
             "lane_departure_time": None,
             "route_length": round(length, 6),
@@ -497,7 +506,7 @@ class EsminiBackend(Backend):
             metrics["ov_conflict"] = [round(v, 6) for v in ov.conflict]
         trace = None
         if record:
-            trace = self._trace(ego_rows, actors, route, ego_len, ego_wid, session)
+            trace = self._trace(ego_rows, actors, route, ego_len, ego_wid, road_file)
         return Outcome(
             status="fail" if collided else "pass",
             end_reason=reason,
@@ -535,13 +544,13 @@ class EsminiBackend(Backend):
             a.speed = st.speed
             a.active = bool(st.visibilityMask & 2) or st.visibilityMask == 0
 
-    def _trace(self, ego_rows, actors, route, length, width, session) -> Trace:
+    def _trace(self, ego_rows, actors, route, length, width, road_file) -> Trace:
         ov = actors[0].rows if actors else []
         return Trace(
             ego=ego_rows,
             ov=ov,
             meta={
-                "map": session.road_file(),
+                "map": road_file,
                 "ego_route": [list(p) for p in route],
                 "length": length,
                 "width": width,
