@@ -165,6 +165,81 @@ def test_an_exported_paper_situation_plays_on_town03() -> None:
     assert out.metrics["road_departure_time"] is None and out.metrics["road"] == "Town03.xodr"
 
 
+def _paper_situation(intsit: str, friction: str = "1.0") -> Situation:
+    if not TOWN03.is_file():
+        missing(f"{TOWN03} (test data next to the repository, with the esmini build)")
+    hs = load_hyperspace()
+    labels = {e: hs.labels(e)[0] for e in hs.element_names}
+    labels.update(intsit=intsit, friction=friction)
+    return hs.situation_from_bins(labels, np.random.default_rng(0))
+
+
+class SpeedCapped(AVStack):
+    """The reference stack, coasting whenever the ego is faster than ``cap`` [m/s]."""
+
+    def __init__(self, cap: float) -> None:
+        self.inner, self.cap = make_stack("reference"), cap
+
+    def reset(self, info: RunInfo) -> None:
+        self.inner.reset(info)
+
+    def step(self, observation: Observation) -> Control:
+        c = self.inner.step(observation)
+        if observation.ego.speed > self.cap:
+            return Control(throttle=0.0, brake=c.brake, steer=c.steer)
+        return c
+
+
+def _arrival(rows: list, point: list[float]) -> float:
+    """When a trace passes nearest to ``point`` [s]."""
+    return min(rows, key=lambda r: math.dist(r[1:3], point))[0]
+
+
+def test_the_exported_ov_times_its_arrival_against_the_ego() -> None:
+    """Closed loop: an ego held to 3 m/s reaches the conflict ~18 s later than one at the
+    reference's 25 km/h, and the OV, timed by the paper's law on the ego as it drives,
+    comes that much later too (an open-loop OV would come at the same time)."""
+    s = _paper_situation("IntSit-3")
+    b = make_backend("esmini", road=str(TOWN03))
+    free = b.run(s, SpeedCapped(math.inf), 5, record=True)
+    slow = b.run(s, SpeedCapped(3.0), 5, record=True)
+    point = free.metrics["ov_conflict"]
+    assert slow.metrics["ov_conflict"] == point
+    assert free.metrics["ov_timing"].startswith("timing law")
+    ego_delay = _arrival(slow.trace.ego, point) - _arrival(free.trace.ego, point)
+    ov_delay = _arrival(slow.trace.actors["adversary"], point) - _arrival(
+        free.trace.actors["adversary"], point
+    )
+    assert ego_delay > 10.0
+    assert ov_delay > 0.6 * ego_delay
+    assert slow.metrics["ov_switch_time"] - free.metrics["ov_switch_time"] > 0.6 * ego_delay
+
+
+def test_an_ego_that_never_moves_keeps_the_ov_waiting() -> None:
+    """The law's first phase: the OV stands until the ego starts."""
+    s = _paper_situation("IntSit-1")
+    b = make_backend("esmini", road=str(TOWN03), sim_timeout=5.0)
+    out = b.run(s, Scripted(brake_at=0.0), 1, record=True)
+    ov = out.trace.actors["adversary"]
+    assert max(r[4] for r in ov) == 0.0
+    assert math.dist(ov[0][1:3], ov[-1][1:3]) < 1e-6
+
+
+def test_a_cropped_road_gives_the_same_outcomes() -> None:
+    """esmini on the part of Town03 the run's paths come near plays exactly as on the whole
+    file (the speed-up of docs/esmini.md changes no outcome)."""
+    stack = make_stack("reference")
+    whole = make_backend("esmini", road=str(TOWN03), crop_road=False)
+    part = make_backend("esmini", road=str(TOWN03))
+    for intsit, friction in (("IntSit-1", "1.0"), ("IntSit-6", "0.2"), ("IntSit-10", "0.6")):
+        s = _paper_situation(intsit, friction)
+        a, b = whole.run(s, stack, 3), part.run(s, stack, 3)
+        assert (a.status, a.end_reason, a.sim_time, a.min_distance, a.aeb_time) == (
+            b.status, b.end_reason, b.sim_time, b.min_distance, b.aeb_time
+        )  # fmt: skip
+        assert a.metrics["road"] == b.metrics["road"] == "Town03.xodr"
+
+
 def test_exported_situations_need_a_road() -> None:
     with pytest.raises(ConfigError, match="--road"):
         make_backend("esmini")
