@@ -26,7 +26,9 @@ def test_samples_follow_lines_and_arcs() -> None:
     )
     end = list(_samples(g))[-1]
     assert math.dist(end, (10.0, 10.0)) < 1e-5
-    line = ET.fromstring('<geometry s="0" x="1" y="2" hdg="1.5707963" length="20"><line/></geometry>')
+    line = ET.fromstring(
+        '<geometry s="0" x="1" y="2" hdg="1.5707963" length="20"><line/></geometry>'
+    )
     pts = list(_samples(line))
     assert len(pts) == 5 and math.dist(pts[-1], (1.0, 22.0)) < 1e-5
 
