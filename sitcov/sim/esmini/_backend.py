@@ -25,7 +25,7 @@ import numpy as np
 from sitcov.av._base import RunInfo
 from sitcov.errors import ConfigError
 from sitcov.sim._base import Backend, Outcome, Trace
-from sitcov.sim._metrics import disc_radius, time_to_collision
+from sitcov.sim._metrics import PET_ZONE, disc_radius, post_encroachment_time, time_to_collision
 from sitcov.sim.embedded._collision import box_distance, corners, overlap
 from sitcov.sim.embedded._dynamics import Vehicle, default_params
 from sitcov.sim.embedded._ego import EgoDriver
@@ -88,6 +88,10 @@ class _Actor:
         self.active = True
         self.rows: list[tuple[float, float, float, float, float]] = []
 
+    def velocity(self) -> tuple[float, float]:
+        """World-frame velocity [m/s] (esmini's speed along its heading)."""
+        return self.speed * math.cos(self.body.yaw), self.speed * math.sin(self.body.yaw)
+
     def view(self) -> Any:
         from sitcov.perception._base import ActorView, Pose
 
@@ -142,6 +146,10 @@ class EsminiBackend(Backend):
         route_length: the ego's route when the scenario assigns none: its lane ahead [m].
         crop_road: give esmini only the part of ``road`` an exported situation's paths
             come near (``_road.cropped_road``: loads faster, the same lanes).
+        perception: ``pem`` only (no camera frames: esmini is built headless here).
+        object_noise: the object lists' noise and miss model for stacks that want
+            ``objects`` (as the embedded backend's: None = ground truth, ``default``,
+            or a YAML file).
     """
 
     name: ClassVar[str] = "esmini"
@@ -161,8 +169,20 @@ class EsminiBackend(Backend):
         grey_box: bool = False,
         route_length: float = DEFAULT_ROUTE_LENGTH,
         crop_road: bool = True,
+        perception: str = "pem",
+        object_noise: Any = None,
     ) -> None:
         library()  # a missing esmini is one error before any run
+        if perception != "pem":
+            raise ConfigError(
+                field="perception",
+                value=perception,
+                expected="pem: the esmini backend renders no camera frames (it gives the "
+                "stack PEM detections or object lists); camera mode is the embedded backend's",
+            )
+        from sitcov.sim.embedded._backend import _object_noise
+
+        self.object_noise = _object_noise(object_noise)
         self.physics = check_profile(physics)
         if not dt > 0 or not sim_timeout > 0 or not sensor_rate_hz > 0 or not stop_patience > 0:
             raise ConfigError(
@@ -323,6 +343,31 @@ class EsminiBackend(Backend):
         cond = conditions_from_values(weather, wind_direction=wind_direction, profile=self.physics)
         return cond, wind_direction
 
+    def observation_kind(self, stack: AVStack) -> str:
+        """What this backend gives ``stack`` each frame: ``detections`` (the PEM on
+        esmini's objects) or ``objects`` (object lists, ``perception/_objects.py``).
+
+        Raises:
+            ConfigError: the stack wants something that is no observation kind.
+            SetupError: the stack wants camera images (one line, naming the stack).
+        """
+        from sitcov.av._base import OBSERVATION_KINDS
+        from sitcov.errors import SetupError
+
+        wants = getattr(stack, "wants", None)
+        if wants is None:
+            return "detections"
+        if wants not in OBSERVATION_KINDS:
+            raise ConfigError(field="wants", value=wants, expected=" | ".join(OBSERVATION_KINDS))
+        if wants == "image":
+            who = getattr(stack, "who", None) or f"stack {getattr(stack, 'name', '?')!r}"
+            raise SetupError(
+                f"{who} wants camera images, which the esmini backend cannot give (no camera "
+                "rendering; it gives detections or objects): run it on the embedded backend "
+                "with --perception camera"
+            )
+        return wants
+
     def _get_sensor(self) -> Any:
         if self.sensor is None:
             from sitcov.perception import PEMSensor
@@ -392,7 +437,9 @@ class EsminiBackend(Backend):
         goal = route[-1]
         ov = None
         if timing is not None:
-            ov = _TimedOV.start(session, actors, route, ego_wid, timing, paths.get(OV_ENTITY))
+            ov = _TimedOV.start(
+                session, actors, route, (ego_len, ego_wid), timing, paths.get(OV_ENTITY)
+            )
         road_file = str(self.road) if self.road is not None else session.road_file()
         road = RoadProbe(road_file)
         stack.reset(
@@ -406,10 +453,11 @@ class EsminiBackend(Backend):
                 situation=situation if self.grey_box else None,
             )
         )
-        sensor = self._get_sensor()
+        kind = self.observation_kind(stack)
+        sensor = None if kind == "objects" else self._get_sensor()  # objects: no PEM
         if hasattr(sensor, "reset"):
             sensor.reset(frame_dt=self.sensor_every * self.dt)
-        driver = EgoDriver(self, stack, sensor, cond, rng, seed, 0, 0, 0.0)
+        driver = EgoDriver(self, stack, sensor, cond, rng, seed, 0, 0, 0.0, kind)
         dt, mu = self.dt, cond.mu
         n_max = int(math.ceil(self.sim_timeout / dt - 1e-9))
         hl, hw = 0.5 * ego_len, 0.5 * ego_wid
@@ -445,6 +493,8 @@ class EsminiBackend(Backend):
             k += 1
             t = k * dt
             self._read(session, actors)
+            if ov is not None:
+                ov.observe(t, vehicle)
             ebox = (vehicle.x, vehicle.y, vehicle.yaw, hl, hw)
             evx, evy = vehicle.vx * c - vehicle.vy * s, vehicle.vx * s + vehicle.vy * c
             for a in actors:
@@ -516,7 +566,7 @@ class EsminiBackend(Backend):
             collision_speed=collision_speed,
             min_distance=min_distance,
             min_ttc=min_ttc,
-            pet=None,
+            pet=None if ov is None else ov.pet(hit is ov.actor),
             aeb_fired=driver.aeb_time is not None,
             aeb_time=driver.aeb_time,
             metrics=metrics,
@@ -578,11 +628,47 @@ class _TimedOV:
     """
 
     def __init__(
-        self, actor: _Actor, driver: Any, body: Vehicle, conflict: tuple[float, float]
+        self,
+        actor: _Actor,
+        driver: Any,
+        body: Vehicle,
+        conflict: tuple[float, float],
+        zone: tuple[float, float, float, float] | None = None,
+        ego_half_length: float = 0.0,
     ) -> None:
         self.actor, self.driver, self.body = actor, driver, body
         #: the point the arrivals are timed at (on the ego's route) [m]
         self.conflict = conflict
+        #: the conflict zone on each route [m]: ego start, end, OV start, end (the
+        #: embedded world's PET zone: the overlap, at most ``PET_ZONE`` long)
+        self.zone = zone
+        self.halves = (ego_half_length, 0.5 * actor.length)
+        self.times: list[float | None] = [None, None, None, None]  # entries and exits
+
+    def observe(self, t: float, ego: Vehicle) -> None:
+        """After a step: when the ego and the OV entered and left the conflict zone (the
+        front reaches its start, the rear passes its end, as ``PETMonitor``)."""
+        d, z, times = self.driver, self.zone, self.times
+        if z is None:
+            return
+        b = self.actor.body
+        for k, progress, xy, half in (
+            (0, d.ego, (ego.x, ego.y), self.halves[0]),
+            (2, d.ov, (b.x, b.y), self.halves[1]),
+        ):
+            s = progress.s[progress.update(*xy)]
+            if times[k] is None and s + half >= z[k]:
+                times[k] = t
+            if times[k + 1] is None and s - half > z[k + 1]:
+                times[k + 1] = t
+
+    def pet(self, collided: bool) -> float | None:
+        """Post-encroachment time at the conflict zone [s] (0 after a collision with the
+        OV, None if one of them never entered it or there is no zone)."""
+        if self.zone is None:
+            return None
+        t = self.times
+        return post_encroachment_time((t[0], t[1]), (t[2], t[3]), collided)
 
     @classmethod
     def start(
@@ -590,7 +676,7 @@ class _TimedOV:
         session: Session,
         actors: list[_Actor],
         ego_route: list[tuple[float, float]],
-        ego_width: float,
+        ego_size: tuple[float, float],
         timing: tuple[tuple[float, float], float],
         path: list[tuple[float, float]] | None = None,
     ) -> _TimedOV | None:
@@ -598,6 +684,7 @@ class _TimedOV:
         from sitcov.sim.embedded._map import route_conflict
         from sitcov.sim.embedded._path import Path as Polyline
 
+        ego_length, ego_width = ego_size
         actor = next((a for a in actors if a.name == OV_ENTITY), None)
         if actor is None:
             return None
@@ -612,13 +699,20 @@ class _TimedOV:
             Polyline(*zip(*route, strict=True)),
             0.5 * (ego_width + actor.width),
         )
-        targets = None if found is None else (found.s_ego, found.s_ov)
+        targets = zone = None
         if found is not None:
-            conflict = found.point
+            conflict, targets = found.point, (found.s_ego, found.s_ov)
+            zone = (
+                found.s_ego,
+                min(found.s_ego_end, found.s_ego + PET_ZONE),
+                found.s_ov,
+                min(found.s_ov_end, found.s_ov + PET_ZONE),
+            )
         driver = OVDriver(ego_route, route, conflict, switch_distance=switch, targets=targets)
         b = actor.body
         body = Vehicle(default_params(), b.x, b.y, b.yaw, 0.0)
-        return cls(actor, driver, body, (float(conflict[0]), float(conflict[1])))
+        point = (float(conflict[0]), float(conflict[1]))
+        return cls(actor, driver, body, point, zone, 0.5 * ego_length)
 
     def step(self, session: Session, t: float, ego: Vehicle, mu: float, dt: float) -> None:
         """Set the OV's speed for the coming step from the law."""

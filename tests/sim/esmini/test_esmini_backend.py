@@ -240,6 +240,68 @@ def test_a_cropped_road_gives_the_same_outcomes() -> None:
         assert a.metrics["road"] == b.metrics["road"] == "Town03.xodr"
 
 
+class ObjectRecorder(AVStack):
+    """Wants object lists; drives slowly along +x of its own frame, keeps what it gets."""
+
+    wants = "objects"
+
+    def __init__(self) -> None:
+        self.lists: list = []
+        self.other: list = []
+
+    def reset(self, info: RunInfo) -> None:
+        self.lists.clear()
+
+    def step(self, observation: Observation) -> Control:
+        if observation.objects is not None:
+            self.lists.append((observation.t, observation.objects))
+        if observation.detections is not None or observation.image is not None:
+            self.other.append(observation)
+        return Control(throttle=0.2)
+
+
+def test_a_stack_that_wants_objects_gets_esmini_s_objects(backend) -> None:
+    """Object lists at the sensor rate (10 Hz), built from esmini's object states by the
+    same code as the embedded backend's; no detections instead."""
+    stack = ObjectRecorder()
+    backend.run(situation(TriggerDistance=15.0), stack, 2)
+    assert stack.lists and not stack.other
+    times = [t for t, _ in stack.lists]
+    assert times[:3] == pytest.approx([0.0, 0.1, 0.2])
+    labels = {o.label for _, objs in stack.lists for o in objs}
+    assert labels and labels <= {"car", "truck", "cyclist", "pedestrian"}
+
+
+def test_camera_mode_and_image_stacks_are_one_clear_error() -> None:
+    from sitcov.errors import SetupError
+
+    with pytest.raises(ConfigError, match="renders no camera frames"):
+        make_backend("esmini", scenario=str(CROSSING), perception="camera")
+
+    class WantsImages(Scripted):
+        wants = "image"
+
+    b = make_backend("esmini", scenario=str(CROSSING))
+    with pytest.raises(SetupError, match="wants camera images, which the esmini backend"):
+        b.run(situation(TriggerDistance=15.0), WantsImages(), 1)
+
+
+def test_pet_at_the_timed_ov_s_conflict_zone() -> None:
+    """PET is measured at the conflict zone of the exported situation's OV: 0 after a
+    collision with it, the gap between one leaving and the other entering otherwise."""
+    b = make_backend("esmini", road=str(TOWN03))
+    stack = make_stack("reference")
+    seen = []
+    for intsit, friction, seed in (("IntSit-3", "1.0", 5), ("IntSit-8", "0.1", 1)):
+        out = b.run(_paper_situation(intsit, friction), stack, seed)
+        seen.append(out)
+        if out.collision and out.metrics["collision_actor"] == "adversary":
+            assert out.pet == 0.0
+        elif out.pet is not None:
+            assert out.pet > 0.0
+    assert any(o.pet is not None for o in seen)
+
+
 def test_exported_situations_need_a_road() -> None:
     with pytest.raises(ConfigError, match="--road"):
         make_backend("esmini")
