@@ -49,6 +49,10 @@ if TYPE_CHECKING:
 ROUTE_SPACING = 1.0
 #: Route length when the ego has no assigned route: its lane ahead [m].
 DEFAULT_ROUTE_LENGTH = 200.0
+#: The map of exported situations without ``road``: an embedded map on its own export.
+DEFAULT_MAP = "t-junction"
+#: ... and with ``road``: the CARLA map file placing them there.
+DEFAULT_CARLA_MAP = "Town03"
 #: The exported situations' car OV (``sitcov.sim.carla.situation_scenario``).
 OV_ENTITY = "adversary"
 #: How far along its route the OV's progress is followed [m].
@@ -132,9 +136,11 @@ class EsminiBackend(Backend):
             them (the ``scenario`` element picks one per run); None: every situation of
             sitcov's hyperspace is turned into a scenario by the OpenSCENARIO exporter
             (``sitcov.sim.carla.situation_scenario``) on ``map``.
-        road: an OpenDRIVE file replacing the scenario's road (required without
-            ``scenario``: the exported scenarios name the CARLA map, e.g. Town03).
-        map: the CARLA map file/name the exporter places situations on (no scenario).
+        road: an OpenDRIVE file replacing the scenario's road; without ``scenario`` the
+            file situations are placed on by the CARLA map file ``map`` (e.g. Town03).
+        map: without ``scenario``: with ``road``, the CARLA map file placing situations on
+            it (default Town03); without, an embedded map (default ``t-junction``) whose
+            situations run on its own OpenDRIVE export (``_maps.py``, ``export-xodr``).
         ego: the entity the stack drives (default: see ``ScenarioFile``).
         dt: control period [s] (esmini is stepped by the same).
         sim_timeout: simulated time after which a run ends as a pass [s].
@@ -158,7 +164,7 @@ class EsminiBackend(Backend):
         self,
         scenario: str | None = None,
         road: str | None = None,
-        map: str = "Town03",  # noqa: A002 - the documented option name
+        map: str | None = None,  # noqa: A002 - the documented option name
         ego: str | None = None,
         dt: float = 0.05,
         sim_timeout: float = 60.0,
@@ -202,6 +208,7 @@ class EsminiBackend(Backend):
         if self.road is not None and not self.road.is_file():
             raise ConfigError(file=str(road), field="road", expected="an OpenDRIVE (.xodr) file")
         self.files: dict[str, ScenarioFile] = {}
+        self.jmap: Any = None  # the embedded map whose own export is the road
         #: the entities' driven paths of exported situations, per (ego, OV) movement
         self._paths: dict[tuple[str, str], dict[str, list[tuple[float, float]]]] = {}
         self._run_paths: dict[str, list[tuple[float, float]]] = {}
@@ -220,16 +227,32 @@ class EsminiBackend(Backend):
                     file=str(scenario), field="scenario", expected="a .xosc file or a folder"
                 )
         else:
-            from sitcov.sim.carla import load_carla_map
+            from sitcov.sim.carla import available_maps, load_carla_map
 
-            self.map = load_carla_map(map)
-            if self.road is None:
-                raise ConfigError(
-                    field="road",
-                    value=None,
-                    expected=f"an OpenDRIVE file of map {self.map.town!r} (--road FILE.xodr): "
-                    "the exported scenarios are placed on it",
-                )
+            carla = {m.lower() for m in available_maps()}
+            name = map or (DEFAULT_CARLA_MAP if self.road is not None else DEFAULT_MAP)
+            if (
+                self.road is not None
+                or str(name).lower() in carla
+                or str(name).endswith((".yaml", ".yml"))
+                and Path(name).is_file()
+                and _is_carla_map_file(Path(name))
+            ):
+                self.map = load_carla_map(name)
+                if self.road is None:
+                    raise ConfigError(
+                        field="road",
+                        value=None,
+                        expected=f"an OpenDRIVE file of map {self.map.town!r} (--road "
+                        "FILE.xodr): the exported scenarios are placed on it",
+                    )
+            else:  # an embedded map: its own OpenDRIVE export
+                from sitcov.sim.embedded import load_map
+                from sitcov.sim.esmini._maps import map_spec, own_road
+
+                self.jmap = load_map(name)
+                self.map = map_spec(self.jmap)
+                self.road = own_road(str(name))
 
     # --- the hyperspace -----------------------------------------------------------------------
 
@@ -297,7 +320,7 @@ class EsminiBackend(Backend):
             from sitcov.sim.carla import situation_scenario
 
             # a car OV gets no speed events: _play times it with the paper's law
-            scenario = situation_scenario(situation, self.map, timed_ov=False)
+            scenario = situation_scenario(situation, self._spec(situation), timed_ov=False)
             with tempfile.TemporaryDirectory(prefix="sitcov-esmini-") as tmp:
                 path = Path(tmp) / f"{situation.id}.xosc"
                 scenario.write_xml(str(path))
@@ -393,6 +416,14 @@ class EsminiBackend(Backend):
                 timing,
             )  # fmt: skip
 
+    def _spec(self, situation: Situation) -> Any:
+        """The map file placing ``situation`` (an embedded map's: with its conflict)."""
+        if self.jmap is None:
+            return self.map
+        from sitcov.sim.esmini._maps import situation_spec
+
+        return situation_spec(self.map, self.jmap, dict(situation.values))
+
     def _ov_timing(self, situation: Situation) -> tuple[tuple[float, float], float] | None:
         """(conflict point, switch distance) [m] of an exported situation's car OV in
         OpenDRIVE coordinates, or None (a user's scenario, or no car OV)."""
@@ -400,7 +431,7 @@ class EsminiBackend(Backend):
             return None
         from sitcov.sim.carla import ov_timing
 
-        found = ov_timing(situation, self.map)
+        found = ov_timing(situation, self._spec(situation))
         if found is None:
             return None
         (x, y), switch = found
@@ -727,6 +758,17 @@ class _TimedOV:
             d.released_at = t
         body.step(thr, brk, 0.0, mu, 0.0, dt)
         session.report_speed(a.oid, body.speed)
+
+
+def _is_carla_map_file(path: Path) -> bool:
+    """A YAML file with CARLA map file fields (``town``), not an embedded map."""
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except (OSError, yaml.YAMLError):
+        return False
+    return isinstance(data, dict) and "town" in data
 
 
 def _bin_value(hyperspace: Any, label: str) -> Any:

@@ -302,9 +302,34 @@ def test_pet_at_the_timed_ov_s_conflict_zone() -> None:
     assert any(o.pet is not None for o in seen)
 
 
-def test_exported_situations_need_a_road() -> None:
+def test_a_carla_map_file_s_situations_need_its_road() -> None:
     with pytest.raises(ConfigError, match="--road"):
-        make_backend("esmini")
+        make_backend("esmini", map="Town03")
+
+
+@pytest.mark.parametrize("name", ["t-junction", "crossroads"])
+def test_without_a_road_a_shipped_map_runs_on_its_own_opendrive_export(name: str) -> None:
+    """No --road: the situation is placed on the embedded map's own export (the file
+    ``sitcov export-xodr`` writes), the OV timed on it, the ego at its goal."""
+    from sitcov.roads._writer import xodr_text
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._odr import road_network
+
+    b = make_backend("esmini", map=name)
+    assert b.road.name == f"{name}.xodr"
+    assert b.road.read_text(encoding="utf-8") == xodr_text(road_network(load_map(name))[0])
+    hs = load_hyperspace()
+    labels = {e: hs.labels(e)[0] for e in hs.element_names}
+    labels.update(intsit="IntSit-3", friction="1.0")
+    s = hs.situation_from_bins(labels, np.random.default_rng(0))
+    out = b.run(s, make_stack("reference"), 5)
+    assert out.metrics["road"] == f"{name}.xodr"
+    assert out.metrics["ov_timing"].startswith("timing law")
+    assert out.metrics["road_departure_time"] is None and out.status == "pass"
+    if name == "t-junction":  # on crossroads the two meet and stand (a standoff)
+        assert out.end_reason == "goal" and out.metrics["route_completion"] > 0.98
+        assert out.pet is not None
+        assert make_backend("esmini").road.name == "t-junction.xodr"  # the default map
 
 
 def test_a_campaign_on_a_user_scenario_is_deterministic(tmp_path: Path) -> None:
