@@ -1,7 +1,7 @@
 """Verdicts of the esmini backend against the embedded backend on the same situations.
 
 Usage: python benchmarks/esmini_agreement.py --db DB --campaign NAME [--speed-sample 60]
-       [--speed-only] [--out FILE.json] [--rows FILE.csv]
+       [--speed-only] [--own-road] [--out FILE.json] [--rows FILE.csv]
 
 Every judged run (pass or fail) of an esmini campaign (``sitcov run --backend esmini``) is
 run again, with its stored situation and run seed, on the embedded backend with the
@@ -16,6 +16,9 @@ one after the other, in CPU seconds (``time.process_time``, esmini's C library i
 runs per CPU second, i.e. runs/s per core, measured at the same moment of the machine
 (the embedded side only for situations it can play, i.e. with an ``intsit``);
 ``--speed-only`` skips the comparison (e.g. for a campaign on a user's scenario).
+``--own-road`` replays every run a third time, on esmini on the embedded map's own
+OpenDRIVE export (the embedded world's geometry, esmini's engine and departure test): which
+road departures follow the road and which the test (``own_road.road_departures_on``).
 """
 
 from __future__ import annotations
@@ -39,8 +42,16 @@ def _embedded_config(config: CampaignConfig) -> CampaignConfig:
     return config.model_copy(update={"backend": "embedded", "backend_options": {}})
 
 
-def compare(db: str, campaign: str) -> dict[str, Any]:
-    """Re-run the campaign's judged runs on the embedded backend; the comparison."""
+def _own_road_config(config: CampaignConfig) -> CampaignConfig:
+    """The esmini campaign's config without ``road``: its situations on the embedded map's
+    own OpenDRIVE export (the embedded world's geometry, esmini's engine and tests)."""
+    options = {k: v for k, v in config.backend_options.items() if k not in ("road", "map")}
+    return config.model_copy(update={"backend_options": options})
+
+
+def compare(db: str, campaign: str, own_road: bool = False) -> dict[str, Any]:
+    """Re-run the campaign's judged runs on the embedded backend (and, with ``own_road``,
+    on esmini on the embedded map's own OpenDRIVE export); the comparison."""
     store = open_store(db)
     try:
         info = store.campaign(campaign)
@@ -50,6 +61,9 @@ def compare(db: str, campaign: str) -> dict[str, Any]:
         store.close()
     emb_config = _embedded_config(config)
     backend, stack = build_backend(emb_config), build_stack(emb_config)
+    own = build_backend(_own_road_config(config)) if own_road else None
+    own_table: collections.Counter[str] = collections.Counter()
+    departures: collections.Counter[str] = collections.Counter()
     judge = Judge.from_spec(config.judge)
     table: collections.Counter[str] = collections.Counter()
     kinds: dict[str, collections.Counter[str]] = {
@@ -72,6 +86,16 @@ def compare(db: str, campaign: str) -> dict[str, Any]:
         if not agree:
             pair = f"esmini {es.kind}/{es.end_reason} vs embedded {emb.kind}/{emb.end_reason}"
             reasons[pair] += 1
+        extra: dict[str, Any] = {}
+        if own is not None:
+            mine = judge(own.run(rec.situation, stack, rec.seed))
+            own_table[f"own_{mine.status}/embedded_{emb.status}"] += 1
+            own_table[f"own_{mine.status}/esmini_{es.status}"] += 1
+            dep = [o.kind == "road_departure" for o in (es, mine, emb)]
+            if any(dep):
+                sides = zip(("esmini", "own", "embedded"), dep, strict=True)
+                departures["/".join(k for k, d in sides if d)] += 1
+            extra = {"esmini_own": f"{mine.kind}/{mine.end_reason}", "own_aeb": mine.aeb_fired}
         rows.append(
             {
                 "index": rec.index,
@@ -80,6 +104,7 @@ def compare(db: str, campaign: str) -> dict[str, Any]:
                 "embedded": f"{emb.kind}/{emb.end_reason}",
                 "esmini_aeb": es.aeb_fired,
                 "embedded_aeb": emb.aeb_fired,
+                **extra,
             }
         )
     stack.close()
@@ -99,8 +124,26 @@ def compare(db: str, campaign: str) -> dict[str, Any]:
             k: {"runs": v[0], "disagree": v[1]} for k, v in sorted(by_intsit.items())
         },
         "disagreement_reasons": dict(reasons.most_common()),
+        **(
+            {}
+            if own is None
+            else {
+                "own_road": {
+                    "table": dict(own_table),
+                    "agreement_with_embedded": _rate(own_table, "embedded", n),
+                    "agreement_with_esmini": _rate(own_table, "esmini", n),
+                    "road_departures_on": dict(departures.most_common()),
+                }
+            }
+        ),
         "rows": rows,
     }
+
+
+def _rate(table: collections.Counter[str], other: str, n: int) -> dict[str, Any]:
+    agreeing = table[f"own_pass/{other}_pass"] + table[f"own_fail/{other}_fail"]
+    return {"agreeing": agreeing, "rate": agreeing / n if n else None,
+            "ci95": wilson_interval(agreeing, n)}  # fmt: skip
 
 
 def speed(db: str, campaign: str, n: int) -> dict[str, Any]:
@@ -136,8 +179,13 @@ def main() -> None:
     parser.add_argument("--speed-only", action="store_true", help="no verdict comparison")
     parser.add_argument("--out", default=None)
     parser.add_argument("--rows", default=None, help="CSV of every run's two verdicts")
+    parser.add_argument(
+        "--own-road",
+        action="store_true",
+        help="also replay on esmini on the embedded map's own OpenDRIVE export",
+    )
     args = parser.parse_args()
-    result = {} if args.speed_only else compare(args.db, args.campaign)
+    result = {} if args.speed_only else compare(args.db, args.campaign, args.own_road)
     rows = result.pop("rows", [])
     if args.rows and rows:
         with open(args.rows, "w", newline="", encoding="utf-8") as fh:
