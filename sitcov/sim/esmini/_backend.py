@@ -29,7 +29,7 @@ from sitcov.sim._metrics import PET_ZONE, disc_radius, post_encroachment_time, t
 from sitcov.sim.embedded._collision import box_distance, corners, overlap
 from sitcov.sim.embedded._dynamics import Vehicle, default_params
 from sitcov.sim.embedded._ego import EgoDriver
-from sitcov.sim.embedded._monitors import GOAL_TOLERANCE, STOPPED_SPEED
+from sitcov.sim.embedded._monitors import GOAL_TOLERANCE, LANE_TOLERANCE, STOPPED_SPEED
 from sitcov.sim.esmini._lib import library
 from sitcov.sim.esmini._road import cropped_road
 from sitcov.sim.esmini._scenario import (
@@ -498,6 +498,8 @@ class EsminiBackend(Backend):
         hit: _Actor | None = None
         collision_speed: float | None = None
         road_departure: float | None = None
+        lane_departure: float | None = None
+        lanes = _LaneTest(route, road.lane_widths(route), ego_wid)
         idx = start = _advance(route, 0, cx, cy)  # the point the ego starts at
         still = 0.0
         ego_rows: list[tuple[float, float, float, float, float]] = []
@@ -549,6 +551,8 @@ class EsminiBackend(Backend):
             if road_departure is None and road.off_road(corners(ebox), vehicle.yaw):
                 road_departure = t
             idx = _advance(route, idx, vehicle.x, vehicle.y)
+            if lane_departure is None and lanes.left(idx, vehicle.x, vehicle.y):
+                lane_departure = t
             still = still + dt if vehicle.speed < STOPPED_SPEED else 0.0
             if hit is not None:
                 reason = "collision"
@@ -574,7 +578,7 @@ class EsminiBackend(Backend):
             **info,
             "road": Path(road_file).name,
             "road_departure_time": road_departure,
-            "lane_departure_time": None,
+            "lane_departure_time": lane_departure,
             "route_length": round(length, 6),
             "route_completion": round(min(1.0, progress / length), 6) if length > 0 else None,
             "collision_actor": hit.name if hit else None,
@@ -769,6 +773,32 @@ def _is_carla_map_file(path: Path) -> bool:
     except (OSError, yaml.YAMLError):
         return False
     return isinstance(data, dict) and "town" in data
+
+
+class _LaneTest:
+    """The embedded world's lane-departure test (``LaneDepartureMonitor``) on the ego's
+    route: the ego's centre is more than ``(lane width - ego width) / 2 + LANE_TOLERANCE``
+    from the route at its tracked point, the lane width from esmini's RoadManager at that
+    route point (no test where it finds no lane)."""
+
+    def __init__(self, route: list[tuple[float, float]], widths: list[float], ego_width: float):
+        n = len(route)
+        self.route = route
+        self.trig = []
+        for i in range(n):
+            (x0, y0), (x1, y1) = route[max(0, min(i, n - 2))], route[max(1, min(i + 1, n - 1))]
+            h = math.atan2(y1 - y0, x1 - x0)
+            self.trig.append((math.sin(h), math.cos(h)))
+        self.limits = [0.5 * (w - ego_width) + LANE_TOLERANCE for w in widths]
+
+    def left(self, i: int, x: float, y: float) -> bool:
+        """Whether the ego at (x, y), tracked at route point ``i``, is out of its lane."""
+        limit = self.limits[i]
+        if limit != limit:  # NaN: no lane found there
+            return False
+        (px, py), (sn, cs) = self.route[i], self.trig[i]
+        lat = -(x - px) * sn + (y - py) * cs
+        return lat > limit or -lat > limit
 
 
 def _bin_value(hyperspace: Any, label: str) -> Any:

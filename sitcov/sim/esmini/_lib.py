@@ -201,6 +201,25 @@ _RM: ctypes.CDLL | None = None
 RM_LIB_NAME = "libesminiRMLib.so"
 
 
+class RMPositionData(ctypes.Structure):
+    """``RM_PositionData`` (esminiRMLib.hpp): a position on the road."""
+
+    _fields_ = [
+        ("x", ctypes.c_double),
+        ("y", ctypes.c_double),
+        ("z", ctypes.c_double),
+        ("h", ctypes.c_double),
+        ("p", ctypes.c_double),
+        ("r", ctypes.c_double),
+        ("hRelative", ctypes.c_double),
+        ("roadId", ctypes.c_uint32),
+        ("junctionId", ctypes.c_uint32),
+        ("laneId", ctypes.c_int),
+        ("laneOffset", ctypes.c_double),
+        ("s", ctypes.c_double),
+    ]
+
+
 def rm_library() -> ctypes.CDLL:
     """esmini's RoadManager library (``libesminiRMLib.so``, next to ``libesminiLib.so``):
     lane types at arbitrary points (the ego's box corners). Its road state is its own,
@@ -225,6 +244,8 @@ def rm_library() -> ctypes.CDLL:
             ("RM_GetNumberOfRoadsOverlapping", _I, [_I]),
             ("RM_SetWorldXYHPosition", _I, [_I, _D, _D, _D]),
             ("RM_GetInLaneType", _I, [_I]),
+            ("RM_GetPositionData", _I, [_I, ctypes.POINTER(RMPositionData)]),
+            ("RM_GetLaneWidth", _I, [_I, _I, ctypes.POINTER(_D)]),
         ):
             fn = getattr(lib, name)
             fn.restype = restype

@@ -15,7 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from sitcov.errors import SitcovError
-from sitcov.sim.esmini._lib import LOCK, ObjectState, RoadInfo, library, rm_library
+from sitcov.sim.esmini._lib import (
+    LOCK,
+    ObjectState,
+    RMPositionData,
+    RoadInfo,
+    library,
+    rm_library,
+)
 
 #: esmini's object types (``Object::Type``) and vehicle categories (``Vehicle::Category``)
 #: as sitcov's actor kinds.
@@ -235,6 +242,23 @@ class RoadProbe:
                 raise EsminiError(f"{odr}: esmini's RoadManager cannot load this road")
             cls._handles = [lib.RM_CreatePosition() for _ in range(4)]
             cls._loaded = odr
+
+    def lane_widths(self, points: list[tuple[float, float]]) -> list[float]:
+        """The width [m] of the lane under each route point (heading towards the next
+        point), NaN where no lane is found."""
+        lib = self.lib
+        handle = self._handles[0]
+        data = RMPositionData()
+        width = ctypes.c_double()
+        out = []
+        for i, (x, y) in enumerate(points):
+            nx, ny = points[min(i + 1, len(points) - 1)]
+            px, py = points[max(i - 1, 0)] if i + 1 >= len(points) else (x, y)
+            lib.RM_SetWorldXYHPosition(handle, x, y, math.atan2(ny - py, nx - px))
+            lib.RM_GetPositionData(handle, ctypes.byref(data))
+            ok = lib.RM_GetLaneWidth(handle, data.laneId, ctypes.byref(width)) == 0
+            out.append(width.value if ok and width.value > 0 else math.nan)
+        return out
 
     def off_road(self, corners: list[tuple[float, float]], h: float) -> bool:
         """True if a corner is on no drivable lane.

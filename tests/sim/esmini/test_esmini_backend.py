@@ -272,6 +272,18 @@ def test_a_stack_that_wants_objects_gets_esmini_s_objects(backend) -> None:
     assert labels and labels <= {"car", "truck", "cyclist", "pedestrian"}
 
 
+def test_lane_departure_is_the_embedded_world_s_test(backend) -> None:
+    """Straight on: no lane departure. Drifting left into the oncoming lane: the lane is
+    left (centre more than (lane - ego width) / 2 + 0.5 m off the route) before the road
+    (the far sidewalk)."""
+    s = situation(TriggerDistance=60.0)
+    straight = backend.run(s, Scripted(steer=0.0), 1)
+    assert straight.metrics["lane_departure_time"] is None
+    drift = backend.run(s, Scripted(steer=0.02), 1)
+    lane, road = drift.metrics["lane_departure_time"], drift.metrics["road_departure_time"]
+    assert lane is not None and road is not None and lane < road
+
+
 def test_camera_mode_and_image_stacks_are_one_clear_error() -> None:
     from sitcov.errors import SetupError
 
