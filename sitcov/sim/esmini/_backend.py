@@ -210,7 +210,7 @@ class EsminiBackend(Backend):
         self.files: dict[str, ScenarioFile] = {}
         self.jmap: Any = None  # the embedded map whose own export is the road
         #: the entities' driven paths of exported situations, per (ego, OV) movement
-        self._paths: dict[tuple[str, str], dict[str, list[tuple[float, float]]]] = {}
+        self._paths: dict[tuple[str, str, bool], dict[str, list[tuple[float, float]]]] = {}
         self._run_paths: dict[str, list[tuple[float, float]]] = {}
         self.folder = False
         self.scenario = scenario
@@ -327,8 +327,10 @@ class EsminiBackend(Backend):
                 file = ScenarioFile(path, self.ego_name)
                 xml = file.render(values, road=self.road)
                 intsit = values.get("intsit")
-                key = (str(intsit.get("ego")), str(intsit.get("ov")))  # type: ignore[union-attr]
-                if key not in self._paths:  # the routes depend on the movements only
+                ego_mv, ov_mv = str(intsit.get("ego")), str(intsit.get("ov"))  # type: ignore[union-attr]
+                # the routes depend on the movements (and on whether the OV is a car)
+                key = (ego_mv, ov_mv, self._ov_timing(situation) is not None)
+                if key not in self._paths:
                     self._paths[key] = route_paths(
                         file.render(values, road=self.road, external=False),
                         (file.ego, OV_ENTITY),
