@@ -367,6 +367,23 @@ def test_a_campaign_on_a_user_scenario_is_deterministic(tmp_path: Path) -> None:
     assert all(o.metrics["parameters"]["TriggerDistance"] for _, _, o in rows[0])
 
 
+def test_a_campaign_of_sitcov_s_own_situations_is_deterministic(tmp_path: Path) -> None:
+    """Same seed, same rows for exported situations too (dry runs, timed OV, crop, PET):
+    the paper's hyperspace on the t-junction's own export, in worker processes."""
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+
+    rows = []
+    for name in ("a", "b"):
+        config = CampaignConfig(
+            name="c", backend="esmini", runs=8, seed=2, workers=1, executor="processes"
+        )
+        with open_store(tmp_path / f"{name}.db") as store:
+            run_campaign(config, store)
+            rows.append([(r.situation, r.seed, r.outcome) for r in store.iter_runs("c")])
+    assert len(rows[0]) == 8 and rows[0] == rows[1]
+    assert all(o.metrics["road"] == "t-junction.xodr" for _, _, o in rows[0])
+
+
 def test_unknown_element_stops_the_campaign_before_the_database(tmp_path: Path) -> None:
     from sitcov.campaign import CampaignConfig
     from sitcov.campaign._build import check_parts
