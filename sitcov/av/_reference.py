@@ -290,7 +290,7 @@ def _step_kernel() -> Any:
     bits), else itself. Loaded once per process."""
     global _STEP
     if _STEP is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         gains = [3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 2.0, 0.75, 0.3, 0.8, 0.1]
         state = [0.0] * 10 + [0.0] * 4
@@ -298,7 +298,7 @@ def _step_kernel() -> Any:
         route = [0.0, 5.0, 10.0, 0.0, 0.0, 1.0]
         example = np.array(gains + state + route, dtype=np.float64)
         _STEP = compiled(_route_step, example, 0.0, 0.5, 0.1, 3.0, helpers=(window_pid,))
-        _STEP = _STEP or _route_step
+        _STEP = typed_entry(_STEP) or _route_step
     return _STEP
 
 

@@ -358,13 +358,13 @@ def _view_kernel() -> Any:
     if _VIEW_FN is None:
         import numpy as np
 
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1])  # fmt: skip
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
         _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
-        _VIEW_FN = _VIEW_FN or _pem_view
+        _VIEW_FN = typed_entry(_VIEW_FN) or _pem_view
     return _VIEW_FN
 
 

@@ -105,7 +105,7 @@ def failure_pictures(
                 detail.append(f"re-simulation gave {outcome.status}, stored {run.status}")
             pictures.append(
                 {
-                    "gif": _animation(outcome, ref) if animate else None,
+                    "gif": _animation(outcome, ref, run) if animate else None,
                     "png": base64.b64encode(data).decode("ascii"),
                     "run": ref,
                     "bins": ", ".join(f"{k}={v}" for k, v in run.bins.items()),
@@ -143,13 +143,21 @@ def _what_happened(outcome: Any) -> str:
 REPORT_FPS, REPORT_FRAMES, REPORT_DPI = 5, 60, 60
 
 
-def _animation(outcome: Any, ref: str) -> str | None:
-    """A small GIF of the run, base64 (None when the run has no trace to animate)."""
-    from sitcov.report._animate import gif_bytes, render_frames
+def _animation(outcome: Any, ref: str, run: Any = None) -> str | None:
+    """A small GIF of the run, base64 (None when the run has no trace to animate); runs
+    of camera-mode campaigns with the dash-cam strip (no detector boxes: they would cost
+    ~0.16 s per frame)."""
+    from sitcov.report._animate import gif_bytes, render_frames, run_dashcam
 
     if outcome.trace is None or not outcome.trace.ego:
         return None
+    dashcam = None if run is None else run_dashcam(run, outcome, boxes=False)
     frames = render_frames(
-        outcome, title=ref, fps=REPORT_FPS, max_frames=REPORT_FRAMES, dpi=REPORT_DPI
+        outcome,
+        title=ref,
+        fps=REPORT_FPS,
+        max_frames=REPORT_FRAMES,
+        dpi=REPORT_DPI,
+        dashcam=dashcam,
     )
     return base64.b64encode(gif_bytes(frames, REPORT_FPS)).decode("ascii")

@@ -268,14 +268,14 @@ def _tracked_kernel() -> Any:
     """:func:`integrate_tracked` compiled by numba when it is installed, else itself."""
     global _TRACKED
     if _TRACKED is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         route = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
         example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
         helpers = (integrate, ("track", track))
         _TRACKED = compiled(integrate_tracked, *example, route, 0, helpers=helpers)
-        _TRACKED = _TRACKED or integrate_tracked
+        _TRACKED = typed_entry(_TRACKED) or integrate_tracked
     return _TRACKED
 
 
@@ -283,11 +283,11 @@ def _kernel() -> Any:
     """:func:`integrate` compiled by numba when it is installed (``_jit.py``), else itself."""
     global _INTEGRATE
     if _INTEGRATE is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
-        _INTEGRATE = compiled(integrate, *example) or integrate
+        _INTEGRATE = typed_entry(compiled(integrate, *example)) or integrate
     return _INTEGRATE
 
 

@@ -26,7 +26,7 @@ from sitcov.av._base import RunInfo
 from sitcov.errors import ConfigError
 from sitcov.sim._base import Backend, Outcome, Trace
 from sitcov.sim._metrics import PET_ZONE, disc_radius, post_encroachment_time, time_to_collision
-from sitcov.sim.embedded._collision import box_distance, corners, overlap
+from sitcov.sim.embedded._collision import box_distance, contact_point, corners, overlap
 from sitcov.sim.embedded._dynamics import Vehicle, default_params
 from sitcov.sim.embedded._ego import EgoDriver
 from sitcov.sim.embedded._monitors import GOAL_TOLERANCE, LANE_TOLERANCE, STOPPED_SPEED
@@ -499,6 +499,8 @@ class EsminiBackend(Backend):
         min_ttc: float | None = None
         hit: _Actor | None = None
         collision_speed: float | None = None
+        max_drac: float | None = None  # docs/metrics.md
+        contact: tuple[tuple[float, float], float] = ((0.0, 0.0), 0.0)  # point, ego heading
         road_departure: float | None = None
         lane_departure: float | None = None
         lanes = _LaneTest(route, road.lane_widths(route), ego_wid)
@@ -547,9 +549,13 @@ class EsminiBackend(Backend):
                 )  # fmt: skip
                 if ttc is not None and (min_ttc is None or ttc < min_ttc):
                     min_ttc = ttc
+                if ttc is not None and ttc > 0.0:
+                    drac = math.hypot(avx - evx, avy - evy) / (2.0 * ttc)
+                    max_drac = drac if max_drac is None or drac > max_drac else max_drac
                 if hit is None and overlap(ebox, abox):
                     hit = a
                     collision_speed = math.hypot(avx - evx, avy - evy)
+                    contact = (contact_point(ebox, abox), vehicle.yaw)
             if road_departure is None and road.off_road(corners(ebox), vehicle.yaw):
                 road_departure = t
             idx = _advance(route, idx, vehicle.x, vehicle.y)
@@ -585,6 +591,10 @@ class EsminiBackend(Backend):
             "route_completion": round(min(1.0, progress / length), 6) if length > 0 else None,
             "collision_actor": hit.name if hit else None,
             "collision_kind": hit.kind if hit else None,
+            "collision_point": list(contact[0]) if hit else None,
+            "collision_heading": contact[1] if hit else None,
+            "ego_collision_speed": vehicle.speed if hit else None,
+            "max_drac": max_drac,
             "ego_final_speed": vehicle.speed,
         }
         if ov is not None:

@@ -100,8 +100,19 @@ def test_trigger_distance_decides_a_collision(backend) -> None:
     hit = backend.run(situation(TriggerDistance=17.0, CrossingSpeed=8.0), stack, 3)
     assert hit.status == "fail" and hit.end_reason == "collision"
     assert hit.metrics["collision_actor"] == "CrossingCar" and hit.collision_speed > 0
+    # where and how: the contact point near the ego (its last recorded row is the step
+    # before contact), its heading; a closing DRAC; the same facts when recorded
+    m = hit.metrics
+    traced = backend.run(situation(TriggerDistance=17.0, CrossingSpeed=8.0), stack, 3, record=True)
+    x, y = m["collision_point"]
+    last = traced.trace.ego[-1]
+    assert math.hypot(x - last[1], y - last[2]) < 4.0  # within reach of the ego's box
+    assert m["collision_heading"] == pytest.approx(last[3], abs=0.05)
+    assert m["collision_kind"] == "car" and m["max_drac"] > 0
+    assert traced.metrics["collision_point"] == m["collision_point"]
     early = backend.run(situation(TriggerDistance=45.0, CrossingSpeed=8.0), stack, 3)
     assert early.status == "pass" and early.min_distance > 0
+    assert early.metrics["collision_point"] is None and early.metrics["collision_heading"] is None
 
 
 def test_road_departure_is_a_fact_for_the_judge(backend) -> None:
