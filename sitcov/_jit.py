@@ -2,13 +2,17 @@
 
 numba is a dependency (until session 6 the optional ``fast`` extra): :func:`compiled` turns a
 plain-float function of the hot loop into machine code (a car's integrator and route
-tracking ``_dynamics.integrate_tracked``, the camera projection
+tracking ``_dynamics.integrate_tracked``, with the commands' clamps
+``_dynamics.move_tracked``, the camera projection
 ``perception._camera._project``, the PEM's projection, features and logit of one actor
 ``perception._pem._pem_view``, the box distance ``_collision.box_distance_flat``, the
 route tracking ``_path._track``, the cars' steering ``_controllers._car_steer``, a timed
-car's law and steering ``_controllers._timed_car``, the proximity monitor's distance and
-TTC ``_monitors.proximity``, the reference stack's route following
-``av._reference._route_step``); without
+car's law and steering ``_controllers._timed_car`` and with its move
+``_controllers._timed_car_move``, the proximity monitor's distance and TTC
+``_monitors.proximity``, the road monitor's exact test ``_collision.box_on_area``, the
+PEM's whole frame of one actor ``perception._pem._pem_frame``, the reference stack's route
+following ``av._reference._route_step``); the hot ones are called through
+:func:`typed_entry`; without
 numba, or with the environment variable ``SITCOV_NO_JIT`` set (to anything but ``0`` or
 an empty string), the Python function runs as it is. Either way a run gives the same bits:
 
@@ -165,6 +169,51 @@ def compiled(
         )
         return None
     return fast
+
+
+def typed_entry(fast: Callable[..., Any] | None) -> Callable[..., Any] | None:
+    """The machine code of ``fast`` (a :func:`compiled` kernel, already called once with
+    its example) for its one compiled signature, called without numba's dispatch; None
+    for None, ``fast`` itself when that entry is not there (another numba, more than one
+    signature).
+
+    numba's dispatcher works out the types of every argument on every call to pick the
+    machine code for them (about 0.2 us of a hot kernel's 0.4-0.9 us call); the entry
+    point only converts the arguments to the signature's types. So it is the same code
+    (the same bits) as long as every call passes those very types: float arrays as the
+    example's (C-contiguous float64), ints where the example had ints. A float where an
+    int was compiled would be truncated silently, an int array read as floats: with the
+    environment variable ``SITCOV_JIT_CHECK`` set (to anything but ``0`` or an empty
+    string) each call checks its argument types against the signature instead and raises
+    ``TypeError`` on a mismatch (``tests/sim/test_sim_jit.py`` runs scenes of every kind so).
+    """
+    if fast is None:
+        return None
+    overloads = getattr(fast, "overloads", None)
+    if not overloads or len(overloads) != 1:
+        return fast
+    ((sig, result),) = overloads.items()
+    entry = getattr(result, "entry_point", None)
+    if entry is None:
+        return fast
+    if os.environ.get("SITCOV_JIT_CHECK", "") not in ("", "0"):
+        return _checked(entry, sig, fast)
+    return entry
+
+
+def _checked(entry: Callable[..., Any], sig: tuple[Any, ...], fast: Any) -> Callable[..., Any]:
+    """``entry`` behind a check that each argument has the type of ``sig`` (numba's)."""
+    import numba
+
+    name = fast.py_func.__name__
+
+    def call(*args: Any) -> Any:
+        got = tuple(numba.typeof(a) for a in args)
+        if got != tuple(sig):
+            raise TypeError(f"{name}: called with {got}, compiled for {tuple(sig)}")
+        return entry(*args)
+
+    return call
 
 
 def _code_text(code: types.CodeType) -> str:

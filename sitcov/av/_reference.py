@@ -218,9 +218,26 @@ class ReferenceStack(AVStack):
 _IDX, _DONE, _STEER, _COUNT, _HEAD, _LON, _LAT, _N, _RINGS = 15, 16, 17, 18, 19, 20, 22, 24, 25
 
 
+#: :func:`route_state`'s fresh arrays per (route object, gains, kind), copied for each run (a
+#: map's routes are the same objects run after run); the route is held, so its id stays.
+_FRESH: dict[tuple[int, tuple[float, ...], bool], tuple[Any, Any]] = {}
+
+
 def route_state(gains: Sequence[float], route: Sequence[tuple[float, float]]) -> Any:
     """The array :func:`_route_step` takes (layout above) with a fresh state: a float
-    array for the compiled step, else a list (the step updates it in place)."""
+    array for the compiled step, else a list (the step updates it in place). A copy of
+    the one made at the route's first run."""
+    key = (id(route), tuple(gains), (_STEP or _step_kernel()) is _route_step)
+    held = _FRESH.get(key)
+    if held is None or held[0] is not route:
+        if len(_FRESH) >= 256:
+            _FRESH.clear()
+        held = _FRESH[key] = (route, _route_state(gains, route))
+    return held[1].copy()
+
+
+def _route_state(gains: Sequence[float], route: Sequence[tuple[float, float]]) -> Any:
+    """:func:`route_state`, made afresh."""
     window = int(gains[10])
     state = [0, 0.0, 0.0, 0, 0, 0.0, 0.0, 0.0, 0.0, len(route)] + [0.0] * (2 * window)
     values = [*map(float, gains), *state, *(float(x) for x, _ in route)]
@@ -290,7 +307,7 @@ def _step_kernel() -> Any:
     bits), else itself. Loaded once per process."""
     global _STEP
     if _STEP is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         gains = [3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 2.0, 0.75, 0.3, 0.8, 0.1]
         state = [0.0] * 10 + [0.0] * 4
@@ -298,7 +315,7 @@ def _step_kernel() -> Any:
         route = [0.0, 5.0, 10.0, 0.0, 0.0, 1.0]
         example = np.array(gains + state + route, dtype=np.float64)
         _STEP = compiled(_route_step, example, 0.0, 0.5, 0.1, 3.0, helpers=(window_pid,))
-        _STEP = _STEP or _route_step
+        _STEP = typed_entry(_STEP) or _route_step
     return _STEP
 
 

@@ -11,7 +11,6 @@ Table 2 from any database, and running the experiment again completes whatever i
 
 from __future__ import annotations
 
-import datetime as _dt
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
@@ -64,9 +63,8 @@ def _base_config(generator: str, seed_index: int, runs: int, seed: int, settings
 
 def _replay_into(store: Any, nf: Any, config: Any) -> None:
     """Create the fault campaign ``config`` planned as replays of ``nf``'s stored runs."""
-    from sitcov._version import __version__
-    from sitcov.campaign._store import CampaignInfo, PlannedRun
-    from sitcov.sim import WORLD_MODEL_VERSION
+    from sitcov.campaign._derived import create_derived_campaign
+    from sitcov.campaign._store import PlannedRun
 
     planned = [PlannedRun(r.index, r.situation, r.seed) for r in store.iter_runs(nf.name)]
     if len(planned) != config.runs or any(p.index != i for i, p in enumerate(planned)):
@@ -74,19 +72,7 @@ def _replay_into(store: Any, nf: Any, config: Any) -> None:
             f"{store.location}: campaign {nf.name!r} holds {len(planned)} runs, expected "
             f"{config.runs}; it was not made by this experiment with these settings"
         )
-    info = CampaignInfo(
-        name=config.name,
-        config=config.model_dump(mode="json"),
-        hyperspace=nf.hyperspace,
-        sitcov_version=__version__,
-        created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        generator=config.generator,
-        generator_state=nf.generator_state,
-        batch_start=nf.batch_start,
-        tags=dict(config.tags),
-        world_version=WORLD_MODEL_VERSION,
-    )
-    store.create_campaign(info, planned)
+    create_derived_campaign(store, nf, config, planned)
 
 
 def _run_chain(store: Any, base: Any, progress: Callable[[str, int], None] | None) -> None:

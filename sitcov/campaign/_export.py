@@ -12,11 +12,13 @@ instead). Parquet columns are typed and the file's metadata names each campaign'
 Every format carries each run's ``failure_kind`` (``pass``, a kind of
 ``sitcov.sim.FAILURE_KINDS``, ``error``, ``timeout``; empty while pending) and its route
 progress facts (:data:`PROGRESS_COLUMNS`: route completion, time to goal, blocked and
-route-incomplete times, stationary collision, stop reason; the JSON export has them in
-the outcome's metrics); the JSON export also gives each campaign's ``physics``, ``judge``
-and ``world_model``, its ``breakdowns`` (failure rates by actor kind and conflict type,
-and collisions by the road user hit, as ``sitcov summary``) and its ``route_completion``
-(mean, goal rate, distribution, as ``sitcov summary``).
+route-incomplete times, stationary collision, stop reason) and where it collided
+(:data:`COLLISION_COLUMNS`: contact point, the ego's heading and speed then, and the run's
+largest DRAC); the JSON export has them in the outcome's metrics; the JSON export also
+gives each campaign's ``physics``, ``judge`` and ``world_model``, its ``breakdowns``
+(failure rates by actor kind and conflict type, and collisions by the road user hit, as
+``sitcov summary``) and its ``route_completion`` (mean, goal rate, distribution, as
+``sitcov summary``).
 """
 
 from __future__ import annotations
@@ -67,6 +69,17 @@ PROGRESS_COLUMNS = (
     "ego_stationary",
     "stop_reason",
 )
+#: Where the ego collided and how hard the run braked at most (``Outcome.metrics``, empty
+#: for runs stored before schema 5 or without a collision): the contact point in the map
+#: frame [m], the ego's heading [rad] and speed [m/s] at contact, and the run's largest
+#: DRAC over every road user [m/s^2] (docs/metrics.md); ``hit_kind`` names the road user.
+COLLISION_COLUMNS = (
+    "collision_x",
+    "collision_y",
+    "collision_heading",
+    "ego_collision_speed",
+    "max_drac",
+)
 
 
 def _elements(store: Store, campaign: str | None) -> list[str]:
@@ -98,6 +111,7 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
         *_BASE_COLUMNS,
         *_TAIL_COLUMNS,
         *PROGRESS_COLUMNS,
+        *COLLISION_COLUMNS,
         *RUN_COLUMNS,
         *(f"bin.{e}" for e in elements),
         *(f"value.{e}" for e in elements),
@@ -121,6 +135,7 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
             row.update({c: out.get(c) for c in OUTCOME_COLUMNS})
             metrics = out.get("metrics") or {}
             row.update({c: metrics.get(c) for c in PROGRESS_COLUMNS})
+            row.update(collision_facts(metrics))
             values = run.situation.to_dict()["values"]
             kinds, types = run_roles(values, typing.get(run.campaign))
             row["actor_kinds"], row["conflict_types"] = ";".join(kinds), ";".join(types)
@@ -132,6 +147,19 @@ def flat_rows(store: Store, campaign: str | None = None) -> tuple[list[str], Ite
             yield row
 
     return columns, rows()
+
+
+def collision_facts(metrics: dict[str, Any]) -> dict[str, float | None]:
+    """The :data:`COLLISION_COLUMNS` of a run's metrics (None where not stored)."""
+    point = metrics.get("collision_point")
+    x, y = point if isinstance(point, list | tuple) and len(point) == 2 else (None, None)
+    return {
+        "collision_x": x,
+        "collision_y": y,
+        "collision_heading": metrics.get("collision_heading"),
+        "ego_collision_speed": metrics.get("ego_collision_speed"),
+        "max_drac": metrics.get("max_drac"),
+    }
 
 
 def _hit_kind(run: RunRecord, values: dict[str, Any]) -> str | None:
@@ -381,6 +409,7 @@ def export_parquet(
     kinds.update(dict.fromkeys(FLOAT_COLUMNS, "float"))
     kinds.update(dict.fromkeys(BOOL_COLUMNS, "bool"))
     kinds.update(dict.fromkeys(PROGRESS_COLUMNS[:4], "float"))
+    kinds.update(dict.fromkeys(COLLISION_COLUMNS, "float"))
     kinds["ego_stationary"] = "bool"
     if per_actor:
         columns, rows = list(ACTOR_COLUMNS), actor_rows(store.iter_runs(campaign))

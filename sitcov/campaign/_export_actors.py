@@ -3,8 +3,8 @@
 A run's top-level ``min_distance`` / ``min_ttc`` / ``pet`` belong to its primary actor
 (``ov``, the intersection situation's road user), also when the ego hit someone else. The
 per-actor values are in ``outcome.metrics["actors"]`` (name -> kind, route, behaviour,
-conflict_type, min_distance [m], min_ttc [s], pet [s], collided). This module turns them
-into
+conflict_type, min_distance [m], min_ttc [s], pet [s], max_drac [m/s^2], collided). This
+module turns them into
 
 - run columns (:data:`RUN_COLUMNS`): the closest actor's and the hit actor's name, kind,
   min distance, min TTC and PET (``hit_kind`` stays where exports always had it);
@@ -51,12 +51,13 @@ ACTOR_COLUMNS = (
     "min_distance",
     "min_ttc",
     "pet",
+    "max_drac",
     "collided",
     "closest",
 )
 #: Float columns of both tables (Parquet types), in metres or seconds.
 FLOAT_COLUMNS = frozenset(
-    c for c in (*RUN_COLUMNS, *ACTOR_COLUMNS) if c.endswith(("distance", "ttc", "pet"))
+    c for c in (*RUN_COLUMNS, *ACTOR_COLUMNS) if c.endswith(("distance", "ttc", "pet", "drac"))
 )
 #: Boolean columns of the actor table.
 BOOL_COLUMNS = frozenset({"collided", "closest"})
@@ -86,6 +87,7 @@ def run_actors(run: RunRecord, values: Mapping[str, Any]) -> dict[str, dict[str,
             "min_distance": outcome.min_distance,
             "min_ttc": outcome.min_ttc,
             "pet": outcome.pet,
+            "max_drac": outcome.metrics.get("max_drac"),
             "collided": bool(outcome.collision),
         }
     }
@@ -161,6 +163,7 @@ def actor_rows(runs: Iterator[RunRecord]) -> Iterator[dict[str, Any]]:
                 "min_distance": _number(info.get("min_distance")),
                 "min_ttc": _number(info.get("min_ttc")),
                 "pet": _number(info.get("pet")),
+                "max_drac": _number(info.get("max_drac")),
                 "collided": bool(info.get("collided")) or name == hit,
                 "closest": name == closest,
             }

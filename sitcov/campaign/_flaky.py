@@ -14,7 +14,6 @@ database counts every run (a repeat is a run, with its own verdict).
 
 from __future__ import annotations
 
-import datetime as _dt
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -35,27 +34,14 @@ def repeat_seed(seed: int, repeat: int) -> int:
 
 def _plan_repeat(store: Any, base: Any, config: Any, repeat: int) -> None:
     """Create campaign ``config`` as the base's situations with repeat seeds."""
-    from sitcov._version import __version__
-    from sitcov.campaign._store import CampaignInfo, PlannedRun
-    from sitcov.sim import WORLD_MODEL_VERSION
+    from sitcov.campaign._derived import create_derived_campaign
+    from sitcov.campaign._store import PlannedRun
 
     planned = [
         PlannedRun(r.index, r.situation, repeat_seed(r.seed, repeat))
         for r in store.iter_runs(base.name)
     ]
-    info = CampaignInfo(
-        name=config.name,
-        config=config.model_dump(mode="json"),
-        hyperspace=base.hyperspace,
-        sitcov_version=__version__,
-        created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        generator=config.generator,
-        generator_state=base.generator_state,
-        batch_start=base.batch_start,
-        tags=dict(config.tags),
-        world_version=WORLD_MODEL_VERSION,
-    )
-    store.create_campaign(info, planned)
+    create_derived_campaign(store, base, config, planned)
 
 
 def run_flakiness_experiment(

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
 import sqlite3
 import threading
@@ -63,6 +64,10 @@ OUTCOME_COLUMNS = (
     "aeb_time",
     "message",
 )
+#: Run facts kept in ``outcome.metrics`` and copied to columns of their own (schema 5, for
+#: SQL queries; readers decode the outcome): where the ego collided (map frame [m]), its
+#: heading then [rad], the kind of road user hit, the run's largest DRAC [m/s^2].
+METRIC_COLUMNS = ("collision_x", "collision_y", "collision_heading", "collision_kind", "max_drac")
 
 _V1 = """
 CREATE TABLE schema_version (version INTEGER NOT NULL);
@@ -149,9 +154,33 @@ def _v4_strict_json(db: Any, location: str) -> None:
             db.executemany(f"UPDATE {table} SET {column} = ? WHERE rowid = ?", fixed)
 
 
+def _v5_collision_and_drac(db: Any, location: str) -> None:
+    """Version 5: columns for the collision location (x, y [m], the ego's heading [rad],
+    the kind of road user hit) and the run's largest DRAC [m/s^2] (:data:`METRIC_COLUMNS`).
+    Filled from what older runs stored: ``collision_kind`` from the outcome's metrics (the
+    paper's two-car runs hit the car), the point from a stored trace (the midpoint of the
+    two centres, what traces held then); the rest stays NULL (not recorded then).
+
+    A function, not SQL, so that a read-only version-4 file is read as it is: readers
+    decode the outcome JSON and never select these columns."""
+    have = {row[1] for row in db.execute("PRAGMA table_info(runs)").fetchall()}
+    for column, kind in zip(METRIC_COLUMNS, ("REAL", "REAL", "REAL", "TEXT", "REAL"), strict=True):
+        if column not in have:  # a file whose version was set back by hand may have them
+            db.execute(f"ALTER TABLE runs ADD COLUMN {column} {kind}")
+    db.execute(
+        "UPDATE runs SET "
+        "collision_kind = coalesce(json_extract(outcome, '$.metrics.collision_kind'), "
+        "  CASE WHEN collision THEN 'car' END), "
+        "collision_x = json_extract(trace, '$.meta.collision_point[0]'), "
+        "collision_y = json_extract(trace, '$.meta.collision_point[1]') "
+        "WHERE collision"
+    )
+
+
 #: ``MIGRATIONS[i]`` takes a version-``i`` file to version ``i + 1``: SQL statements, or a
-#: function of (connection, location) for what SQL cannot express.
-MIGRATIONS: tuple[Any, ...] = (_V1, _V2, _V3, _v4_strict_json)
+#: function of (connection, location) for what SQL cannot express or what a reader of a
+#: read-only file can do without (data repairs, columns readers never select).
+MIGRATIONS: tuple[Any, ...] = (_V1, _V2, _V3, _v4_strict_json, _v5_collision_and_drac)
 #: The schema version this sitcov writes.
 SCHEMA_VERSION = len(MIGRATIONS)
 
@@ -261,7 +290,7 @@ class SQLiteStore(Store):
             and 0 < version < SCHEMA_VERSION
             and all(callable(step) for step in MIGRATIONS[version:])
         ):
-            return  # only data repairs are missing: a read-only file is read as it is
+            return  # only data repairs or unread columns are missing: read as it is
         self._db.execute("BEGIN IMMEDIATE")
         try:
             version = self.schema_version()
@@ -489,11 +518,11 @@ class SQLiteStore(Store):
     def record_result(self, name: str, index: int, outcome: Outcome, wall_time: float) -> None:
         data = outcome.to_dict()
         trace = outcome.trace
-        values = [data[c] for c in OUTCOME_COLUMNS]
+        values = [data[c] for c in OUTCOME_COLUMNS] + _metric_columns(data["metrics"])
         with self._transaction():
             cur = self._db.execute(
                 "UPDATE runs SET status = ?, "
-                + ", ".join(f"{c} = ?" for c in OUTCOME_COLUMNS)
+                + ", ".join(f"{c} = ?" for c in (*OUTCOME_COLUMNS, *METRIC_COLUMNS))
                 + ", failure_kind = ?, outcome = ?, wall_time = ?, trace = ?"
                 " WHERE campaign = ? AND idx = ?",
                 (
@@ -738,6 +767,27 @@ def _typed(value: Any, types: type | tuple[type, ...]) -> None:
     """Raise TypeError (reported as damage by :func:`_decoding`) for a mistyped cell."""
     if not isinstance(value, types):
         raise TypeError(f"a stored cell holds {type(value).__name__} {value!r:.40}")
+
+
+def _metric_columns(metrics: Mapping[str, Any]) -> list[Any]:
+    """The :data:`METRIC_COLUMNS` values of an outcome's metrics (None where absent or not
+    a number: a column holds what SQL can compare)."""
+    point = metrics.get("collision_point")
+    xy = point if isinstance(point, list | tuple) and len(point) == 2 else (None, None)
+    kind = metrics.get("collision_kind")
+    return [
+        *(_real(v) for v in xy),
+        _real(metrics.get("collision_heading")),
+        kind if isinstance(kind, str) else None,
+        _real(metrics.get("max_drac")),
+    ]
+
+
+def _real(value: Any) -> float | None:
+    """A finite number as a float, anything else None."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    return float(value) if math.isfinite(value) else None
 
 
 def _trace_dict(trace: Trace) -> dict[str, Any]:

@@ -391,15 +391,135 @@ def _view_kernel() -> Any:
     if _VIEW_FN is None:
         import numpy as np
 
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0])  # fmt: skip
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit,
                    fill_of)  # fmt: skip
         _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
-        _VIEW_FN = _VIEW_FN or _pem_view
+        _VIEW_FN = typed_entry(_VIEW_FN) or _pem_view
     return _VIEW_FN
+
+
+#: Layout of the constants array of :func:`_pem_frame` (:meth:`PEMSensor._frame_constants`):
+#: the AR(1) coefficient per frame and the run and frame shares of the noise (the car
+#: PEM's, as ``PEMSensor._noise`` takes them), then the actor class's noise sigma, rain
+#: sigma, upper-spread ratio, detection gate (gain, AR weight, bias), score floor, box
+#: jitter and rain jitter, the scene's rain noise and the image's width and height.
+_F_PHI, _F_SHARE, _F_FRESH, _F_SIGMA, _F_RAIN_SIGMA, _F_UP, _F_GAIN, _F_AR, _F_BIAS = range(9)
+_F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(9, 15)
+#: Most normals :func:`_pem_frame` takes for one actor and frame.
+FRAME_NORMALS = 9
+
+
+def _pem_frame(
+    q: Any,
+    c: Any,
+    track: Any,
+    normals: Any,
+    at: int,
+    frame: float,
+    ex: float,
+    ey: float,
+    eyaw: float,
+    ax: float,
+    ay: float,
+    ayaw: float,
+) -> tuple[int, int, float, float, float, float, float]:
+    """One actor in one frame of :meth:`PEMSensor.detect_prepared` when its class has no
+    rain miss (``rain_miss`` 0 or a dry scene): :func:`_pem_view`, the noise
+    (``PEMSensor._noise``: the same draws in the same order), the score, the detection
+    gate, the floor and the box jitter, with the same operations in the same order (the
+    builtins ``min``/``max`` written out as they decide). ``(code, next normal, x0, y0,
+    x1, y1, score)``: code 0 not in view (nothing drawn), 1 not detected, 2 detected.
+
+    ``q``: :func:`_pem_view`'s array; ``c``: the constants (layout above); ``track``:
+    the actor's noise state ``[offset, u, m, frame, known]`` (``known`` 0: a new track;
+    updated in place); ``normals``: standard normals of the run from index ``at`` on (at
+    least :data:`FRAME_NORMALS`); ``frame``: this frame's number.
+    """
+    seen, x0, y0, x1, y1, z = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
+    if not seen:
+        return 0, at, 0.0, 0.0, 0.0, 0.0, 0.0
+    if track[4] == 0.0:
+        track[0], track[1], track[2] = normals[at], normals[at + 1], normals[at + 2]
+        track[3], track[4] = frame, 1.0
+        at += 3
+    else:
+        e_u, e_m = normals[at], normals[at + 1]
+        at += 2
+        phi = c[_F_PHI] ** (frame - track[3])
+        keep = 1.0 - phi * phi
+        keep = math.sqrt(keep if keep > 0.0 else 0.0)
+        track[1] = phi * track[1] + keep * e_u
+        track[2] = phi * track[2] + keep * e_m
+        track[3] = frame
+    share, fresh = c[_F_SHARE], c[_F_FRESH]
+    if fresh > 0.0:
+        e = normals[at]
+        at += 1
+        ar = 1.0 - share - fresh
+        ar = ar if ar > 0.0 else 0.0
+        n = math.sqrt(share) * track[0] + math.sqrt(ar) * track[1] + math.sqrt(fresh) * e
+    else:
+        n = math.sqrt(share) * track[0] + math.sqrt(1.0 - share) * track[1]
+    rain = c[_F_RAIN_NOISE]
+    sig = c[_F_SIGMA] + c[_F_RAIN_SIGMA] * rain
+    if n > 0.0 and c[_F_UP] != 1.0:
+        sig *= c[_F_UP]
+    score = _sigmoid(z + sig * n)
+    if c[_F_GAIN] != 0.0 or c[_F_AR] != 0.0 or c[_F_BIAS] < DETECT_ALWAYS:
+        e = normals[at]
+        at += 1
+        if c[_F_BIAS] + c[_F_GAIN] * z + c[_F_AR] * track[1] + e < 0:
+            return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
+    if score < c[_F_FLOOR]:
+        return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
+    n1, n2, n3, n4 = normals[at], normals[at + 1], normals[at + 2], normals[at + 3]
+    at += 4
+    w, h = c[_F_WIDTH], c[_F_HEIGHT]
+    jit = c[_F_JITTER] + c[_F_RAIN_JITTER] * rain
+    sx, sy = jit * (x1 - x0), jit * (y1 - y0)
+    v = x0 + sx * n1
+    v = 0.0 if v < 0.0 else v
+    x0 = w if w < v else v
+    v = x1 + sx * n3
+    v = 0.0 if v < 0.0 else v
+    x1 = w if w < v else v
+    v = y0 + sy * n2
+    v = 0.0 if v < 0.0 else v
+    y0 = h if h < v else v
+    v = y1 + sy * n4
+    v = 0.0 if v < 0.0 else v
+    y1 = h if h < v else v
+    if x1 <= x0 or y1 <= y0:
+        return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
+    return 2, at, x0, y0, x1, y1, score
+
+
+_FRAME_FN: Any = None
+
+
+def _frame_kernel() -> Any:
+    """:func:`_pem_frame` compiled by numba when it is installed, else None (the sensor
+    then runs its Python loop: :func:`_pem_frame` serves only the compiled path)."""
+    global _FRAME_FN
+    if _FRAME_FN is None:
+        import numpy as np
+
+        from sitcov._jit import compiled, typed_entry
+
+        q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1])  # fmt: skip
+        c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
+        c = np.append(c, [800.0, 450.0])
+        track, normals = np.zeros(5), np.zeros(FRAME_NORMALS)
+        helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
+        helpers += (_pem_view, _sigmoid)
+        example = (q, c, track, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
+        _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
+    return _FRAME_FN
 
 
 class NormalStream:
@@ -416,15 +536,18 @@ class NormalStream:
     checks that no other draw follows the sensor's first).
     """
 
-    __slots__ = ("rng", "block", "_buffer", "_at")
+    __slots__ = ("rng", "block", "_buffer", "_at", "_array")
 
     def __init__(self, rng: np.random.Generator, block: int = 0) -> None:
         self.rng, self.block = rng, int(block)
         self._buffer: list[float] = []
         self._at = 0
+        self._array: Any = None  # the buffer as a float array once ahead() is used
 
     def take(self, n: int) -> list[float]:
         """The next ``n`` standard normals of the generator."""
+        if self._array is not None:  # the array holds the buffer (ahead): back to a list
+            self._buffer, self._array = self._array.tolist(), None
         at, end = self._at, self._at + n
         if end > len(self._buffer):
             if not self.block:
@@ -434,6 +557,28 @@ class NormalStream:
             at, end = 0, n
         self._at = end
         return self._buffer[at:end]
+
+    def ahead(self, n: int) -> tuple[Any, int]:
+        """The buffer as a float array and where the next normal is, with at least ``n``
+        normals from there (drawn ahead in blocks: only for ``block`` > 0); the caller
+        takes what it uses and says how far it got with :meth:`advance`. The same
+        values :meth:`take` gives, in the same order. From then on the array holds the
+        buffer (until :meth:`take`)."""
+        import numpy as np
+
+        array = self._array
+        if array is None:
+            array = self._array = np.array(self._buffer, dtype=np.float64)
+        at = self._at
+        if at + n > len(array):
+            fresh = self.rng.standard_normal(max(self.block, n))
+            array = self._array = np.concatenate((array[at:], fresh))
+            at = self._at = 0
+        return array, at
+
+    def advance(self, at: int) -> None:
+        """The next normal is at ``at`` of the buffer (after :meth:`ahead`)."""
+        self._at = at
 
 
 class PEMSensor(Sensor):
@@ -474,6 +619,10 @@ class PEMSensor(Sensor):
         self._rng: Any = None
         self._normals: NormalStream | None = None
         self._tracks: dict[int, _Track] = {}
+        #: the compiled frame's noise state per actor (``_pem_frame``'s ``track``) and
+        #: the run its constants are for (``detect_prepared``)
+        self._ftracks: dict[int, Any] = {}
+        self._fstate: tuple[Any, ...] | None = None
         self._frame = 0
         self._classes_file = classes if not isinstance(classes, Mapping) else None
         self._classes: dict[str, tuple[str, PEMParams]] | None = (
@@ -491,6 +640,7 @@ class PEMSensor(Sensor):
         self._rng = None
         self._normals = None
         self._tracks = {}
+        self._ftracks = {}
         self._frame = 0
 
     def features(self, ego: Pose, actor: ActorView, conditions: Conditions) -> PEMFeatures | None:
@@ -644,6 +794,71 @@ class PEMSensor(Sensor):
         seen = [(self._view_array(views, a, conditions), a.pose) for a in actors]
         return self.detect_prepared(ego.x, ego.y, ego.yaw, seen, conditions, rng)
 
+    def _frame_ready(self, conditions: Conditions) -> bool:
+        """Whether :func:`_pem_frame` serves this run: the prepared arrays are float arrays
+        (the view kernel is compiled) and no class drops frames in this scene's rain (it
+        has no rain miss or the scene no rain: the miss test stays in Python). Decided once
+        per run (``detect_prepared``'s ``_fstate``)."""
+        rain = conditions.rain_noise
+        misses = [self.params.rain_miss]
+        if rain > 0.0:
+            self._class_params("pedestrian")  # loads every class
+            misses += [p.rain_miss for _, p in (self._classes or {}).values()]
+        compiled_view = (_VIEW_FN or _view_kernel()) is not _pem_view
+        return compiled_view and (rain == 0.0 or all(m == 0.0 for m in misses))
+
+    def _frame_constants(self, p: PEMParams, conditions: Conditions) -> Any:
+        """:func:`_pem_frame`'s constants for an actor class with parameters ``p``."""
+        import numpy as np
+
+        car = self.params
+        values = [
+            self._phi(), car.noise_run_share, car.noise_frame_share, p.noise_sigma,
+            p.rain_sigma, p.noise_up_ratio, p.detect_gain, p.detect_ar, p.detect_bias,
+            p.floor, p.jitter, p.rain_jitter, conditions.rain_noise,
+            float(self.camera.width), float(self.camera.height),
+        ]  # fmt: skip
+        return np.array(values, dtype=np.float64)
+
+    def _detect_compiled(
+        self,
+        frame_fn: Any,
+        ex: float,
+        ey: float,
+        eyaw: float,
+        actors: Sequence[tuple[Any, Any]],
+        conditions: Conditions,
+        constants: dict[int, tuple[PEMParams, Any]],
+    ) -> tuple[Detection, ...]:
+        """:meth:`detect_prepared`'s loop, each actor in one :func:`_pem_frame` call (the
+        same draws and values as the Python loop; normals drawn ahead in blocks).
+        ``constants``: this run's ``id(class parameters) -> (them, their constants)``."""
+        import numpy as np
+
+        normals = self._normals
+        tracks = self._ftracks
+        frame = float(self._frame)
+        out = []
+        for key, ((q, p, label), pose) in enumerate(actors):
+            held = constants.get(id(p))
+            if held is None:  # holds p: no id reuse while cached
+                held = constants[id(p)] = (p, self._frame_constants(p, conditions))
+            c = held[1]
+            track = tracks.get(key)
+            if track is None:
+                track = tracks[key] = np.zeros(5)
+            at, buf = normals._at, normals._array  # normals.ahead, written out
+            if buf is None or at + FRAME_NORMALS > len(buf):
+                buf, at = normals.ahead(FRAME_NORMALS)
+            code, at, x0, y0, x1, y1, score = frame_fn(
+                q, c, track, buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
+            )
+            if code:
+                normals._at = at  # normals.advance(at)
+                if code == 2:
+                    out.append(Detection((x0, y0, x1, y1), score, label))
+        return tuple(out)
+
     def detect_prepared(
         self,
         ex: float,
@@ -665,6 +880,20 @@ class PEMSensor(Sensor):
         normals: Any = self._normals
         self._frame += 1
         camera = self.camera
+        frame_fn = _FRAME_FN if _FRAME_FN is not None else _frame_kernel()
+        if frame_fn and normals.block:
+            fs = self._fstate  # this run's: (conditions, camera, params, frame_dt, ready, c)
+            if (
+                fs is None
+                or fs[0] is not conditions
+                or fs[1] is not camera
+                or fs[2] is not self.params
+                or fs[3] != self.frame_dt
+            ):
+                ready = self._frame_ready(conditions)
+                fs = self._fstate = (conditions, camera, self.params, self.frame_dt, ready, {})
+            if fs[4]:
+                return self._detect_compiled(frame_fn, ex, ey, eyaw, actors, conditions, fs[5])
         w, h = float(camera.width), float(camera.height)
         view = _VIEW_FN or _view_kernel()
         rain = conditions.rain_noise

@@ -1,4 +1,6 @@
-"""Animations of a recorded run: top-down view of every actor, the ego's speed over time.
+"""Animations of a recorded run: top-down view of every actor, the ego's speed over time,
+and for runs of camera-mode campaigns a dash-cam strip under them: the ego's camera view
+at each frame with the detector's boxes (:mod:`sitcov.report._dashcam`).
 
 One simulation at most: the stored trace is used when the run has one, else the run is
 simulated once again with ``record=True`` from its stored situation, seed and campaign
@@ -90,6 +92,7 @@ def animate_outcome(
     fps: int = FPS,
     max_frames: int = MAX_FRAMES,
     dpi: int = 72,
+    dashcam: Any = None,
 ) -> Path:
     """Write the animation of a run recorded with ``record=True``.
 
@@ -98,6 +101,8 @@ def animate_outcome(
         path: ``.gif``, ``.html`` or ``.mp4``.
         title: the heading (e.g. ``campaign:index``).
         fps, max_frames, dpi: frame rate, most frames, resolution.
+        dashcam: a :class:`~sitcov.report._dashcam.DashCam` of the run (camera mode): its
+            view is drawn under the top-down one in every frame; None: no strip.
 
     Raises:
         ConfigError: no trace, an unknown format, or ``.mp4`` without ffmpeg.
@@ -121,7 +126,9 @@ def animate_outcome(
             value=str(out),
             expected="ffmpeg on PATH for .mp4 (or write .gif / .html)",
         )
-    frames = render_frames(outcome, title=title, fps=fps, max_frames=max_frames, dpi=dpi)
+    frames = render_frames(
+        outcome, title=title, fps=fps, max_frames=max_frames, dpi=dpi, dashcam=dashcam
+    )
     out.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".gif":
         _write_gif(frames, out, fps)
@@ -139,16 +146,18 @@ def render_frames(
     fps: int = FPS,
     max_frames: int = MAX_FRAMES,
     dpi: int = 72,
+    dashcam: Any = None,
 ) -> list[Any]:
     """The animation's frames as RGB arrays (height x width x 3, uint8).
 
     The static parts (map, axes, curves, legends) are drawn once and restored for every
-    frame; only the moving artists are drawn again (blitting), so a frame costs a few ms.
+    frame; only the moving artists are drawn again (blitting), so a frame costs a few ms
+    (plus the dash-cam frame's rendering with ``dashcam``, see :func:`animate_outcome`).
     """
     import matplotlib.pyplot as plt
     import numpy as np
 
-    fig, update, steps, moving = _figure(outcome, title, fps, max_frames, dpi)
+    fig, update, steps, moving = _figure(outcome, title, fps, max_frames, dpi, dashcam)
     try:
         for artist in moving:
             artist.set_animated(True)
@@ -272,9 +281,13 @@ def html_player(frames: list[Any], fps: int, *, title: str = "", uid: str = "run
     )
 
 
-def _figure(outcome: Outcome, title: str, fps: int, max_frames: int, dpi: int) -> tuple:
-    """The figure, its per-frame update function and the frame indices."""
+def _figure(
+    outcome: Outcome, title: str, fps: int, max_frames: int, dpi: int, dashcam: Any = None
+) -> tuple:
+    """The figure, its per-frame update function and the frame indices (and, with
+    ``dashcam``, a row below with the ego's camera view)."""
     import matplotlib.pyplot as plt
+    import numpy as np
     from matplotlib.patches import Polygon
 
     from sitcov.sim.embedded import load_map
@@ -284,10 +297,26 @@ def _figure(outcome: Outcome, title: str, fps: int, max_frames: int, dpi: int) -
     meta = trace.meta or {}
     times = [row[0] for row in trace.ego]
     steps = _frame_steps(times, fps, max_frames)
-    fig = plt.figure(figsize=(9.6, 5.4), dpi=dpi)
-    grid = fig.add_gridspec(2, 2, width_ratios=[1.25, 1])
-    ax = fig.add_subplot(grid[:, 0])
+    if dashcam is None:
+        fig = plt.figure(figsize=(9.6, 5.4), dpi=dpi)
+        grid = fig.add_gridspec(2, 2, width_ratios=[1.25, 1])
+    else:
+        fig = plt.figure(figsize=(9.6, 9.0), dpi=dpi)
+        grid = fig.add_gridspec(3, 2, width_ratios=[1.25, 1], height_ratios=[1, 1, 1.55])
+    ax = fig.add_subplot(grid[:2, 0])
     ax_speed, ax_gap = fig.add_subplot(grid[0, 1]), fig.add_subplot(grid[1, 1])
+    camera_image = None
+    if dashcam is not None:
+        ax_cam = fig.add_subplot(grid[2, :])
+        camera_image = ax_cam.imshow(np.zeros((*dashcam.shape, 3), dtype=np.uint8))
+        ax_cam.set_xticks([])
+        ax_cam.set_yticks([])
+        ax_cam.grid(False)
+        ax_cam.set_title(
+            "ego dash-cam (camera perception)"
+            + (": detector boxes" if dashcam.detector is not None else ""),
+            fontsize=9,
+        )
     limits = view_limits(trace)
     _background(ax, load_map(str(meta.get("map", "t-junction"))), limits, draw_map)
     ax.tick_params(labelsize=7)
@@ -357,9 +386,12 @@ def _figure(outcome: Outcome, title: str, fps: int, max_frames: int, dpi: int) -
         elif i == len(times) - 1:
             words.append(f"end: {outcome.end_reason}")
         status.set_text("   ".join(words))
+        if camera_image is not None:
+            camera_image.set_data(dashcam.frame(i))
         return [*patches, *trails, *cursors, status, crash]
 
-    return fig, update, steps, [*trails, *patches, crash, *cursors, status]
+    moving = [*trails, *patches, crash, *cursors, status]
+    return fig, update, steps, moving + ([camera_image] if camera_image is not None else [])
 
 
 def _background(ax: Any, jmap: Any, limits: Any, draw_map: Any) -> None:
@@ -452,7 +484,29 @@ def animate_run(db: str | Path, run_id: str, out: str | Path, **options: Any) ->
     title = f"{campaign}:{index}  {run.status} ({outcome.kind.replace('_', ' ')})  " + ", ".join(
         f"{k}={v}" for k, v in run.bins.items()
     )
-    return animate_outcome(outcome, out, title=_wrap(title), **options)
+    values = run.situation.to_dict()["values"]
+    dashcam = run_dashcam(run.config, values, run.seed, outcome, boxes=True)
+    try:
+        return animate_outcome(outcome, out, title=_wrap(title), dashcam=dashcam, **options)
+    finally:
+        if dashcam is not None:
+            dashcam.close()
+
+
+def run_dashcam(
+    config: Any, values: dict[str, Any], seed: int, outcome: Outcome, *, boxes: bool
+) -> Any:
+    """The run's :class:`~sitcov.report._dashcam.DashCam` when its campaign (stored
+    ``config``) ran with camera perception on the embedded backend, else None (PEM runs
+    have no camera frames). ``values``: the run's situation values; ``seed``: its seed."""
+    from sitcov.report._dashcam import DashCam, camera_mode
+
+    config = dict(config or {})
+    if config.get("backend", "embedded") != "embedded" or not camera_mode(config):
+        return None
+    if outcome.trace is None or not outcome.trace.ego:
+        return None
+    return DashCam(outcome, values, seed, boxes=boxes)
 
 
 def _wrap(text: str, width: int = 110) -> str:

@@ -205,17 +205,33 @@ def ranked_bins_figure(title: str, rows: Sequence[Mapping[str, Any]], note: str 
 
 
 def histograms_figure(
-    series: Mapping[str, Mapping[str, Sequence[float]]], caps: Mapping[str, float]
+    series: Mapping[str, Mapping[str, Sequence[float]]],
+    caps: Mapping[str, float],
+    marks: Mapping[str, tuple[float, str]] | None = None,
 ) -> Any:
     """One histogram per measure, passing and failing runs overlaid (counts), values above
-    a measure's cap gathered in its last bin (labelled ``>= cap``)."""
+    a measure's cap gathered in its last bin (labelled ``>= cap``); two per row from four
+    measures on (each stays wide enough to read); ``marks``: measure -> (value, label) of
+    a dashed vertical line (a threshold)."""
     plt = _plt()
     import numpy as np
 
     n = max(1, len(series))
-    fig, axes = plt.subplots(1, n, figsize=(WIDTH, 3.0))
-    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.2, top=0.86, wspace=0.28)
-    axes = list(np.atleast_1d(axes))
+    cols = n if n <= 3 else 2
+    rows = -(-n // cols)
+    height = 3.0 * rows + 0.3
+    fig, axes = plt.subplots(rows, cols, figsize=(WIDTH, height), squeeze=False)
+    fig.subplots_adjust(
+        left=0.07,
+        right=0.98,
+        bottom=0.6 / height,
+        top=1 - 0.45 / height,
+        wspace=0.28 if cols > 2 else 0.2,
+        hspace=0.9 / 3.0,
+    )
+    axes = list(axes.flat)
+    for ax in axes[n:]:
+        ax.set_visible(False)
     for ax, (label, by_status) in zip(axes, series.items(), strict=False):
         cap = caps[label]
         edges = np.linspace(0.0, cap, 21)
@@ -229,10 +245,17 @@ def histograms_figure(
                 alpha=0.6 if i else 0.75,
                 label=f"{status} ({len(values)})",
             )
+        if marks and label in marks:
+            value, text = marks[label]
+            ax.axvline(value, color="black", ls="--", lw=1, label=text)
         ax.set_xlabel(f"{label} (last bin: >= {cap:g})")
         ax.set_ylabel("runs")
-        ax.legend(fontsize=8)
-    fig.suptitle("Criticality of every judged run (smallest over its road users)", fontsize=10)
+        # the tall bars sit at either end (TTC near 0, DRAC in its last bin): a framed
+        # legend where it covers least stays readable over a bar; with a threshold mark
+        # (DRAC: tall bars at both ends) between the ends
+        where = "upper center" if marks and label in marks else "best"
+        ax.legend(fontsize=8, loc=where, frameon=True, framealpha=0.85, edgecolor="none")
+    fig.suptitle("Criticality of every judged run (most critical over its road users)", fontsize=10)
     return fig
 
 

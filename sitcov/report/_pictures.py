@@ -105,7 +105,9 @@ def failure_pictures(
                 detail.append(f"re-simulation gave {outcome.status}, stored {run.status}")
             pictures.append(
                 {
-                    "gif": _animation(outcome, ref) if animate else None,
+                    "gif": _animation(outcome, ref, _dashcam(store, run, outcome))
+                    if animate
+                    else None,
                     "png": base64.b64encode(data).decode("ascii"),
                     "run": ref,
                     "bins": ", ".join(f"{k}={v}" for k, v in run.bins.items()),
@@ -143,13 +145,32 @@ def _what_happened(outcome: Any) -> str:
 REPORT_FPS, REPORT_FRAMES, REPORT_DPI = 5, 60, 60
 
 
-def _animation(outcome: Any, ref: str) -> str | None:
-    """A small GIF of the run, base64 (None when the run has no trace to animate)."""
+def _dashcam(store: Any, run: Any, outcome: Any) -> Any:
+    """The dash-cam strip of a run of a camera-mode campaign (no detector boxes: running the
+    detector on every frame would cost most of the animation), else None."""
+    from sitcov.report._animate import run_dashcam
+    from sitcov.report._dashcam import camera_mode
+
+    if not camera_mode(dict(run.config or {})):
+        return None
+    stored = store.get_run(run.campaign, run.index, with_trace=False)
+    values = stored.situation.to_dict()["values"]
+    return run_dashcam(run.config, values, run.seed, outcome, boxes=False)
+
+
+def _animation(outcome: Any, ref: str, dashcam: Any = None) -> str | None:
+    """A small GIF of the run, base64 (None when the run has no trace to animate), with
+    ``dashcam``'s strip when given."""
     from sitcov.report._animate import gif_bytes, render_frames
 
     if outcome.trace is None or not outcome.trace.ego:
         return None
     frames = render_frames(
-        outcome, title=ref, fps=REPORT_FPS, max_frames=REPORT_FRAMES, dpi=REPORT_DPI
+        outcome,
+        title=ref,
+        fps=REPORT_FPS,
+        max_frames=REPORT_FRAMES,
+        dpi=REPORT_DPI,
+        dashcam=dashcam,
     )
     return base64.b64encode(gif_bytes(frames, REPORT_FPS)).decode("ascii")

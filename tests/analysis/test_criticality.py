@@ -68,3 +68,34 @@ def test_recorded_embedded_runs_give_drac_exactly_when_they_give_a_ttc():
             closing += 1
             assert value > 0 and math.isfinite(value)
     assert closing >= 5
+
+
+def test_the_run_fact_max_drac_is_max_drac_of_the_trace(monkeypatch):
+    """The monitor's ``max_drac`` (every step, in the proximity kernel) is :func:`max_drac`
+    of the recorded rows: the same definition. A trace row's (yaw, speed) is the heading of
+    the body, whose velocity also has a sideways part (slip), so the rows are recorded here
+    with the velocity's own direction and size; then the two agree to rounding."""
+    import numpy as np
+
+    from sitcov.av import make_stack
+    from sitcov.generation import make_generator
+    from sitcov.sim.embedded import EmbeddedBackend
+    from sitcov.sim.embedded._actors import Actor
+
+    def record(self, t):
+        b = self.body
+        self.rows.append((t, b.x, b.y, b.yaw + math.atan2(b.vy, b.vx), math.hypot(b.vx, b.vy)))
+
+    monkeypatch.setattr(Actor, "record", record)
+    gen, backend = make_generator("random"), EmbeddedBackend()
+    compared = 0
+    for seed in range(12):
+        situation = gen.ask(np.random.default_rng(seed))
+        outcome = backend.run(situation, make_stack("reference"), seed, record=True)
+        fact = outcome.metrics["max_drac"]
+        traced = max_drac(outcome.trace)
+        assert (fact is None) == (traced is None), (seed, fact, traced)
+        if fact is not None:
+            compared += 1
+            assert fact == pytest.approx(traced, rel=1e-9), seed
+    assert compared >= 5

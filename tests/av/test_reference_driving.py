@@ -141,3 +141,21 @@ def test_route_step_gives_the_pid_classes_bits(window):
     want = _reference_drive(route, stack.params, steps)
     assert [repr((c.throttle, c.brake, c.steer)) for c in got] == [repr(w) for w in want]
     assert want[-1] == (0.0, 1.0, 0.0)  # the route was consumed
+
+
+def test_route_state_is_a_fresh_copy_for_every_run() -> None:
+    """The route step's array is made once per route object and copied for each run: a run
+    that steps it (in place) leaves the next run's fresh, equal to one made anew."""
+    from sitcov.av import _reference
+
+    route = tuple((float(k), 0.5 * k) for k in range(40))
+    gains = (3.0, 0.5, 25.0, 0.15, 0.05, 0.07, 0.58, 0.02, 0.5, 0.05, 4.0, 0.75, 0.3, 0.8, 0.1)
+    first = _reference.route_state(gains, route)
+    fresh = list(first)
+    (_reference._STEP or _reference._step_kernel())(first, 3.0, 1.0, 0.4, 2.0)
+    assert list(first) != fresh  # the step changed its state in place
+    second = _reference.route_state(gains, route)
+    assert second is not first and list(second) == fresh
+    assert list(second) == list(_reference._route_state(gains, route))
+    other = _reference.route_state(gains, tuple(route[:20]))
+    assert len(other) != len(second)  # another route: its own array

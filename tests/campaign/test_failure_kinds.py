@@ -263,7 +263,7 @@ def test_old_database_migrates_failed_runs_to_collisions(old_db):
     with sqlite3.connect(old_db) as db:
         old = dict(db.execute("SELECT idx, status FROM runs"))
     with open_store(old_db) as store:
-        assert store.schema_version() == SCHEMA_VERSION == 4
+        assert store.schema_version() == SCHEMA_VERSION == 5
         info = store.campaign("old")
         assert info.legacy and info.world_version is None
         kinds = {r.index: r.failure_kind for r in store.runs("old")}

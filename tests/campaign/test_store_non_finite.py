@@ -15,6 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from sitcov.campaign import CampaignInfo, PlannedRun, StoreError, _json, open_store
+from sitcov.campaign._sqlite import SCHEMA_VERSION
 from sitcov.campaign._summary import summarize_store
 from sitcov.generation import make_generator
 from sitcov.hyperspace import Situation, load_hyperspace
@@ -203,7 +204,7 @@ def test_an_old_file_with_bare_infinity_is_repaired_when_opened(tmp_path: Path) 
     db = tmp_path / "old.db"
     _old_file(db)
     store = open_store(db)
-    assert store.schema_version() == 4
+    assert store.schema_version() == SCHEMA_VERSION == 5
     assert store.get_run("c", 0).outcome.metrics["ego_gap_at_switch"] == math.inf
     assert summarize_store(store, "c")["runs"] == 3
     store.close()

@@ -100,3 +100,60 @@ def test_sitcov_animate_on_a_stored_run(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["animate", "default:9", "--db", str(db), "--out", str(tmp_path / "r.gif")])
     assert "error" in capsys.readouterr().err
+
+
+def _animated(tmp_path, capsys, perception: str):
+    """``sitcov animate`` of run 0 of a 1-run campaign with ``perception``: the GIF's first
+    and last frames (RGB arrays) and its frame count."""
+    from PIL import Image
+
+    db = tmp_path / f"{perception}.db"
+    store = open_store(db)
+    try:
+        config = CampaignConfig(
+            runs=1, seed=3, executor="serial", backend_options={"perception": perception}
+        )
+        run_campaign(config, store)
+    finally:
+        store.close()
+    out = tmp_path / f"{perception}.gif"
+    main(["animate", "default:0", "--db", str(db), "--out", str(out), "--fps", "2"])
+    assert "animation written" in capsys.readouterr().out
+    with Image.open(out) as im:
+        n = im.n_frames
+        first = np.asarray(im.convert("RGB")).copy()
+        im.seek(n - 1)
+        last = np.asarray(im.convert("RGB")).copy()
+    return first, last, n
+
+
+def test_a_camera_mode_run_has_a_dash_cam_strip_and_a_pem_run_none(tmp_path, capsys, ssd_model_dir):
+    """Camera mode: a strip under the top-down view that shows the camera's view (sky over
+    ground: varied pixels) and changes from frame to frame; PEM mode: the plain layout."""
+    pytest.importorskip("PIL")
+    from sitcov.report._dashcam import camera_mode
+
+    assert camera_mode({"backend_options": {"perception": "camera"}})
+    assert not camera_mode({"backend_options": {"perception": "pem"}}) and not camera_mode({})
+    pem_first, _, _ = _animated(tmp_path, capsys, "pem")
+    cam_first, cam_last, n = _animated(tmp_path, capsys, "camera")
+    assert pem_first.shape[1] == cam_first.shape[1]  # same width
+    assert cam_first.shape[0] > 1.5 * pem_first.shape[0]  # the strip below
+    strip = cam_first[pem_first.shape[0] + 30 :, :, :].astype(int)
+    assert strip.std() > 20  # an image, not a blank panel
+    assert n > 2 and (cam_last[pem_first.shape[0] :] != cam_first[pem_first.shape[0] :]).any()
+    # the report's animations (its runs are RunFacts, without values): the same strip
+    from sitcov.campaign._facts import iter_run_facts
+    from sitcov.report._pictures import _dashcam
+    from sitcov.report._traces import close_builders, traced_outcome
+
+    for perception in ("camera", "pem"):
+        builders: dict = {}
+        with open_store(tmp_path / f"{perception}.db") as store:
+            facts = next(iter_run_facts(store, "default"))
+            outcome = traced_outcome(store, facts, builders)
+            strip = _dashcam(store, facts, outcome)
+        close_builders(builders)
+        assert (strip is not None) == (perception == "camera")
+        if strip is not None:
+            assert strip.frame(0).shape == (*strip.shape, 3) and strip.detector is None

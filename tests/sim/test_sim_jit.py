@@ -4,14 +4,19 @@ from __future__ import annotations
 
 import bisect
 import functools
+import itertools
 import math
+import os
 import random
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from needs import need_module
 
-from sitcov._jit import _hypot_cr, compiled, enabled
+from sitcov._jit import _hypot_cr, compiled, enabled, typed_entry
 from sitcov.av import _reference
 from sitcov.av._pid import window_pid
 from sitcov.perception import _camera, _pem
@@ -210,7 +215,7 @@ def test_compiled_box_distance_is_bit_identical_to_python(monkeypatch) -> None:
 
 
 def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
-    """The proximity monitor's kernel (box distance and disc TTC of a pair) against the
+    """The proximity monitor's kernel (box distance, disc TTC and DRAC of a pair) against the
     Python code: overlapping, near and distant boxes, closing and receding velocities."""
     need_module("numba", "fast")
     monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
@@ -218,7 +223,7 @@ def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
     fast = _monitors.proximity_fn()
     assert fast is not _monitors.proximity  # numba compiled it
     rnd = random.Random(11)
-    ttcs = []
+    ttcs, dracs = [], []
     for a, b in _boxes(20000, 3):
         ev, av = (rnd.uniform(-2.0, 12.0), rnd.uniform(-0.5, 0.5)), (rnd.uniform(0, 8), 0.0)
         k = (a[3], a[4], b[3], b[4], rnd.uniform(1.0, 3.0))
@@ -227,7 +232,9 @@ def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
         want = _monitors.proximity(*args, k, near)
         assert repr(fast(*args, np.array(k), near)) == repr(want), (args, k, near)
         ttcs.append(want[1])
+        dracs.append(want[2])
     assert min(ttcs) == -1.0 and 0.0 in ttcs and max(ttcs) > 1.0  # none, touching, ahead
+    assert min(dracs) == -1.0 and max(dracs) > 1.0  # none (touching or apart), decelerating
 
 
 def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
@@ -453,3 +460,246 @@ def test_the_disk_cache_name_changes_with_any_helper(monkeypatch) -> None:
     assert one.py_func.__qualname__ == again.py_func.__qualname__
     assert one.py_func.__qualname__ != other.py_func.__qualname__
     assert one.py_func.__qualname__.startswith("_calls_helper_")
+
+
+def _twice(x: float, n: int) -> float:
+    return x * n
+
+
+def test_typed_entry_is_the_compiled_code_without_dispatch(monkeypatch) -> None:
+    """The entry point of the one compiled signature gives the dispatcher's results; a
+    kernel with no or several signatures stays the dispatcher; in check mode a call with
+    other types than the signature's raises TypeError (a float where an int was compiled
+    would be truncated silently)."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)
+    monkeypatch.delenv("SITCOV_JIT_CHECK", raising=False)
+    assert typed_entry(None) is None
+    fast = compiled(_twice, 1.5, 2)
+    entry = typed_entry(fast)
+    assert entry is not fast and type(entry).__name__ == "builtin_function_or_method"
+    assert repr(entry(0.1, 3)) == repr(fast(0.1, 3)) == repr(_twice(0.1, 3))
+    monkeypatch.setenv("SITCOV_JIT_CHECK", "1")
+    checked = typed_entry(fast)
+    assert checked(0.1, 3) == _twice(0.1, 3)
+    with pytest.raises(TypeError, match="_twice"):
+        checked(0.1, 2.5)
+    fast(0.1, 2.5)  # a second signature: the dispatcher must choose
+    assert typed_entry(fast) is fast
+    assert typed_entry(compiled(_twice)) is not None  # not called yet: no signature
+
+
+HERE = Path(__file__).parent
+
+
+@pytest.mark.slow
+def test_every_kernel_call_of_the_golden_runs_has_the_compiled_types() -> None:
+    """The hot loop calls the kernels' entry points without numba's type checks
+    (``typed_entry``): a process with ``SITCOV_JIT_CHECK=1`` checks every call's argument
+    types against the compiled signature while it runs the fast subsets of both golden
+    files (two cars; many actors, every controller, every shipped map), which must also
+    still land on the golden bits."""
+    need_module("numba", "fast")
+    env = {**os.environ, "SITCOV_JIT_CHECK": "1", "PYTHONPATH": str(HERE.parent.parent)}
+    env.pop("SITCOV_NO_JIT", None)
+    tests = [
+        f"{HERE / 'test_sim_world_golden.py'}::test_every_seventh_golden_run_is_reproduced_exactly",
+        f"{HERE / 'test_sim_world_actors_golden.py'}"
+        "::test_every_fifth_golden_multi_actor_run_is_reproduced_exactly",
+    ]
+    done = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", *tests],
+        cwd=HERE.parent.parent,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-2000:]
+    assert "2 passed" in done.stdout, done.stdout[-2000:]
+
+
+def _bits(values: tuple) -> list:
+    """Each float as its exact hex text (numpy and Python floats alike), ints as they are."""
+    return [float(v).hex() if isinstance(v, float | np.floating) else v for v in values]
+
+
+def test_compiled_timed_car_move_is_bit_identical_and_is_the_law_then_the_move(
+    monkeypatch,
+) -> None:
+    """The timed car's whole step (law, steering, then the body's move on its route) is
+    the compiled kernel's and the Python code's bit for bit, and is what ``_timed_car``
+    then ``Vehicle.step`` give: every phase, standing and moving cars, the watcher's say
+    (nothing moves), crosswind and low friction."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_controllers, "_TIMED_MOVE", None)  # load it now, compiled
+    fast = _controllers._timed_move_kernel()
+    assert fast is not _controllers._timed_car_move  # numba compiled it
+    path = _path.Path(tuple(float(k) for k in range(120)), tuple(0.01 * k * k for k in range(120)))
+    pts = (path.xs, path.ys, path.hs, path.ss)
+    arr = np.array(pts)
+    route = path.tracker().args[0]
+    rnd = random.Random(9)
+    moved = set()
+    for _ in range(5000):
+        vehicle = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+        p = vehicle.p
+        k = (3.0, rnd.uniform(10, 30), 4.17, 0.5, 0.5, 0.1, rnd.choice([0.0, 1.0]))
+        k += (rnd.choice([40.0, math.inf]), 45.0, 0.8, 4.0, p.lr, p.wheelbase, p.steer_max)
+        s = rnd.uniform(-5, 125)
+        x, y, _ = path.point_at(s)
+        speed = rnd.choice([0.0, 0.0, rnd.uniform(0.0, 0.2), rnd.uniform(0.0, 12.0)])
+        yaw = rnd.uniform(-4, 4)
+        vx, vy, r = speed, rnd.choice([0.0, rnd.uniform(-0.3, 0.3)]), rnd.choice([0.0, 0.1])
+        vx, vy, r = (0.0, 0.0, 0.0) if speed == 0.0 else (vx, vy, r)
+        law = (rnd.randint(0, 2), rnd.uniform(-5, 60), rnd.choice([0.0, speed, 5.0]))
+        hint = rnd.randint(0, 110)
+        mu, lat = rnd.choice([1.0, 0.1]), rnd.choice([0.0, 0.7])
+        react = rnd.choice([0, 0, 1, 2, 3])
+        kc = _dynamics._constants(vehicle._k, True)
+        args = (*law, s, x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), yaw, vx, vy, r)
+        tail = (route, hint, mu, lat, _dynamics.DT, _dynamics.SUBSTEPS, react)
+        want = _controllers._timed_car_move(pts, k, *args, vehicle._k, *tail)
+        assert _bits(fast(arr, np.array(k), *args, kc, *tail)) == _bits(want), (k, args, tail)
+        moved.add((want[0], want[4]))
+        # the law, then Vehicle.step (when the watcher has no say)
+        phase, thr, brk, steer = _controllers._timed_car(pts, k, *args[:-1])
+        assert want[:4] == (phase, thr, brk, steer)
+        if want[4]:
+            vehicle.x, vehicle.y, vehicle.yaw = args[4], args[5], args[6]
+            vehicle.vx, vehicle.vy, vehicle.r = vx, vy, r
+            tracked = vehicle.step(thr, brk, steer, mu, lat, route=route, hint=hint)
+            state = (vehicle.x, vehicle.y, vehicle.yaw, vehicle.vx, vehicle.vy, vehicle.r)
+            assert _bits(want[5:]) == _bits((*state, *tracked))
+    assert {(0, 1), (1, 1), (1, 2), (2, 2), (1, 0), (2, 0)} <= moved
+
+
+def test_compiled_box_on_area_gives_the_corner_tests_answers(monkeypatch) -> None:
+    """The road monitor's exact test (all four corners on the drivable area, compiled)
+    says what ``DrivableArea.contains`` of each corner says, on every shipped map, for
+    boxes on, across and off the road edges at any heading (both answers tested)."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_collision, "_AREA", None)  # load it now, compiled
+    assert _collision.box_on_area_fn() is not _collision.box_on_area  # numba compiled it
+    from sitcov.sim.embedded._map import load_map
+
+    rnd = random.Random(12)
+    answers = []
+    for name in ("t-junction", "crossroads", "roundabout", "merge"):
+        area = load_map(name).drivable_area
+        flat = [v for edges in area._edges for edge in edges for v in edge]
+        ends = list(itertools.accumulate(len(edges) for edges in area._edges))
+        for _ in range(3000):
+            poly = rnd.choice(area.polygons)  # a point in it, then up to 3 m away
+            w = [rnd.random() for _ in poly]
+            x = sum(wi * px for wi, (px, _) in zip(w, poly, strict=True)) / sum(w)
+            y = sum(wi * py for wi, (_, py) in zip(w, poly, strict=True)) / sum(w)
+            x, y = x + rnd.uniform(-3.0, 3.0), y + rnd.uniform(-3.0, 3.0)
+            yaw, hl, hw = rnd.uniform(-4.0, 4.0), rnd.uniform(0.2, 2.5), rnd.uniform(0.2, 1.0)
+            c, s = math.cos(yaw), math.sin(yaw)
+            corners = ((hl, hw), (hl, -hw), (-hl, -hw), (-hl, hw))
+            want = all(area.contains(x + a * c - b * s, y + a * s + b * c) for a, b in corners)
+            assert _collision.box_on_area(flat, ends, x, y, yaw, hl, hw) is want
+            assert area.contains_box(x, y, yaw, hl, hw) is want
+            answers.append(want)
+    assert 1000 < sum(answers) < len(answers) - 1000
+
+
+def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monkeypatch) -> None:
+    """The PEM's per-actor frame kernel (view, noise, score, gate, jitter) is the Python
+    code's bit for bit, and a sensor using it gives the very detections of its Python
+    loop (the same draws in the same order): cars, cyclists and pedestrians in and out of
+    view, new and continued noise tracks, frames skipped, rain and dry scenes."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_pem, "_FRAME_FN", None)  # load it now, compiled
+    fast = _pem._frame_kernel()
+    assert fast and fast is not _pem._pem_frame  # numba compiled it
+    from types import SimpleNamespace
+
+    from sitcov.perception import PEMSensor
+    from sitcov.perception._base import ActorView, Pose
+    from sitcov.weather._conditions import Conditions
+
+    rnd = random.Random(13)
+    for _ in range(3000):  # the kernel against its Python code
+        q = np.array(_view_array(rnd))
+        c = [rnd.uniform(0.0, 0.9), rnd.choice([0.0, 0.2]), rnd.choice([0.0, 0.3]), 1.0, 0.5]
+        c += [rnd.choice([1.0, 0.7]), rnd.choice([0.0, -0.3]), rnd.choice([0.0, 0.4]), 1.2]
+        c += [rnd.choice([0.1, 0.5]), 0.05, rnd.choice([0.0, 0.02]), rnd.random(), 800.0, 450.0]
+        track = [rnd.gauss(0, 1), rnd.gauss(0, 1), rnd.gauss(0, 1), 3.0, rnd.choice([0.0, 1.0])]
+        normals = [rnd.gauss(0, 1) for _ in range(_pem.FRAME_NORMALS + 3)]
+        ex, ey, eyaw = rnd.uniform(-50, 50), rnd.uniform(-50, 50), rnd.uniform(-4, 4)
+        pose = (ex + rnd.uniform(-30, 30), ey + rnd.uniform(-30, 30), rnd.uniform(-4, 4))
+        args = (rnd.randint(0, 3), float(rnd.randint(4, 9)), ex, ey, eyaw, *pose)
+        t_py, t_c = list(track), np.array(track)
+        want = _pem._pem_frame(q, c, t_py, normals, *args)
+        got = fast(q, np.array(c), t_c, np.array(normals), *args)
+        assert _bits(got) == _bits(want) and _bits(t_c.tolist()) == _bits(t_py), (c, args)
+    ego = SimpleNamespace(x=0.0, y=0.0, yaw=0.0)
+    kinds = [("car", 4.6, 1.8, 1.5), ("cyclist", 1.8, 0.6, 1.7), ("pedestrian", 0.5, 0.5, 1.8)]
+    for rain in (0.0, 0.6):
+        cond = Conditions(rain_noise=rain)
+        runs = {}
+        for frame_fn in (False, None):  # the Python loop, then the compiled frame
+            monkeypatch.setattr(_pem, "_FRAME_FN", frame_fn)
+            sensor = PEMSensor()
+            sensor.reset(frame_dt=0.1)
+            looks = [
+                sensor.prepare(ActorView(Pose(0, 0, 0), ln, w, h, 0.0, (90, 90, 200), k), cond)
+                for k, ln, w, h in kinds
+            ]
+            normals = _pem.NormalStream(np.random.default_rng(4), 128)
+            walk = random.Random(5)
+            frames = []
+            for t in range(600):
+                seen = []
+                for i, look in enumerate(looks):
+                    far = 40.0 - 0.06 * t + 5.0 * i
+                    body = SimpleNamespace(x=far, y=walk.uniform(-6, 6), yaw=walk.uniform(-4, 4))
+                    if walk.random() < 0.85:
+                        seen.append((look, body))
+                out = sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, cond, normals)
+                frames.append(out)
+            runs[frame_fn] = frames
+        assert runs[False] == runs[None]
+        assert sum(map(len, runs[None])) > 300  # detections of every kind
+        assert {d.label for f in runs[None] for d in f} >= {"car", "person"}
+
+
+def test_compiled_move_tracked_is_bit_identical(monkeypatch) -> None:
+    """A car's move on its route with the commands' clamps (compiled) against the Python
+    code: commands out of range, standing with and without drive, crosswind, low
+    friction; and ``Vehicle.step`` returns its tracking and keeps its state so."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_dynamics, "_MOVE", None)  # load it now, compiled
+    fast = _dynamics._move_kernel()
+    assert fast is not _dynamics.move_tracked  # numba compiled it
+    path = _path.Path(tuple(float(k) for k in range(120)), tuple(0.01 * k * k for k in range(120)))
+    route = path.tracker().args[0]
+    rnd = random.Random(21)
+    moved = set()
+    for _ in range(5000):
+        vehicle = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)
+        kc = _dynamics._constants(vehicle._k, True)
+        s = rnd.uniform(0, 110)
+        x, y, yaw = path.point_at(s)
+        standing = rnd.random() < 0.3
+        state = (0.0, 0.0, 0.0) if standing else (rnd.uniform(0, 12), rnd.uniform(-0.3, 0.3), 0.1)
+        cmd = (rnd.choice([0.0, -0.2, rnd.uniform(0, 1.3)]), rnd.uniform(-0.2, 1.2))
+        cmd += (rnd.uniform(-1.5, 1.5),)
+        env = (rnd.choice([1.0, 0.1]), rnd.choice([0.0, 0.8]), _dynamics.DT, _dynamics.SUBSTEPS)
+        args = (vehicle.p.steer_max, x, y, yaw, *state, *cmd, *env, route, rnd.randint(0, 100))
+        want = _dynamics.move_tracked(vehicle._k, *args)
+        assert _bits(fast(kc, *args)) == _bits(want), args
+        moved.add(want[0])
+        vehicle.x, vehicle.y, vehicle.yaw = x, y, yaw
+        vehicle.vx, vehicle.vy, vehicle.r = state
+        tracked = vehicle.step(*cmd, *env, route=route, hint=args[-1])
+        assert _bits(tracked) == _bits(want[8:])
+        now = (vehicle.x, vehicle.y, vehicle.yaw, vehicle.vx, vehicle.vy, vehicle.r)
+        assert _bits(now) == _bits(want[2:8])
+    assert moved == {True, False}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import random
 from types import SimpleNamespace
 
 import pytest
@@ -14,7 +15,14 @@ from sitcov.generation import make_generator
 from sitcov.hyperspace import load_hyperspace
 from sitcov.sim import Judge
 from sitcov.sim.embedded import EmbeddedBackend, Path
-from sitcov.sim.embedded._progress import BLOCKED_TIME, STILL_SPEED, path_occupied
+from sitcov.sim.embedded._collision import _point_box_distance
+from sitcov.sim.embedded._progress import (
+    BLOCKED_TIME,
+    PATH_AHEAD,
+    PATH_MARGIN,
+    STILL_SPEED,
+    path_occupied,
+)
 
 
 class AlwaysBrake(AVStack):
@@ -126,9 +134,9 @@ def test_stationary_collisions_are_the_ones_with_the_ego_standing():
     assert collisions >= 10
 
 
-def _world(actor_at: tuple[float, float], *, speed: float = 0.0, conflict=None):
+def _world(actor_at: tuple[float, float], *, speed: float = 0.0, conflict=None, yaw=0.0):
     """A standing ego at the start of a straight 100 m route along x and one 4 x 2 m
-    actor at ``actor_at`` heading along x."""
+    actor at ``actor_at`` heading ``yaw`` (along x)."""
     route = Path.from_points([(float(x), 0.0) for x in range(101)])
     ego = SimpleNamespace(s=2.25, half_l=2.25, half_w=0.9, route=route)
     x, y = actor_at
@@ -140,8 +148,8 @@ def _world(actor_at: tuple[float, float], *, speed: float = 0.0, conflict=None):
         half_w=1.0,
         radius=math.hypot(2.0, 1.0),
         gap=math.hypot(x - 2.25, y),
-        body=SimpleNamespace(speed=speed),
-        box=lambda: (x, y, 0.0, 2.0, 1.0),
+        body=SimpleNamespace(speed=speed, x=x, y=y, yaw=yaw),
+        box=lambda: (x, y, yaw, 2.0, 1.0),
     )
     return SimpleNamespace(ego=ego, actors=[actor]), route
 
@@ -176,3 +184,26 @@ def test_path_occupied_counts_who_is_in_or_due_at_the_conflict_zone(actor_s, spe
     world, route = _world((60.0, -40.0), speed=speed, conflict=conflict)  # far off the path
     world.actors[0].s = actor_s
     assert path_occupied(world, route.xs, route.ys, route.ss) is occupied
+
+
+def test_path_occupied_is_the_point_box_distance_test_along_the_path():
+    """The path test (written out for speed) says what ``_point_box_distance`` to each
+    route point ahead says, for actors anywhere near the path, at any heading (the
+    boundary cases: a box just inside or outside the reach of a point)."""
+    rnd = random.Random(2)
+    reach = 0.9 + PATH_MARGIN
+    hits = 0
+    for _ in range(4000):
+        at = (rnd.uniform(-5.0, 30.0), rnd.choice([rnd.uniform(-5.0, 5.0), 2.4, -2.4, 1.0]))
+        world, route = _world(at, yaw=rnd.choice([0.0, rnd.uniform(-4.0, 4.0)]))
+        ego, box = world.ego, world.actors[0].box()
+        ss = list(route.ss)
+        lo = next(i for i, s in enumerate(ss) if s >= ego.s)
+        hi = next(i for i, s in enumerate(ss) if s >= ego.s + ego.half_l + PATH_AHEAD)
+        points = zip(route.xs[lo : hi + 1], route.ys[lo : hi + 1], strict=True)
+        actor = world.actors[0]
+        near = actor.gap <= PATH_AHEAD + ego.half_l + actor.radius + reach  # its pre-test
+        want = near and any(_point_box_distance(x, y, box) < reach for x, y in points)
+        assert path_occupied(world, route.xs, route.ys, route.ss) is want, at
+        hits += want
+    assert 500 < hits < 3500

@@ -246,7 +246,9 @@ def test_the_pems_noise_is_the_run_generators_last_consumer(monkeypatch) -> None
 def test_two_car_runs_keep_their_old_metrics(backend) -> None:
     s = situation(intsit={"ego": "L-B", "ov": "R-B", "conflict": "c4"}, actor2="none")
     o = backend.run(s, ReferenceStack(), seed=1)
-    assert "actors" not in o.metrics and "collision_kind" not in o.metrics
+    assert "actors" not in o.metrics and "actor_collisions" not in o.metrics
+    # schema 5: every run stores the kind it hit (a two-car run can only hit the OV's car)
+    assert o.metrics["collision_kind"] == ("car" if o.collision else None)
 
 
 def test_a_new_monitor_ends_runs_without_touching_the_loop(backend, monkeypatch) -> None:

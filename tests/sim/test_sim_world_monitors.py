@@ -83,8 +83,15 @@ def test_collision_ends_the_run_and_names_the_actor() -> None:
     out = report(mon, w)
     assert out["bike"]["collided"] and not out["far"]["collided"]
     assert out["_collision_speed"] == pytest.approx(4.0)
+    # where: inside both boxes (the overlap's centroid), the ego's heading, the kind hit
+    x, y = out["collision_point"]
+    assert 2.5 - bike.half_l < x < ego.half_l and abs(y - 0.25) < 0.5
+    assert out["collision_heading"] == 0.0 and out["collision_kind"] == "cyclist"
     w2 = world(actor("ego", "car", 0.0), actor("p", "pedestrian", 2.6))  # 0.1 m apart
-    assert CollisionMonitor(w2).update(w2) is None
+    mon2 = CollisionMonitor(w2)
+    assert mon2.update(w2) is None
+    out2 = report(mon2, w2)
+    assert out2["collision_point"] is None and out2["collision_kind"] is None
 
 
 def test_ttc_of_a_head_on_approach() -> None:
@@ -96,6 +103,26 @@ def test_ttc_of_a_head_on_approach() -> None:
     mon.update(w)
     radii = 2.0 * math.sqrt(body_spec("car").length * body_spec("car").width / math.pi)
     assert report(mon, w)["o"]["min_ttc"] == pytest.approx((20.0 - radii) / 5.0)
+
+
+def test_drac_of_a_head_on_approach_is_the_closing_speed_over_twice_the_ttc() -> None:
+    """DRAC = |v_rel| / (2 TTC) (Cooper & Ferguson 1976): the deceleration that stops the
+    relative motion of the discs over the distance left, (20 - radii) m at 5 m/s."""
+    ego = actor("ego", "car", 0.0)
+    other = actor("o", "car", 20.0, yaw=math.pi)
+    other.body.vx = 5.0
+    w = world(ego, other)
+    mon = ProximityMonitor(w)
+    mon.update(w)
+    radii = 2.0 * math.sqrt(body_spec("car").length * body_spec("car").width / math.pi)
+    facts = report(mon, w)
+    assert facts["o"]["max_drac"] == pytest.approx(5.0**2 / (2.0 * (20.0 - radii)))
+    assert facts["max_drac"] == facts["o"]["max_drac"]
+    other.body.vx = -5.0  # moving away: no TTC, no DRAC
+    w2 = world(actor("ego", "car", 0.0), other)
+    mon2 = ProximityMonitor(w2)
+    mon2.update(w2)
+    assert report(mon2, w2)["max_drac"] is None
 
 
 def test_pet_is_the_gap_between_the_ego_leaving_and_the_actor_entering() -> None:
@@ -198,7 +225,11 @@ def test_proximity_monitor_reports_what_the_distance_and_ttc_monitors_do() -> No
             m.update(w)
     separate = {**report(mons[0], w), **{}}
     for name, facts in report(mons[1], w).items():
-        separate[name] = {**separate[name], **facts}
+        separate[name] = {**separate[name], **facts} if isinstance(facts, dict) else facts
     combined = report(mons[2], w)
-    assert repr(combined) == repr(separate)
+    assert sorted(combined) == sorted(separate)
+    assert all(repr(combined[key]) == repr(separate[key]) for key in combined)
     assert all(combined[a.name]["min_ttc"] is not None for a in others[:2])
+    dracs = [combined[a.name]["max_drac"] for a in others[:2]]
+    assert all(d is not None and d > 0.0 for d in dracs)
+    assert combined["max_drac"] == max(dracs)

@@ -31,6 +31,7 @@ from sitcov.sim._progress import RouteProgress
 from sitcov.sim.carla._geometry import carla_transform, steer_to_carla
 from sitcov.sim.carla._metrics import relative_speed
 from sitcov.sim.carla._state import image_to_rgb, make_observation, vehicle_state
+from sitcov.sim.embedded._collision import contact_point
 
 #: The ego counts as halted below this speed [m/s]; after its AEB latched, a halt of
 #: HALT_TIME [s] with the OV at its goal ends the run early (``stopped``): nothing can change
@@ -294,10 +295,11 @@ class Episode:
     ) -> Outcome:
         hit = now.hit
         name = hit[0] if hit is not None else None
-        collision_speed = None
+        collision_speed = point = None
         if hit is not None:
             other = now.ov if name == "ov" else self.scene.states[name]  # type: ignore[union-attr]
             collision_speed = relative_speed(now.ego, other)
+            point = list(contact_point(_box(now.ego), _box(other)))
         extra: dict[str, Any] = {
             "ticks": step,
             "other_collisions": sorted(set(self.other_hits)),
@@ -306,6 +308,13 @@ class Episode:
             **self.progress.facts(reason, self.latched),
             "ego_collision_speed": now.ego.speed if hit is not None else None,
             "ego_stationary": hit is not None and now.ego.speed < STATIONARY_SPEED,
+            # where the ego hit (sitcov frame, the boxes' overlap), its heading, the kind
+            "collision_point": point,
+            "collision_heading": now.ego.yaw if hit is not None else None,
+            "collision_kind": (hit[1] if hit is not None else None)
+            if self.scene is not None
+            else ("car" if hit is not None else None),
+            "max_drac": metrics.max_drac,  # the OV's (docs/metrics.md)
         }
         if self.scene is not None:
             extra["actors"] = self.scene.metrics(name)
@@ -343,3 +352,8 @@ class Episode:
 
 def _clip01(value: float) -> float:
     return max(0.0, min(1.0, float(value)))
+
+
+def _box(state: Any) -> tuple[float, float, float, float, float]:
+    """A vehicle state's box (x, y, yaw, half length, half width) [m, rad]."""
+    return (state.x, state.y, state.yaw, state.half_length, state.half_width)

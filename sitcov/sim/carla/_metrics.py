@@ -55,6 +55,8 @@ class MetricTracker:
     ov_route: list[tuple[float, float]]
     min_distance: float = math.inf
     min_ttc: float | None = None
+    #: the largest DRAC [m/s^2]: |v_rel| / (2 TTC) for TTC > 0 (docs/metrics.md)
+    max_drac: float | None = None
     aeb_time: float | None = None
     _zone: Any = None  # (ego path, OV path, ego clock, OV clock, hints), built on first tick
 
@@ -81,6 +83,9 @@ class MetricTracker:
         ttc = time_to_collision(ov.x - ego.x, ov.y - ego.y, ov.vx - ego.vx, ov.vy - ego.vy, radius)
         if ttc is not None:
             self.min_ttc = ttc if self.min_ttc is None else min(self.min_ttc, ttc)
+        if ttc is not None and ttc > 0.0:
+            drac = math.hypot(ov.vx - ego.vx, ov.vy - ego.vy) / (2.0 * ttc)
+            self.max_drac = drac if self.max_drac is None else max(self.max_drac, drac)
         zone = self._zones(ego, ov)
         s_e, zone[4] = zone[0].track(ego.x, ego.y, zone[4])
         s_o, zone[5] = zone[1].track(ov.x, ov.y, zone[5])

@@ -24,6 +24,7 @@ from sitcov.errors import ConfigError, SetupError
 from sitcov.perception._base import CameraSpec, Sensor
 from sitcov.sim._adversary import AdversaryParams
 from sitcov.sim._base import Backend, Outcome, Trace
+from sitcov.sim.embedded._collision import contact_point
 from sitcov.sim.embedded._controllers import PacedController, TimingController
 from sitcov.sim.embedded._dynamics import default_params
 from sitcov.sim.embedded._ego import EgoDriver
@@ -461,7 +462,6 @@ class EmbeddedBackend(Backend):
         world.record()
         ego, ov = world.ego, world.actors[0]
         hit = world.collision
-        b = ego.body
         return Trace(
             ego=ego.rows,
             ov=ov.rows,
@@ -470,7 +470,8 @@ class EmbeddedBackend(Backend):
                 "ego_route": [list(p) for p in ego.route.points],
                 "ov_route": [list(p) for p in ov.route.points],
                 "conflict_point": list(ov.conflict.point) if ov.conflict else None,
-                "collision_point": [0.5 * (b.x + hit.body.x), 0.5 * (b.y + hit.body.y)]
+                # the run ended on the step of contact: the collision monitor's point
+                "collision_point": list(contact_point(ego.box(), hit.box()))
                 if reason == "collision" and hit is not None
                 else None,
                 "length": ego.spec.length,
@@ -482,6 +483,8 @@ class EmbeddedBackend(Backend):
                         "length": a.spec.length,
                         "width": a.spec.width,
                         "height": a.spec.height,
+                        # the body colour the camera drew (animations' dash-cam strip)
+                        "color": None if a.color is None else [int(c) for c in a.color],
                         "route": [list(p) for p in a.route.points],
                     }
                     for a in world.actors

@@ -137,12 +137,47 @@ def box_distance_flat_fn() -> Any:
     else itself. Loaded once per process, on first use."""
     global _FLAT
     if _FLAT is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         example = (0.0, 0.0, 0.3, 2.3, 0.9, 4.0, 1.0, 1.2, 2.3, 0.9)
         helpers = (_axes_overlap, _corners_to_box, box_distance)
-        _FLAT = compiled(box_distance_flat, *example, helpers=helpers) or box_distance_flat
+        _FLAT = compiled(box_distance_flat, *example, helpers=helpers)
+        _FLAT = typed_entry(_FLAT) or box_distance_flat
     return _FLAT
+
+
+def contact_point(a: Box, b: Box) -> tuple[float, float]:
+    """Where two overlapping boxes touch [m]: the centroid of their intersection (box
+    ``a`` clipped by each edge of box ``b``, Sutherland-Hodgman; both are convex and
+    counter-clockwise); the midpoint of the centres if they do not overlap. Called once
+    per collision (the collision map of the report draws it)."""
+    poly = corners(a)
+    clip = corners(b)
+    for (cx, cy), (dx, dy) in zip(clip, clip[1:] + clip[:1], strict=True):
+        ex, ey = dx - cx, dy - cy
+        # >= 0: inside (left of the edge c -> d)
+        sides = [ex * (p[1] - cy) - ey * (p[0] - cx) for p in poly]
+        out: list[tuple[float, float]] = []
+        for i, p in enumerate(poly):
+            q, sp, sq = poly[(i + 1) % len(poly)], sides[i], sides[(i + 1) % len(poly)]
+            if sp >= 0.0:
+                out.append(p)
+            if (sp >= 0.0) != (sq >= 0.0):
+                f = sp / (sp - sq)
+                out.append((p[0] + f * (q[0] - p[0]), p[1] + f * (q[1] - p[1])))
+        poly = out
+        if not poly:
+            return 0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])
+    area = cx_sum = cy_sum = 0.0
+    for (px, py), (qx, qy) in zip(poly, poly[1:] + poly[:1], strict=True):
+        cross = px * qy - qx * py
+        area += cross
+        cx_sum += (px + qx) * cross
+        cy_sum += (py + qy) * cross
+    if abs(area) < 1e-12:  # the boxes only touch: the mean of the touching points
+        n = len(poly)
+        return sum(p[0] for p in poly) / n, sum(p[1] for p in poly) / n
+    return cx_sum / (3.0 * area), cy_sum / (3.0 * area)
 
 
 def corridor_gap(path: Any, s_from: float, box: Box) -> float:
@@ -159,3 +194,55 @@ def corridor_gap(path: Any, s_from: float, box: Box) -> float:
             if d < best:
                 best = d
     return best
+
+
+def box_on_area(
+    edges: Any, ends: Any, x: float, y: float, yaw: float, half_l: float, half_w: float
+) -> bool:
+    """Whether all four corners of the box (centre, heading, half sizes) lie on a union of
+    convex polygons (``_monitors.DrivableArea.contains_box``: the same operations in the
+    same order, so the same answer). ``edges``: every polygon's edges as a flat sequence
+    ``ax, ay, ex, ey, ...`` (a corner is inside a polygon iff ``ex * (py - ay) - ey * (px -
+    ax) >= -1e-6`` for each of its edges); ``ends``: where each polygon's edges end (edge
+    counts, accumulated)."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    for k in range(4):
+        a = half_l if k < 2 else -half_l
+        b = half_w if k == 0 or k == 3 else -half_w
+        px = x + a * c - b * s
+        py = y + a * s + b * c
+        start = 0
+        inside = False
+        for end in ends:
+            ok = True
+            for j in range(start, end):
+                o = 4 * j
+                if edges[o + 2] * (py - edges[o + 1]) - edges[o + 3] * (px - edges[o]) < -1e-6:
+                    ok = False
+                    break
+            if ok:
+                inside = True
+                break
+            start = end
+        if not inside:
+            return False
+    return True
+
+
+_AREA: Any = None
+
+
+def box_on_area_fn() -> Any:
+    """:func:`box_on_area` compiled by numba when it is installed (the same answers), else
+    itself. Loaded once per process, on first use."""
+    global _AREA
+    if _AREA is None:
+        import numpy as np
+
+        from sitcov._jit import compiled, typed_entry
+
+        edges = np.array([0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0, -1.0, -1.0])
+        ends = np.array([3], dtype=np.int64)
+        fast = compiled(box_on_area, edges, ends, 0.3, 0.3, 0.0, 0.1, 0.1)
+        _AREA = typed_entry(fast) or box_on_area
+    return _AREA

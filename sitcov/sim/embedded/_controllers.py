@@ -35,7 +35,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sitcov.sim._adversary import AdversaryController, AdversaryParams, pure_pursuit, timing_law
+from sitcov.sim.embedded._dynamics import (
+    DT,
+    SUBSTEPS,
+    Vehicle,
+    _constants,
+    default_params,
+    integrate,
+    integrate_tracked,
+)
 from sitcov.sim.embedded._path import _bisect_right, _point_at
+from sitcov.sim.embedded._path import _track as track
 from sitcov.sim.embedded._yielding import (
     EGO_ALL,
     EGO_NEVER,
@@ -128,12 +138,12 @@ def _car_kernel() -> Any:
     bits), else itself. Loaded once per process."""
     global _CAR
     if _CAR is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
         example = (pts, 1.5, 0.0, 0.1, 0.2, 1.4, 2.7, 0.6)
         helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit)
-        _CAR = compiled(_car_steer, *example, helpers=helpers) or _car_steer
+        _CAR = typed_entry(compiled(_car_steer, *example, helpers=helpers)) or _car_steer
     return _CAR
 
 
@@ -173,14 +183,87 @@ def _timed_kernel() -> Any:
     itself. Loaded once per process."""
     global _TIMED
     if _TIMED is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
         k = np.array([3.0, 20.0, 4.2, 0.5, 0.5, 0.1, 1.0, 30.0, 25.0, 0.8, 4.0, 1.4, 2.7, 0.6])
         example = (pts, k, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01)
         helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit, _car_steer, timing_law)
-        _TIMED = compiled(_timed_car, *example, helpers=helpers) or _timed_car
+        _TIMED = typed_entry(compiled(_timed_car, *example, helpers=helpers)) or _timed_car
     return _TIMED
+
+
+def _timed_car_move(
+    pts: Any,
+    k: Any,
+    phase: int,
+    ego_s: float,
+    ego_speed: float,
+    s: float,
+    x: float,
+    y: float,
+    yaw: float,
+    vx: float,
+    vy: float,
+    r: float,
+    kc: Any,
+    route: Any,
+    hint: int,
+    mu: float,
+    lateral_accel: float,
+    dt: float,
+    substeps: int,
+    react: int,
+) -> tuple[int, float, float, float, int, float, float, float, float, float, float, float, int]:
+    """A timed car's whole step when its watcher has no say: :func:`_timed_car`, then its
+    body moved under that command as ``Vehicle.step`` moves it on its route (the same
+    clamps, ``integrate_tracked``, or only the tracking while it stands with no drive).
+    ``(phase, throttle, brake, steer, moved, x, y, yaw, vx, vy, r, s, segment)``.
+
+    ``react``: bit 1 if the watcher must be asked in the law's phase 1, bit 2 in phase 2
+    (:meth:`TimingController.drive`); then nothing moves (``moved`` 0: the caller asks and
+    moves the body). ``moved``: 1 stood (tracked only), 2 integrated. ``kc``, ``route``:
+    the body's constants and route points as ``Vehicle.step`` passes them; the body's
+    steering angle is ``steer`` clamped to [-1, 1] times ``k[13]`` (its ``steer_max``).
+    One compiled call per step instead of two and their Python in between.
+    """
+    phase, thr, brk, steer = _timed_car(pts, k, phase, ego_s, ego_speed, s, x, y, yaw, vx, vy)
+    if (phase == 2 and react & 2) or (phase == 1 and react & 1):
+        return phase, thr, brk, steer, 0, x, y, yaw, vx, vy, r, s, hint
+    throttle = 0.0 if thr < 0.0 else (1.0 if thr > 1.0 else thr)
+    if throttle == 0.0 and vx == 0.0 and vy == 0.0 and r == 0.0:
+        s, i = track(route, x, y, hint)
+        return phase, thr, brk, steer, 1, x, y, yaw, vx, vy, r, s, i
+    brake = 0.0 if brk < 0.0 else (1.0 if brk > 1.0 else brk)
+    st = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
+    x, y, yaw, vx, vy, r, s, i = integrate_tracked(
+        kc, x, y, yaw, vx, vy, r, throttle, brake, st * k[13], mu, lateral_accel, dt,
+        substeps, route, hint,
+    )  # fmt: skip
+    return phase, thr, brk, steer, 2, x, y, yaw, vx, vy, r, s, i
+
+
+_TIMED_MOVE: Any = None
+
+
+def _timed_move_kernel() -> Any:
+    """:func:`_timed_car_move` compiled by numba when it is installed (the same bits),
+    else itself. Loaded once per process."""
+    global _TIMED_MOVE
+    if _TIMED_MOVE is None:
+        from sitcov._jit import compiled, typed_entry
+
+        pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
+        k = np.array([3.0, 20.0, 4.2, 0.5, 0.5, 0.1, 1.0, 30.0, 25.0, 0.8, 4.0, 1.4, 2.7, 0.6])
+        kc = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
+        route = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
+        example = (pts, k, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01, 0.0, kc, route, 0)
+        example += (1.0, 0.0, DT, SUBSTEPS, 0)
+        helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit, _car_steer)
+        helpers += (timing_law, _timed_car, integrate, ("track", track), integrate_tracked)
+        fast = compiled(_timed_car_move, *example, helpers=helpers)
+        _TIMED_MOVE = typed_entry(fast) or _timed_car_move
+    return _TIMED_MOVE
 
 
 @functools.lru_cache(maxsize=256)
@@ -290,10 +373,7 @@ class TimingController:
     def _car_command(self, actor: Actor, world: Any) -> tuple[float, float, float]:
         """:meth:`command` of a car: the law and the steering in one :func:`_timed_car`."""
         if self._car is None:
-            self._car = self._bind_car(actor)
-            w = actor.watcher
-            self._looks = w is not None and bool(w.entries)
-            self._others = self._looks and w.others
+            self._start_car(actor)
         kernel, pts, k = self._car
         law, b, s_ego = self.law, actor.body, world.ego.s
         phase, thr, brk, steer = kernel(
@@ -303,25 +383,92 @@ class TimingController:
         if phase == 2:  # cruise
             if self.switch_time is None:
                 self.switch_time, self.switch_gap = world.t, self.s_ego - s_ego
-            if self._looks and (
-                self._others
-                or (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING)
-                and actor.gap < NEAR
-            ):
-                # both standing where they stood last step: the same answer (a standoff
-                # with the ego lasts long; nothing else can have moved without others)
-                still = not self._others and b.vx == b.vy == 0.0 and world.ego_speed == 0.0
-                if still and self._still == (actor.s, s_ego, thr, brk):
-                    thr, brk = self._still_cmd
-                else:
-                    key = (actor.s, s_ego, thr, brk)
-                    thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
-                    if still:
-                        self._still, self._still_cmd = key, (thr, brk)
+            if self._reacts(actor, world) & 2:
+                thr, brk = self._react_cruise(actor, world, thr, brk)
         elif phase == 1 and self._others:
             thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_NEVER)
         self.brake = brk
         return thr, brk, steer
+
+    def _start_car(self, actor: Actor) -> None:
+        """Bind the car's kernel and constants at its first step; who meets its route."""
+        self._car = self._bind_car(actor)
+        w = actor.watcher
+        self._looks = w is not None and bool(w.entries)
+        self._others = self._looks and w.others
+
+    def _reacts(self, actor: Actor, world: Any) -> int:
+        """In which phases the watcher has a say this step: bit 1 in phase 1 (road users
+        besides the ego meet its route), bit 2 in cruise (they do, or the ego is slow or
+        braking hard and near)."""
+        cruise = self._looks and (
+            self._others
+            or (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING)
+            and actor.gap < NEAR
+        )
+        return (1 if self._others else 0) | (2 if cruise else 0)
+
+    def _react_cruise(
+        self, actor: Actor, world: Any, thr: float, brk: float
+    ) -> tuple[float, float]:
+        """The watcher's answer in cruise (it sees the ego only while it stands)."""
+        b, s_ego = actor.body, world.ego.s
+        # both standing where they stood last step: the same answer (a standoff with the
+        # ego lasts long; nothing else can have moved without others)
+        still = not self._others and b.vx == b.vy == 0.0 and world.ego_speed == 0.0
+        if still and self._still == (actor.s, s_ego, thr, brk):
+            return self._still_cmd
+        key = (actor.s, s_ego, thr, brk)
+        thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_STANDING)
+        if still:
+            self._still, self._still_cmd = key, (thr, brk)
+        return thr, brk
+
+    def drive(self, actor: Actor, world: Any, mu: float, lateral: float, dt: float) -> None:
+        """:meth:`command` and the actor's move under it (``Actor.move``) in one: a car's
+        in one compiled call (:func:`_timed_car_move`) unless its watcher has a say this
+        step (the same values as the two calls)."""
+        points = actor._points
+        if actor.kind != "car" or points is None:
+            thr, brk, steer = self.command(actor, world)
+            actor.move(thr, brk, steer, mu, lateral, dt)
+            return
+        if self._car is None:
+            self._start_car(actor)
+        _, pts, k = self._car
+        law, b = self.law, actor.body
+        kc = b._kc
+        if kc is None:
+            kc = b._kc = _constants(b._k)
+        reacts = 0  # _reacts, written out (this runs every step)
+        if self._looks:
+            others = self._others
+            if others or (
+                (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING) and actor.gap < NEAR
+            ):
+                reacts = 3 if others else 2
+        phase, thr, brk, steer, moved, x, y, yaw, vx, vy, r, s, i = (
+            _TIMED_MOVE or _timed_move_kernel()
+        )(
+            pts, k, law.phase_index, world.ego.s, world.ego_speed, actor.s, b.x, b.y, b.yaw,
+            b.vx, b.vy, b.r, kc, points, actor.hint, mu, lateral, dt, SUBSTEPS, reacts,
+        )  # fmt: skip
+        law.phase_index = phase
+        if phase == 2 and self.switch_time is None:
+            self.switch_time, self.switch_gap = world.t, self.s_ego - world.ego.s
+        if not moved:  # the watcher's say, then the move (as command and Actor.move)
+            if phase == 2:
+                thr, brk = self._react_cruise(actor, world, thr, brk)
+            else:
+                thr, brk = react(actor, world, thr, brk, self.params.cruise_speed, EGO_NEVER)
+            self.brake = brk
+            actor.move(thr, brk, steer, mu, lateral, dt)
+            return
+        self.brake = brk
+        if moved == 2:  # Vehicle.step's state and steering angle
+            b.x, b.y, b.yaw, b.vx, b.vy, b.r = x, y, yaw, vx, vy, r
+            b.steer = (-1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)) * b.p.steer_max
+        actor.s, actor.hint = s, i
 
     def _bind_car(self, actor: Actor) -> tuple[Any, Any, Any]:
         """The kernel, the route's points and the constants of :func:`_timed_car`."""

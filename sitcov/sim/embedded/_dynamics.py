@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 
 from sitcov.sim.embedded._path import _track as track
-from sitcov.sim.embedded._path import _track_kernel
 
 G = 9.81  #: gravity [m/s^2]
 #: Control period [s] and dynamic sub-steps per period.
@@ -260,34 +259,72 @@ def integrate_tracked(
     return x, y, yaw, vx, vy, r, s, i
 
 
+def move_tracked(
+    k: Any,
+    steer_max: float,
+    x: float,
+    y: float,
+    yaw: float,
+    vx: float,
+    vy: float,
+    r: float,
+    throttle: float,
+    brake: float,
+    steer: float,
+    mu: float,
+    lateral_accel: float,
+    dt: float,
+    substeps: int,
+    route: Any,
+    hint: int,
+) -> tuple[bool, float, float, float, float, float, float, float, float, int]:
+    """:meth:`Vehicle.step` on a route: the commands clamped, then :func:`integrate_tracked`,
+    or, standing with no drive, only the tracking (nothing moves: wind cannot push a
+    braked car). ``(moved, steering angle, x, y, yaw, vx, vy, r, s, segment)``; the state
+    is the one given when not ``moved``. One compiled call per car and step, the clamps
+    included."""
+    throttle = 0.0 if throttle < 0.0 else (1.0 if throttle > 1.0 else throttle)
+    if throttle == 0.0 and vx == 0.0 and vy == 0.0 and r == 0.0:
+        s, i = track(route, x, y, hint)
+        return False, 0.0, x, y, yaw, vx, vy, r, s, i
+    brake = 0.0 if brake < 0.0 else (1.0 if brake > 1.0 else brake)
+    steer = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
+    delta = steer * steer_max
+    x, y, yaw, vx, vy, r, s, i = integrate_tracked(
+        k, x, y, yaw, vx, vy, r, throttle, brake, delta, mu, lateral_accel, dt, substeps,
+        route, hint,
+    )  # fmt: skip
+    return True, delta, x, y, yaw, vx, vy, r, s, i
+
+
 _INTEGRATE: Any = None
-_TRACKED: Any = None
+_MOVE: Any = None
 
 
-def _tracked_kernel() -> Any:
-    """:func:`integrate_tracked` compiled by numba when it is installed, else itself."""
-    global _TRACKED
-    if _TRACKED is None:
-        from sitcov._jit import compiled
+def _move_kernel() -> Any:
+    """:func:`move_tracked` compiled by numba when it is installed, else itself."""
+    global _MOVE
+    if _MOVE is None:
+        from sitcov._jit import compiled, typed_entry
 
         k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         route = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
-        example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
-        helpers = (integrate, ("track", track))
-        _TRACKED = compiled(integrate_tracked, *example, route, 0, helpers=helpers)
-        _TRACKED = _TRACKED or integrate_tracked
-    return _TRACKED
+        example = (k, 0.6, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
+        helpers = (integrate, ("track", track), integrate_tracked)
+        _MOVE = typed_entry(compiled(move_tracked, *example, route, 0, helpers=helpers))
+        _MOVE = _MOVE or move_tracked
+    return _MOVE
 
 
 def _kernel() -> Any:
     """:func:`integrate` compiled by numba when it is installed (``_jit.py``), else itself."""
     global _INTEGRATE
     if _INTEGRATE is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         k = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         example = (k, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.5, 0.0, 0.1, 1.0, 0.0, DT, SUBSTEPS)
-        _INTEGRATE = compiled(integrate, *example) or integrate
+        _INTEGRATE = typed_entry(compiled(integrate, *example)) or integrate
     return _INTEGRATE
 
 
@@ -375,29 +412,32 @@ class Vehicle:
             mu: tyre-road friction [-]. lateral_accel: external acceleration to the
                 vehicle's left [m/s^2] (crosswind).
             route, hint: a path's points as its tracker takes them (``Path.tracker``)
-                and the last segment: then the new position is tracked on it in the same
-                compiled call (:func:`integrate_tracked`) and ``(s, segment)`` returned
-                (``_path._track``'s values); else None.
+                and the last segment: then the commands' clamps, the integration and the
+                tracking of the new position are one compiled call (:func:`move_tracked`)
+                and ``(s, segment)`` is returned (``_path._track``'s values); else None.
         """
+        if route is not None:  # clamps, integration and tracking in one compiled call
+            kc = self._kc
+            if kc is None:
+                kc = self._kc = _constants(self._k)
+            moved, delta, x, y, yaw, vx, vy, r, s, i = (_MOVE or _move_kernel())(
+                kc, self.p.steer_max, self.x, self.y, self.yaw, self.vx, self.vy, self.r,
+                throttle, brake, steer, mu, lateral_accel, dt, substeps, route, hint,
+            )  # fmt: skip
+            if moved:
+                self.x, self.y, self.yaw, self.vx, self.vy, self.r = x, y, yaw, vx, vy, r
+                self.steer = delta
+            return s, i
         throttle = 0.0 if throttle < 0.0 else (1.0 if throttle > 1.0 else throttle)
         vx, vy, r = self.vx, self.vy, self.r
         if throttle == 0.0 and vx == 0.0 and vy == 0.0 and r == 0.0:
-            # standing still with no drive: nothing moves (wind cannot push a braked car)
-            return None if route is None else _track_kernel()(route, self.x, self.y, hint)
+            return None  # standing still with no drive: nothing moves (as move_tracked)
         brake = 0.0 if brake < 0.0 else (1.0 if brake > 1.0 else brake)
         steer = -1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)
         self.steer = delta = steer * self.p.steer_max
         kc = self._kc
         if kc is None:
             kc = self._kc = _constants(self._k)
-        if route is not None:
-            self.x, self.y, self.yaw, self.vx, self.vy, self.r, s, i = (
-                _TRACKED or _tracked_kernel()
-            )(
-                kc, self.x, self.y, self.yaw, vx, vy, r, throttle, brake, delta, mu,
-                lateral_accel, dt, substeps, route, hint,
-            )  # fmt: skip
-            return s, i
         x, y, yaw, self.vx, self.vy, self.r = (_INTEGRATE or _kernel())(
             kc, self.x, self.y, self.yaw, vx, vy, r, throttle, brake, delta, mu,
             lateral_accel, dt, substeps,

@@ -87,6 +87,7 @@ class EgoDriver:
         # then shown by its body's pose (no Pose or ActorView per frame)
         self.prepared = sensor is not None and type(sensor).detect is PEMSensor.detect
         self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
+        self._seen_all: list[tuple[Any, Any]] | None = None  # (prepared, body), all active
         self._normals = NormalStream(rng, NOISE_BLOCK)
 
     def _detect_prepared(self, world: Any) -> Any:
@@ -95,8 +96,16 @@ class EgoDriver:
         if looks is None:
             prepare, cond = self.sensor.prepare, self.cond
             looks = self._looks = [(a, prepare(a.view(), cond)) for a in world.actors]
+            self._seen_all = [(look, a.body) for a, look in looks]
         ego = world.ego.body
-        seen = [(look, a.body) for a, look in looks if a.active]
+        seen = self._seen_all  # every actor active (none comes back once it left)
+        if seen is not None:
+            for a, _ in looks:
+                if not a.active:
+                    seen = self._seen_all = None
+                    break
+        if seen is None:
+            seen = [(look, a.body) for a, look in looks if a.active]
         return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self._normals)
 
     def _objects(self, world: Any) -> Any:

@@ -10,11 +10,13 @@ new metric is a new monitor in the list (``default_monitors``), not a change of 
   lateral offset from its route.
 - :class:`PETMonitor`, :class:`DistanceMonitor`, :class:`TTCMonitor`: per actor, the
   post-encroachment time at its conflict with the ego, the minimum box distance and the
-  minimum constant-velocity TTC (``sitcov.sim._metrics``, docs/metrics.md).
+  minimum constant-velocity TTC (``sitcov.sim._metrics``, docs/metrics.md), and the
+  largest DRAC (:func:`proximity`).
 - :class:`ProximityMonitor`: the built-in list's distance and TTC monitors in one (the
   same two facts, the same bits): one compiled call per actor and step (:func:`proximity`)
   instead of two monitors' Python loops.
-- :class:`CollisionMonitor`: the ego's box overlaps an actor's: ends the run.
+- :class:`CollisionMonitor`: the ego's box overlaps an actor's: ends the run; records
+  where (the overlap's centroid), the ego's heading then and the kind of road user hit.
 - :class:`ActorCollisionMonitor`: two other actors' boxes overlap: recorded, both brake
   to a stop; the run goes on.
 - :class:`LeaveMapRule`: an actor at the end of its route leaves the world.
@@ -42,6 +44,7 @@ simulated facts are the same whatever counts as a failure.
 from __future__ import annotations
 
 import functools
+import itertools
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -55,6 +58,9 @@ from sitcov.sim.embedded._collision import (
     box_distance,
     box_distance_flat,
     box_distance_flat_fn,
+    box_on_area,
+    box_on_area_fn,
+    contact_point,
     corridor_gap,
     overlap,
 )
@@ -99,6 +105,9 @@ class DrivableArea:
             [(a[0], a[1], b[0] - a[0], b[1] - a[1]) for a, b in zip(p, p[1:] + p[:1], strict=True)]
             for p in self.polygons
         ]
+        #: the same edges flat with each polygon's end, as ``box_on_area`` takes them
+        #: (float and int arrays for the compiled one), made at the first box test
+        self._flat: tuple[bool, Any, Any] | None = None
 
     def contains(self, x: float, y: float, eps: float = 1e-6) -> bool:
         """Whether (x, y) lies on the drivable area (edges included)."""
@@ -111,12 +120,18 @@ class DrivableArea:
         return False
 
     def contains_box(self, x: float, y: float, yaw: float, half_l: float, half_w: float) -> bool:
-        """Whether all four corners of a box (centre, heading, half sizes) are on the area."""
-        c, s = math.cos(yaw), math.sin(yaw)
-        for a, b in ((half_l, half_w), (half_l, -half_w), (-half_l, -half_w), (-half_l, half_w)):
-            if not self.contains(x + a * c - b * s, y + a * s + b * c):
-                return False
-        return True
+        """Whether all four corners of a box (centre, heading, half sizes) are on the area
+        (:meth:`contains` of each corner, in one compiled call: ``_collision.box_on_area``)."""
+        fn = box_on_area_fn()
+        fast = fn is not box_on_area
+        if self._flat is None or self._flat[0] != fast:
+            flat = [v for edges in self._edges for edge in edges for v in edge]
+            ends = list(itertools.accumulate(len(edges) for edges in self._edges))
+            if fast:
+                flat, ends = np.array(flat, dtype=np.float64), np.array(ends, dtype=np.int64)
+            self._flat = (fast, flat, ends)
+        _, edges, ends = self._flat
+        return bool(fn(edges, ends, x, y, yaw, half_l, half_w))
 
     def contains_many(self, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         """Vectorised :meth:`contains` for arrays of points."""
@@ -351,30 +366,36 @@ class DistanceMonitor:
 
 
 class TTCMonitor:
-    """Minimum constant-velocity time-to-collision of the footprint discs per actor [s]."""
+    """Minimum constant-velocity time-to-collision of the footprint discs per actor [s],
+    and the largest DRAC (deceleration rate to avoid a crash, :func:`proximity`) [m/s^2]."""
 
     def __init__(self, world: Any) -> None:
         self.best: list[float | None] = [None] * len(world.actors)
+        self.best_drac: list[float | None] = [None] * len(world.actors)
 
     def update(self, world: Any) -> None:
         """TTC of each active actor relative to the ego now (:func:`proximity`'s TTC)."""
         ego = world.ego
         e = ego.body
         ex, ey, eyaw, evx, evy = e.x, e.y, e.yaw, e.vx, e.vy
-        best = self.best
+        best, best_drac = self.best, self.best_drac
         for i, a in enumerate(world.actors):
             if not a.active:
                 continue
             b = a.body
             k = (0.0, 0.0, 0.0, 0.0, ego.disc + a.disc)
-            _, ttc = proximity(ex, ey, eyaw, evx, evy, b.x, b.y, b.yaw, b.vx, b.vy, k, False)
+            _, ttc, drac = proximity(ex, ey, eyaw, evx, evy, b.x, b.y, b.yaw, b.vx, b.vy, k, False)
             if ttc >= 0.0 and (best[i] is None or ttc < best[i]):
                 best[i] = ttc
+            if drac >= 0.0 and (best_drac[i] is None or drac > best_drac[i]):
+                best_drac[i] = drac
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
-        """``min_ttc`` per actor."""
-        for a, ttc in zip(world.actors, self.best, strict=True):
+        """``min_ttc`` and ``max_drac`` per actor, the run's ``max_drac`` (over all)."""
+        for a, ttc, drac in zip(world.actors, self.best, self.best_drac, strict=True):
             actors[a.name]["min_ttc"] = ttc
+            actors[a.name]["max_drac"] = drac
+        run["max_drac"] = _largest(self.best_drac)
 
 
 def proximity(
@@ -391,9 +412,17 @@ def proximity(
     k: Any,
     distance: bool,
 ) -> tuple[float, float]:
-    """The box distance (when ``distance``, else inf) and the disc TTC (-1: none) of the
-    ego (pose, body-frame velocity) and an actor, as :class:`DistanceMonitor` and
-    :class:`TTCMonitor` compute them (the same operations in the same order).
+    """The box distance (when ``distance``, else inf), the disc TTC (-1: none) and the DRAC
+    (-1: none) of the ego (pose, body-frame velocity) and an actor, as
+    :class:`DistanceMonitor` and :class:`TTCMonitor` compute them (the same operations in
+    the same order).
+
+    DRAC, the deceleration rate to avoid a crash [m/s^2] (Cooper & Ferguson 1976; Archer
+    2005, whose rear-end form ``(v_f - v_l)^2 / (2 gap)`` is the one-dimensional case):
+    the constant deceleration of the relative velocity that stops the discs' relative
+    motion just before they touch, ``|v_rel|^2 / (2 |v_rel| TTC) = |v_rel| / (2 TTC)``,
+    for a TTC > 0 (none while the discs overlap or never close in); the definition of
+    ``sitcov.analysis._criticality``, which computes it from a trace.
 
     ``k``: [ego half length, ego half width, actor half length, actor half width, sum of
     the footprint discs' radii] (one float array: one type check in the compiled call).
@@ -407,8 +436,16 @@ def proximity(
     rvx = (avx * c - avy * s) - wvx
     rvy = (avx * s + avy * c) - wvy
     ttc = time_to_collision(ax - ex, ay - ey, rvx, rvy, k[4])
-    return d, (-1.0 if ttc is None else ttc)
+    if ttc is None:
+        return d, -1.0, -1.0
+    if ttc > 0.0:
+        return d, ttc, hypot(rvx, rvy) / (2.0 * ttc)
+    return d, ttc, -1.0
 
+
+#: ``math.hypot`` under the name :func:`proximity` uses (``_jit.py`` binds the name to its
+#: correctly rounded version in the compiled code: the same bits).
+hypot = math.hypot
 
 _PROXIMITY: Any = None
 
@@ -418,7 +455,7 @@ def proximity_fn() -> Any:
     itself. Loaded once per process, on first use."""
     global _PROXIMITY
     if _PROXIMITY is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         k = np.array([2.3, 0.9, 0.25, 0.25, 3.0])
         example = (0.0, 0.0, 0.3, 5.0, 0.1, 4.0, 1.0, 1.2, 1.0, 0.0, k, True)
@@ -429,7 +466,7 @@ def proximity_fn() -> Any:
             box_distance_flat,
             time_to_collision,
         )
-        _PROXIMITY = compiled(proximity, *example, helpers=helpers) or proximity
+        _PROXIMITY = typed_entry(compiled(proximity, *example, helpers=helpers)) or proximity
     return _PROXIMITY
 
 
@@ -446,6 +483,7 @@ class ProximityMonitor:
         n = len(world.actors)
         self.best = [math.inf] * n
         self.best_ttc: list[float | None] = [None] * n
+        self.best_drac: list[float | None] = [None] * n
         self._reach = [ego.radius + a.radius for a in world.actors]
         self._kernel = kernel = proximity_fn()
         # the constants as a float array for the compiled kernel, plain floats for Python
@@ -460,31 +498,53 @@ class ProximityMonitor:
         e = world.ego.body
         ex, ey, eyaw, evx, evy = e.x, e.y, e.yaw, e.vx, e.vy
         far_step = world.k & 3 == 0
-        best, best_ttc, kernel = self.best, self.best_ttc, self._kernel
+        best, best_ttc, best_drac = self.best, self.best_ttc, self.best_drac
+        kernel = self._kernel
         for i, a in enumerate(world.actors):
             if not a.active:
                 continue
             gap = a.gap
             near = gap - self._reach[i] < best[i] and (gap < FAR or far_step)
             b = a.body
-            d, ttc = kernel(ex, ey, eyaw, evx, evy, b.x, b.y, b.yaw, b.vx, b.vy, self._k[i], near)
+            d, ttc, drac = kernel(
+                ex, ey, eyaw, evx, evy, b.x, b.y, b.yaw, b.vx, b.vy, self._k[i], near
+            )
             if d < best[i]:
                 best[i] = d
             if ttc >= 0.0 and (best_ttc[i] is None or ttc < best_ttc[i]):
                 best_ttc[i] = ttc
+            if drac >= 0.0 and (best_drac[i] is None or drac > best_drac[i]):
+                best_drac[i] = drac
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
-        """``min_distance`` (None if never measured) and ``min_ttc`` per actor."""
-        for a, d, ttc in zip(world.actors, self.best, self.best_ttc, strict=True):
+        """``min_distance`` (None if never measured), ``min_ttc`` and ``max_drac`` per
+        actor; the run's ``max_drac`` (the largest over all actors)."""
+        for a, d, ttc, drac in zip(
+            world.actors, self.best, self.best_ttc, self.best_drac, strict=True
+        ):
             actors[a.name]["min_distance"] = d if math.isfinite(d) else None
             actors[a.name]["min_ttc"] = ttc
+            actors[a.name]["max_drac"] = drac
+        run["max_drac"] = _largest(self.best_drac)
+
+
+def _largest(values: Sequence[float | None]) -> float | None:
+    """The largest of the values that are not None (None if there is none)."""
+    return max((v for v in values if v is not None), default=None)
 
 
 class CollisionMonitor:
-    """The ego's box overlaps an active actor's box: the run ends as ``collision``."""
+    """The ego's box overlaps an active actor's box: the run ends as ``collision``.
+
+    Records where: the centroid of the two boxes' overlap on the first step they overlap
+    (:func:`contact_point`, map frame [m]), the ego's heading [rad] and speed [m/s] then,
+    and the kind of the road user hit (the report's collision map draws them).
+    """
 
     def __init__(self, world: Any) -> None:
         self.speed: float | None = None
+        self.point: tuple[float, float] | None = None
+        self.heading: float | None = None
 
     def update(self, world: Any) -> str | None:
         """``"collision"`` on the first overlap (sets ``world.collision``)."""
@@ -495,15 +555,23 @@ class CollisionMonitor:
                 evx, evy = ego.velocity()
                 vx, vy = a.velocity()
                 self.speed = math.hypot(vx - evx, vy - evy)
+                self.point = contact_point(ego.box(), a.box())
+                self.heading = ego.body.yaw
                 world.collision = a
                 return "collision"
         return None
 
     def report(self, run: dict, actors: dict, world: Any) -> None:
-        """``collided`` per actor; the relative speed of the impact."""
+        """``collided`` per actor; the relative speed of the impact; the run's
+        ``collision_point`` ([x, y] or None), ``collision_heading`` (the ego's) and
+        ``collision_kind`` (the hit road user's)."""
         for a in world.actors:
             actors[a.name]["collided"] = world.collision is a
         actors["_collision_speed"] = self.speed
+        hit = world.collision
+        run["collision_point"] = None if self.point is None else list(self.point)
+        run["collision_heading"] = self.heading
+        run["collision_kind"] = None if hit is None else hit.kind
 
 
 class ActorCollisionMonitor:

@@ -195,10 +195,10 @@ def _track_kernel() -> Any:
     """:func:`_track` compiled by numba when it is installed, else itself (loaded once)."""
     global _TRACK
     if _TRACK is None:
-        from sitcov._jit import compiled
+        from sitcov._jit import compiled, typed_entry
 
         pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
-        _TRACK = compiled(_track, pts, 0.5, 0.1, 0) or _track
+        _TRACK = typed_entry(compiled(_track, pts, 0.5, 0.1, 0)) or _track
     return _TRACK
 
 

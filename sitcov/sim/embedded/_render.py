@@ -217,11 +217,13 @@ def render_topdown(
             ax.set_ylim(*limits[1])
         ax.set_aspect("equal")
         ax.set_facecolor("#7cb342")
-        ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
+        # sizes readable when the report shows the picture at half its width
+        ax.legend(handles=handles, loc="upper right", fontsize=11, framealpha=0.9)
         end = trace.ego[-1][0] if trace.ego else math.nan
-        ax.set_title(f"{jmap.name}: run of {end:.1f} s", fontsize=10)
-        ax.set_xlabel("x [m]")
-        ax.set_ylabel("y [m]")
+        ax.set_title(f"{jmap.name}: run of {end:.1f} s", fontsize=13)
+        ax.set_xlabel("x [m]", fontsize=11)
+        ax.set_ylabel("y [m]", fontsize=11)
+        ax.tick_params(labelsize=10)
         out = FsPath(path)
         out.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(out, format="png")

@@ -3,7 +3,8 @@
 :class:`World` advances every actor by one control period: the ego's stack decides first
 (from perception of the state at the start of the step), the wind's gust updates, every
 other active actor's controller decides from the same state and its body moves, then the
-ego's body moves; each body's position along its route is tracked as it moves (no
+ego's body moves (a controller with a ``drive`` method commands and moves its actor in one
+call); each body's position along its route is tracked as it moves (no
 controller reads another actor's position along its route but the ego's, which moves
 last). Monitors
 (``_monitors.py``) look at the world after each step; the run loop (``_backend.py``) only
@@ -16,7 +17,9 @@ import math
 from collections.abc import Iterator, Sequence
 from typing import Any
 
+from sitcov.sim.embedded import _dynamics
 from sitcov.sim.embedded._actors import Actor
+from sitcov.sim.embedded._dynamics import SUBSTEPS, _constants, _move_kernel
 
 
 class Wind:
@@ -87,6 +90,9 @@ class World:
         self.ego_decel = 0.0
         self.collision: Actor | None = None  # the actor the ego hit (CollisionMonitor)
         self.end_reason: str | None = None  # why the run ended (set by the backend)
+        #: per actor, its controller's ``drive(actor, world, mu, lateral, dt)`` (command
+        #: and move in one, e.g. a timed car's one compiled call), None if it has none
+        self._drives = [(a, getattr(a.controller, "drive", None)) for a in self.actors]
 
     def bodies_except(self, actor: Actor) -> Iterator[Actor]:
         """Every active actor (the ego included) but ``actor``."""
@@ -107,7 +113,8 @@ class World:
     def step(self) -> None:
         """One control period for every actor (see the module docstring)."""
         ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
-        speed = ego.body.speed
+        eb = ego.body
+        speed = math.hypot(eb.vx, eb.vy)  # the ego's body is a Vehicle: its speed
         self.ego_decel = (self.ego_speed - speed) / dt
         self.ego_speed = speed
         throttle, brake, steer = self.driver.command(self, self.k, self.t)
@@ -115,14 +122,33 @@ class World:
         if windy:
             wind.update(self.k)
         lat_e = wind.lateral(ego) if windy else 0.0
-        for a in self.actors:
+        for a, drive in self._drives:
             if a.active:
-                cmd = (0.0, 1.0, 0.0) if a.crashed else a.controller.command(a, self)
-                a.move(cmd[0], cmd[1], cmd[2], mu, wind.lateral(a) if windy else 0.0, dt)
-        ego.move(throttle, brake, steer, mu, lat_e, dt)
+                lat = wind.lateral(a) if windy else 0.0
+                if a.crashed:
+                    a.move(0.0, 1.0, 0.0, mu, lat, dt)
+                elif drive is not None:
+                    drive(a, self, mu, lat, dt)
+                else:
+                    thr, brk, st = a.controller.command(a, self)
+                    a.move(thr, brk, st, mu, lat, dt)
+        points = ego._points
+        if points is not None:  # Actor.move then Vehicle.step of a car, written out
+            kc = eb._kc
+            if kc is None:
+                kc = eb._kc = _constants(eb._k)
+            moved, delta, x, y, yaw, vx, vy, r, s, i = (_dynamics._MOVE or _move_kernel())(
+                kc, eb.p.steer_max, eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r,
+                throttle, brake, steer, mu, lat_e, dt, SUBSTEPS, points, ego.hint,
+            )  # fmt: skip
+            if moved:
+                eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r = x, y, yaw, vx, vy, r
+                eb.steer = delta
+            ego.s, ego.hint = s, i
+        else:
+            ego.move(throttle, brake, steer, mu, lat_e, dt)
         self.k += 1
         self.t = self.k * dt
-        eb = ego.body
         ex, ey = eb.x, eb.y
         hypot = math.hypot
         for a in self.actors:

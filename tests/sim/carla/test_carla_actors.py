@@ -47,6 +47,7 @@ def test_a_blind_ego_hits_the_timed_pedestrian(tmp_path: Path) -> None:
     assert out.metrics["collision_actor"] == "ov"
     assert out.metrics["collision_kind"] == "pedestrian"
     assert out.collision_speed is not None and out.collision_speed > 0.0
+    assert len(out.metrics["collision_point"]) == 2  # where the ego hit the pedestrian
     spawn = next(e for e in server.log if e[0] == "spawn" and e[1].startswith("walker."))
     assert spawn[1] == "walker.pedestrian.0001"
     assert spawn[3]["is_invincible"] == "false"  # a walker that can be hit

@@ -137,6 +137,10 @@ def test_scripted_collision_fails_the_run(tmp_path) -> None:
     # tick 1 settles physics (friction read-back); tick 2 is t = 0; tick 41 is t = 1.95 s
     assert outcome.collision_time == pytest.approx(1.95)
     assert outcome.collision_speed is not None and outcome.min_distance is not None
+    m = outcome.metrics  # where: a point in the map frame, the ego's heading, the car hit
+    assert len(m["collision_point"]) == 2 and all(math.isfinite(v) for v in m["collision_point"])
+    assert math.isfinite(m["collision_heading"]) and m["collision_kind"] == "car"
+    assert "max_drac" in m
     assert not server.actors
 
 
