@@ -439,7 +439,7 @@ def _pem_frame(
     updated in place); ``normals``: standard normals of the run from index ``at`` on (at
     least :data:`FRAME_NORMALS`); ``frame``: this frame's number.
     """
-    seen, x0, y0, x1, y1, z = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
+    seen, x0, y0, x1, y1, z, d = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
     if not seen:
         return 0, at, 0.0, 0.0, 0.0, 0.0, 0.0
     if track[4] == 0.0:
@@ -469,10 +469,16 @@ def _pem_frame(
     if n > 0.0 and c[_F_UP] != 1.0:
         sig *= c[_F_UP]
     score = _sigmoid(z + sig * n)
-    if c[_F_GAIN] != 0.0 or c[_F_AR] != 0.0 or c[_F_BIAS] < DETECT_ALWAYS:
+    if (
+        c[_F_GAIN] != 0.0
+        or c[_F_AR] != 0.0
+        or c[_F_BIAS] < DETECT_ALWAYS
+        or q[_DETECT] != 0.0
+        or q[_DETECT + 1] != 0.0
+    ):
         e = normals[at]
         at += 1
-        if c[_F_BIAS] + c[_F_GAIN] * z + c[_F_AR] * track[1] + e < 0:
+        if c[_F_BIAS] + c[_F_GAIN] * z + d + c[_F_AR] * track[1] + e < 0:
             return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
     if score < c[_F_FLOOR]:
         return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -511,12 +517,12 @@ def _frame_kernel() -> Any:
         from sitcov._jit import compiled, typed_entry
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
-                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1])  # fmt: skip
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0])  # fmt: skip
         c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
         c = np.append(c, [800.0, 450.0])
         track, normals = np.zeros(5), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
-        helpers += (_pem_view, _sigmoid)
+        helpers += (fill_of, _pem_view, _sigmoid)
         example = (q, c, track, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
         _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
     return _FRAME_FN
