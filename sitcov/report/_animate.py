@@ -393,7 +393,9 @@ def _figure(  # noqa: PLR0915
         words = [f"t = {t:5.2f} s", f"ego {trace.ego[i][4]:4.1f} m/s"]
         if aeb_time is not None and t >= aeb_time:
             words.append("AEB braking")
-        if collision_time is not None and t >= collision_time - 1e-9:
+        # a trace may end on the step before contact (esmini's rows precede each step)
+        hit = outcome.end_reason == "collision" and i == len(times) - 1
+        if collision_time is not None and (t >= collision_time - 1e-9 or hit):
             words.append(f"COLLISION with {label_focus}")
             if meta.get("collision_point"):
                 crash.set_data([meta["collision_point"][0]], [meta["collision_point"][1]])
