@@ -232,7 +232,8 @@ def run_road(
             return str(options["road"])
         if traced and is_opendrive(str(traced)) and Path(str(traced)).is_file():
             return str(traced)
-        road = _scenario_road(options.get("scenario"), (metrics or {}).get("scenario"))
+        scenario, name = options.get("scenario"), (metrics or {}).get("scenario")
+        road = _scenario_road(str(scenario) if scenario else None, str(name) if name else None)
         if road is not None:
             return road
         if options.get("map"):
@@ -244,6 +245,7 @@ def run_road(
     return str(options.get("map") or DEFAULT_EMBEDDED_MAP)
 
 
+@lru_cache(maxsize=64)  # the collision map asks once per collision
 def _scenario_road(scenario: Any, name: Any = None) -> str | None:
     """The OpenDRIVE file of an esmini campaign's scenario file, or of file ``name`` (the
     run's ``metrics["scenario"]``) of its folder (None when neither is known, or the file
