@@ -377,7 +377,11 @@ def run_cmd(
         None, "--carla-timeout", help="Seconds to wait for the CARLA server."
     ),
     carla_map: Optional[str] = typer.Option(  # noqa: UP045
-        None, "--map", help="CARLA map file or name (default: Town03)."
+        None,
+        "--map",
+        help="CARLA map file or name (default: Town03); esmini: with --road the CARLA map "
+        "file (default Town03), without it an embedded map run on its own OpenDRIVE export "
+        "(default t-junction).",
     ),
     carla_servers: Optional[str] = typer.Option(  # noqa: UP045
         None, "--carla-servers", help="host:port,... one CARLA server per worker."

@@ -235,7 +235,8 @@ def run_overrides(
     Args:
         perception: ``--perception``, an option of the embedded backend.
         carla: the ``--carla-*``/``--map`` flags that were given, as keyword arguments of
-            ``sitcov.sim.carla.carla_backend_options``; they need ``backend="carla"``.
+            ``sitcov.sim.carla.carla_backend_options``; they need ``backend="carla"``
+            (``--map`` alone also goes with ``backend="esmini"``: its ``map`` option).
         esmini: ``--scenario`` (a .xosc file or a folder of them) and ``--road`` (an
             OpenDRIVE file) as the esmini backend's ``scenario`` and ``road`` options, made
             absolute; they need ``backend="esmini"``.
@@ -252,6 +253,8 @@ def run_overrides(
     av_params: dict[str, Any] = {}
     if perception:
         backend_options["perception"] = perception
+    if carla and fields.get("backend") == "esmini" and set(carla) == {"map"}:
+        backend_options["map"] = carla.pop("map")  # esmini: where situations are placed
     if carla:
         if fields.get("backend") != "carla":
             names = {"map": "--map", "servers": "--carla-servers"}

@@ -12,6 +12,7 @@ from sitcov.sim.carla._state import image_to_rgb
 from sitcov.sim.carla._surface import SURFACE
 from sitcov.sim.carla._xosc import (
     export_xosc,
+    ov_timing,
     situation_scenario,
     situations_from_json,
 )
@@ -27,6 +28,7 @@ __all__ = [
     "friction_scale",
     "image_to_rgb",
     "load_carla_map",
+    "ov_timing",
     "parse_servers",
     "situation_scenario",
     "situations_from_json",

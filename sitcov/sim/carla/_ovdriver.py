@@ -73,6 +73,9 @@ class OVDriver:
         switch_distance: the situation's switch distance [m] (the map file's
             ``switch_distances`` entry: where the paper's Town03 trigger box ended the
             synchronisation); used unless ``params`` fix their own.
+        targets: arc lengths [m] of the conflict on the ego's and the OV's route, when
+            known (e.g. where their swept paths start to overlap); default: each route's
+            point nearest to ``conflict``.
     """
 
     def __init__(
@@ -83,9 +86,12 @@ class OVDriver:
         max_steer: float = math.radians(70.0),
         params: AdversaryParams | None = None,
         switch_distance: float | None = None,
+        targets: tuple[float, float] | None = None,
     ) -> None:
         self.ego = RouteProgress(ego_route, conflict)
         self.ov = RouteProgress(ov_route, conflict)
+        if targets is not None:  # the conflict's arc lengths on each route, known already
+            self.ego.target_s, self.ov.target_s = targets
         self.controller = AdversaryController(
             with_switch_distance(params or AdversaryParams(), switch_distance)
         )

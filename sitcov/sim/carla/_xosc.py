@@ -14,7 +14,10 @@ esmini users can replay what sitcov found. Contents:
 - the OV's timed approach, simplified to what OpenSCENARIO can express: it starts when the
   ego moves, holds the constant speed that brings it to the conflict point when the ego
   (at 25 km/h) arrives there, and switches to 15 km/h once the ego is within the
-  adversary's switch distance of the conflict point (no closed-loop timing law);
+  adversary's switch distance of the conflict point (no closed-loop timing law). With
+  ``timed_ov=False`` the OV gets no speed events: the esmini backend then sets its speed
+  every step from the paper's timing law in closed loop (``sitcov.sim.esmini``), with
+  :func:`ov_timing`'s conflict point and switch distance;
 - every further road user of the situation (a pedestrian or cyclist OV, the ``actor2``,
   ``actor3``, ... slots): a ``Pedestrian`` or a bicycle ``Vehicle`` (an extra car: a car
   ``Vehicle``), on its route from the embedded map, with events that say what its
@@ -75,6 +78,49 @@ def _xosc() -> Any:
 
 def _world(xosc: Any, x: float, y: float, yaw_deg: float | None = None) -> Any:
     return world_position(xosc, x, y, yaw_deg)
+
+
+#: How far along the exit leg's outbound lane the route's middle waypoint lies [m].
+EXIT_WAYPOINT = 10.0
+
+
+def exit_point(spec: CarlaMap, movement: str) -> tuple[float, float]:
+    """A point on the exit leg's outbound lane of ``movement`` (CARLA frame) [m]: the
+    embedded map's lane, :data:`EXIT_WAYPOINT` past its mouth, placed on the junction.
+
+    A route through it takes the movement's turn: with only spawn and goal, a shortest
+    route may leave by another road (on Town03, from B to L's goal it does), and the
+    conflict point need not lie on both routes' lanes.
+    """
+    from sitcov.sim.carla._actors import Frame
+    from sitcov.sim.embedded._map import load_map
+
+    lane = load_map(spec.embedded_map).lane(f"{movement.partition('-')[2]}.out")
+    x, y, _ = lane.point_at(min(EXIT_WAYPOINT, lane.length))
+    cx, cy, _ = Frame.of(spec).to_carla(x, y, 0.0)
+    return cx, cy
+
+
+def ego_start(spec: CarlaMap, movement: str) -> Any:
+    """The ego's spawn point for ``movement``: the map file's for its leg, moved into the
+    movement's own lane when the file names one (``ov_spawns`` keyed by the movement, e.g.
+    Town03's left lane of the stem for ``B-L``) by that lane's offset from the leg's lane.
+
+    An OpenDRIVE route keeps its lane: from Town03's right stem lane, which only turns
+    right, the shortest route to L's goal leaves by another road.
+    """
+    start = spec.ego_spawn(movement)
+    leg = movement.partition("-")[0]
+    lane, base = spec.ov_spawns.get(movement), spec.ov_spawns.get(leg)
+    if lane is None or base is None:
+        return start
+    return start.model_copy(update={"x": start.x + lane.x - base.x, "y": start.y + lane.y - base.y})
+
+
+def route_points(spec: CarlaMap, movement: str, start: Any) -> list[tuple[float, float]]:
+    """Waypoints (CARLA frame) of a route for ``movement`` from ``start`` (a spawn point
+    in the movement's lane): the start, the exit point (:func:`exit_point`), the goal."""
+    return [(start.x, start.y), exit_point(spec, movement), spec.goal(movement)]
 
 
 def _path_length(points: list[tuple[float, float]]) -> float:
@@ -141,8 +187,16 @@ def _route(xosc: Any, name: str, points: Iterable[tuple[float, float]]) -> Any:
     return xosc.AssignRouteAction(route)
 
 
-def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any:
+def situation_scenario(
+    situation: Any, carla_map: CarlaMap | None = None, *, timed_ov: bool = True
+) -> Any:
     """The ``scenariogeneration`` Scenario of one situation (see the module docstring).
+
+    Args:
+        situation: a situation of sitcov's hyperspace (``intsit`` and actor slots).
+        carla_map: the map file (default Town03's).
+        timed_ov: give a car OV its open-loop speed events (False: it stands until
+            something else sets its speed, e.g. the esmini backend's timing law).
 
     Raises:
         ConfigError: the situation has no usable ``intsit`` (or actor slot) for this map.
@@ -159,7 +213,7 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     if car_ov and "conflict" not in intsit:
         raise ConfigError(field="intsit", value=intsit, expected="a mapping with ego, ov, conflict")
     ego_mv = str(intsit["ego"])
-    ego_sp, ego_goal = spec.ego_spawn(ego_mv), spec.goal(ego_mv)
+    ego_sp, ego_goal = ego_start(spec, ego_mv), spec.goal(ego_mv)
     junction = (spec.junction.x, spec.junction.y)
     via = conflict_point(spec, values, str(intsit["conflict"])) if car_ov else junction
     entities = xosc.Entities()
@@ -167,13 +221,13 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     init = xosc.Init()
     init.add_global_action(xosc.EnvironmentAction(_weather(xosc, values)))
     init.add_init_action("hero", xosc.TeleportAction(_world(xosc, ego_sp.x, ego_sp.y, ego_sp.yaw)))
-    init.add_init_action("hero", _route(xosc, "hero_route", [(ego_sp.x, ego_sp.y), via, ego_goal]))
+    init.add_init_action("hero", _route(xosc, "hero_route", route_points(spec, ego_mv, ego_sp)))
     ego_event = xosc.Event("hero_drive", xosc.Priority.overwrite)
     ego_event.add_action("hero_speed", speed_action(xosc, EGO_SPEED))
     ego_event.add_trigger(_start(xosc))
     groups: list[tuple[str, list[Any]]] = [("hero", [ego_event])]
     if car_ov:
-        groups.append(("adversary", _car_ov(xosc, spec, intsit, via, entities, init)))
+        groups.append(("adversary", _car_ov(xosc, spec, intsit, via, entities, init, timed_ov)))
     if scene is not None:
         hero = Hero((ego_sp.x, ego_sp.y), junction)
         for actor in scene.actors:
@@ -187,6 +241,8 @@ def situation_scenario(situation: Any, carla_map: CarlaMap | None = None) -> Any
     others = [name for name, _ in groups[1:]]
     storyboard = xosc.StoryBoard(init, _stop_trigger(xosc, ego_goal, spec.goal_tolerance, others))
     for actor_name, events in groups:
+        if not events:  # an untimed OV: nothing in the storyboard moves it
+            continue
         maneuver = xosc.Maneuver(f"{actor_name}_maneuver")
         for event in events:
             maneuver.add_event(event)
@@ -241,13 +297,12 @@ def _car_ov(
     cp: tuple[float, float],
     entities: Any,
     init: Any,
+    timed: bool = True,
 ) -> list[Any]:
     """The car OV (conflict point ``cp``, CARLA frame): entity, teleport, route, and its
-    timed approach and cruise."""
-    from sitcov.sim._adversary import FALLBACK_SWITCH_DISTANCE
-
+    timed approach and cruise (none unless ``timed``)."""
     ego_mv, ov_mv = str(intsit["ego"]), str(intsit["ov"])
-    ego_sp, ov_sp = spec.ego_spawn(ego_mv), spec.ov_spawn(ov_mv)
+    ego_sp, ov_sp = ego_start(spec, ego_mv), spec.ov_spawn(ov_mv)
     junction = (spec.junction.x, spec.junction.y)
     d_ego = _path_length([(ego_sp.x, ego_sp.y), junction, cp])
     d_ov = _path_length([(ov_sp.x, ov_sp.y), junction, cp])
@@ -256,18 +311,45 @@ def _car_ov(
         "adversary", xosc.TeleportAction(_world(xosc, ov_sp.x, ov_sp.y, ov_sp.yaw))
     )
     init.add_init_action(
-        "adversary", _route(xosc, "ov_route", [(ov_sp.x, ov_sp.y), cp, spec.goal(ov_mv)])
+        "adversary",
+        _route(xosc, "ov_route", route_points(spec, ov_mv, ov_sp)),
     )
+    if not timed:
+        return []
     ov_go = xosc.Event("adversary_approach", xosc.Priority.overwrite)
     ov_go.add_action("adversary_timed_speed", speed_action(xosc, approach_speed(d_ego, d_ov)))
     ov_go.add_trigger(hero_moves(xosc, "hero_moves"))
-    switch = spec.switch_distance(ego_mv, ov_mv) or FALLBACK_SWITCH_DISTANCE
+    switch = switch_distance(spec, intsit)
     ov_cruise = xosc.Event("adversary_cruise", xosc.Priority.overwrite)
     ov_cruise.add_action("adversary_cruise_speed", speed_action(xosc, OV_CRUISE))
     ov_cruise.add_trigger(
         reaches(xosc, "hero_near_conflict", "hero", _world(xosc, *cp), switch, rising=True)
     )
     return [ov_go, ov_cruise]
+
+
+def switch_distance(spec: CarlaMap, intsit: Mapping[str, Any]) -> float:
+    """The ego's distance to the conflict point [m] at which the OV stops synchronising:
+    the map file's entry for the situation, else the adversary's fallback."""
+    from sitcov.sim._adversary import FALLBACK_SWITCH_DISTANCE
+
+    found = spec.switch_distance(str(intsit["ego"]), str(intsit["ov"]))
+    return FALLBACK_SWITCH_DISTANCE if found is None else found
+
+
+def ov_timing(situation: Any, carla_map: CarlaMap) -> tuple[tuple[float, float], float] | None:
+    """(conflict point (CARLA frame) [m], switch distance [m]) of a situation's car OV, or
+    None when its OV is no car (a pedestrian or cyclist keeps its storyboard events)."""
+    values = dict(situation.values)
+    intsit = values.get("intsit")
+    if not isinstance(intsit, Mapping) or "conflict" not in intsit:
+        return None
+    scene = plan_scene(carla_map, values, seed=0)
+    if scene is not None and not scene.car_ov:
+        return None
+    return conflict_point(carla_map, values, str(intsit["conflict"])), switch_distance(
+        carla_map, intsit
+    )
 
 
 def _stop_trigger(xosc: Any, goal: tuple[float, float], tolerance: float, others: list[str]) -> Any:

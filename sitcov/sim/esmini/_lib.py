@@ -123,6 +123,7 @@ _SIGNATURES: dict[str, tuple[object, list[object]]] = {
     "SE_GetObjectCollision": (_I, [_I, _I]),
     "SE_ReportObjectPosXYH": (_I, [_I, _D, _D, _D]),
     "SE_ReportObjectSpeed": (_I, [_I, _D]),
+    "SE_ReportObjectLateralLanePosition": (_I, [_I, _I, _D]),
     "SE_GetRoadInfoAlongRoute": (_I, [_I, _D, ctypes.POINTER(RoadInfo), _I, _B]),
     "SE_GetRoadInfoAtDistance": (_I, [_I, _D, ctypes.POINTER(RoadInfo), _I, _B]),
     "SE_GetNumberOfRoutePoints": (_I, [_I]),
@@ -200,6 +201,25 @@ _RM: ctypes.CDLL | None = None
 RM_LIB_NAME = "libesminiRMLib.so"
 
 
+class RMPositionData(ctypes.Structure):
+    """``RM_PositionData`` (esminiRMLib.hpp): a position on the road."""
+
+    _fields_ = [
+        ("x", ctypes.c_double),
+        ("y", ctypes.c_double),
+        ("z", ctypes.c_double),
+        ("h", ctypes.c_double),
+        ("p", ctypes.c_double),
+        ("r", ctypes.c_double),
+        ("hRelative", ctypes.c_double),
+        ("roadId", ctypes.c_uint32),
+        ("junctionId", ctypes.c_uint32),
+        ("laneId", ctypes.c_int),
+        ("laneOffset", ctypes.c_double),
+        ("s", ctypes.c_double),
+    ]
+
+
 def rm_library() -> ctypes.CDLL:
     """esmini's RoadManager library (``libesminiRMLib.so``, next to ``libesminiLib.so``):
     lane types at arbitrary points (the ego's box corners). Its road state is its own,
@@ -224,6 +244,8 @@ def rm_library() -> ctypes.CDLL:
             ("RM_GetNumberOfRoadsOverlapping", _I, [_I]),
             ("RM_SetWorldXYHPosition", _I, [_I, _D, _D, _D]),
             ("RM_GetInLaneType", _I, [_I]),
+            ("RM_GetPositionData", _I, [_I, ctypes.POINTER(RMPositionData)]),
+            ("RM_GetLaneWidth", _I, [_I, _I, ctypes.POINTER(_D)]),
         ):
             fn = getattr(lib, name)
             fn.restype = restype

@@ -146,6 +146,7 @@ class ScenarioFile:
         *,
         road: Path | None = None,
         weather: Mapping[str, Any] | None = None,
+        external: bool = True,
     ) -> str:
         """The XML esmini plays for one run (module docstring).
 
@@ -154,6 +155,9 @@ class ScenarioFile:
             road: an OpenDRIVE file replacing the file's ``RoadNetwork/LogicFile``.
             weather: the situation's weather values written into the file's Environment
                 (None: the file's own environment stays).
+            external: hand the ego to the ``ExternalController`` (False: its Init only,
+                with no story and no stop trigger: a dry run that drives every entity
+                along its route, ``_session.route_paths``).
         """
         root = _copy(self._root)
         params = self.parameter_values(values)
@@ -165,7 +169,13 @@ class ScenarioFile:
         if weather:
             for env in root.iterfind(".//Init//Environment"):
                 write_environment(env, weather)
-        _external_ego(root, self.ego)
+        if external:
+            _external_ego(root, self.ego)
+        else:
+            board = root.find("Storyboard")
+            for child in list(board if board is not None else ()):
+                if child.tag in ("Story", "StopTrigger"):
+                    board.remove(child)  # type: ignore[union-attr]
         return ET.tostring(root, encoding="unicode")
 
     def _absolute_paths(self, root: ET.Element, road: Path | None) -> None:

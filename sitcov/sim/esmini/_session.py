@@ -15,7 +15,14 @@ from pathlib import Path
 from typing import Any
 
 from sitcov.errors import SitcovError
-from sitcov.sim.esmini._lib import LOCK, ObjectState, RoadInfo, library, rm_library
+from sitcov.sim.esmini._lib import (
+    LOCK,
+    ObjectState,
+    RMPositionData,
+    RoadInfo,
+    library,
+    rm_library,
+)
 
 #: esmini's object types (``Object::Type``) and vehicle categories (``Vehicle::Category``)
 #: as sitcov's actor kinds.
@@ -111,6 +118,11 @@ class Session:
         self.lib.SE_ReportObjectPosXYH(oid, x, y, h)
         self.lib.SE_ReportObjectSpeed(oid, speed)
 
+    def report_speed(self, oid: int, speed: float) -> None:
+        """Set an object's speed [m/s]; one esmini's default controller drives moves that far
+        along its lane or route in the next step (no storyboard action may set it then)."""
+        self.lib.SE_ReportObjectSpeed(oid, speed)
+
     def step(self, dt: float) -> None:
         """Advance the storyboard and every other object by ``dt`` [s]."""
         if self.lib.SE_StepDT(dt) != 0:
@@ -150,6 +162,49 @@ class Session:
         return points
 
 
+def route_paths(
+    xml: str, names: tuple[str, ...], spacing: float, max_length: float
+) -> dict[str, list[tuple[float, float]]]:
+    """The paths [m] esmini's default controller drives the named entities along their
+    assigned routes, one point every ``spacing`` metres up to the route's length (or
+    ``max_length``), on the centre line of the lane each starts in: a dry run of ``xml``
+    (``ScenarioFile.render(..., external=False)``: no story, no stop trigger) that moves
+    each entity ``spacing`` per step.
+
+    Why: esmini's route look-ahead (``SE_GetRoadInfoAlongRoute``) stops in some junction
+    connecting roads of Town03 (END_OF_ROAD after the OV's left turn from the stem) where
+    its default controller drives on; this is the path the object really takes.
+    """
+    dt = 0.05
+    with Session(xml, 0) as session:
+        lib = session.lib
+        ids = {name: oid for oid, name in session.objects() if name in names}
+        limit = {
+            name: min(max_length, float(lib.SE_GetRouteTotalLength(oid)) or max_length)
+            for name, oid in ids.items()
+        }
+        paths: dict[str, list[tuple[float, float]]] = {name: [] for name in ids}
+        for oid in ids.values():  # the lane's centre line, as the look-ahead gives it
+            lib.SE_ReportObjectLateralLanePosition(oid, session.state(oid).laneId, 0.0)
+        for _ in range(int(max(limit.values(), default=0.0) / spacing) + 1):
+            for name, oid in ids.items():
+                path = paths[name]
+                if len(path) * spacing > limit[name]:
+                    session.report_speed(oid, 0.0)
+                    continue
+                st = session.state(oid)
+                p = (st.x, st.y)
+                if path and math.dist(path[-1], p) < 1e-6:
+                    if len(path) > 1:  # stuck: no road ahead
+                        limit[name] = 0.0
+                        continue
+                else:
+                    path.append(p)
+                session.report_speed(oid, spacing / dt)
+            session.step(dt)
+    return paths
+
+
 def kind_of(st: ObjectState) -> str:
     """sitcov's actor kind of an esmini object."""
     if st.objectType == PEDESTRIAN_TYPE:
@@ -187,6 +242,23 @@ class RoadProbe:
                 raise EsminiError(f"{odr}: esmini's RoadManager cannot load this road")
             cls._handles = [lib.RM_CreatePosition() for _ in range(4)]
             cls._loaded = odr
+
+    def lane_widths(self, points: list[tuple[float, float]]) -> list[float]:
+        """The width [m] of the lane under each route point (heading towards the next
+        point), NaN where no lane is found."""
+        lib = self.lib
+        handle = self._handles[0]
+        data = RMPositionData()
+        width = ctypes.c_double()
+        out = []
+        for i, (x, y) in enumerate(points):
+            nx, ny = points[min(i + 1, len(points) - 1)]
+            px, py = points[max(i - 1, 0)] if i + 1 >= len(points) else (x, y)
+            lib.RM_SetWorldXYHPosition(handle, x, y, math.atan2(ny - py, nx - px))
+            lib.RM_GetPositionData(handle, ctypes.byref(data))
+            ok = lib.RM_GetLaneWidth(handle, data.laneId, ctypes.byref(width)) == 0
+            out.append(width.value if ok and width.value > 0 else math.nan)
+        return out
 
     def off_road(self, corners: list[tuple[float, float]], h: float) -> bool:
         """True if a corner is on no drivable lane.

@@ -11,7 +11,7 @@ from needs import need_module
 
 from sitcov.errors import ConfigError
 from sitcov.sim.carla import export_xosc, load_carla_map, situations_from_json
-from sitcov.sim.carla._xosc import approach_speed
+from sitcov.sim.carla._xosc import approach_speed, ego_start
 
 xosc = need_module("scenariogeneration.xosc", "xosc")
 
@@ -35,8 +35,11 @@ def test_one_valid_file_per_situation(tmp_path) -> None:
         assert root.find(".//LogicFile").get("filepath") == "Town03"
         # friction: the backend's scale (dry road: the friction value itself)
         assert float(root.find(".//RoadCondition").get("frictionScaleFactor")) == 0.2
-        # the ego's spawn in OpenSCENARIO's right-handed frame: (x, -y), heading -yaw
-        spawn = town.ego_spawn(sit.values["intsit"]["ego"])
+        # the ego's spawn in OpenSCENARIO's right-handed frame: (x, -y), heading -yaw; a
+        # left turn from the stem starts in the stem's left lane (4 m left of the map's)
+        move = sit.values["intsit"]["ego"]
+        spawn = ego_start(town, move)
+        assert spawn.x == pytest.approx(town.ego_spawn(move).x - (4.0 if move == "B-L" else 0))
         hero = root.find(".//Private[@entityRef='hero']//TeleportAction//WorldPosition")
         assert float(hero.get("x")) == spawn.x and float(hero.get("y")) == -spawn.y
         assert float(hero.get("h")) == pytest.approx(-math.radians(spawn.yaw))

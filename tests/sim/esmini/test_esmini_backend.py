@@ -176,9 +176,183 @@ def test_an_exported_paper_situation_plays_on_town03() -> None:
     assert out.metrics["road_departure_time"] is None and out.metrics["road"] == "Town03.xodr"
 
 
-def test_exported_situations_need_a_road() -> None:
+def _paper_situation(intsit: str, friction: str = "1.0") -> Situation:
+    if not TOWN03.is_file():
+        missing(f"{TOWN03} (test data next to the repository, with the esmini build)")
+    hs = load_hyperspace()
+    labels = {e: hs.labels(e)[0] for e in hs.element_names}
+    labels.update(intsit=intsit, friction=friction)
+    return hs.situation_from_bins(labels, np.random.default_rng(0))
+
+
+class SpeedCapped(AVStack):
+    """The reference stack, coasting whenever the ego is faster than ``cap`` [m/s]."""
+
+    def __init__(self, cap: float) -> None:
+        self.inner, self.cap = make_stack("reference"), cap
+
+    def reset(self, info: RunInfo) -> None:
+        self.inner.reset(info)
+
+    def step(self, observation: Observation) -> Control:
+        c = self.inner.step(observation)
+        if observation.ego.speed > self.cap:
+            return Control(throttle=0.0, brake=c.brake, steer=c.steer)
+        return c
+
+
+def _arrival(rows: list, point: list[float]) -> float:
+    """When a trace passes nearest to ``point`` [s]."""
+    return min(rows, key=lambda r: math.dist(r[1:3], point))[0]
+
+
+def test_the_exported_ov_times_its_arrival_against_the_ego() -> None:
+    """Closed loop: an ego held to 3 m/s reaches the conflict ~18 s later than one at the
+    reference's 25 km/h, and the OV, timed by the paper's law on the ego as it drives,
+    comes that much later too (an open-loop OV would come at the same time)."""
+    s = _paper_situation("IntSit-3")
+    b = make_backend("esmini", road=str(TOWN03))
+    free = b.run(s, SpeedCapped(math.inf), 5, record=True)
+    slow = b.run(s, SpeedCapped(3.0), 5, record=True)
+    point = free.metrics["ov_conflict"]
+    assert slow.metrics["ov_conflict"] == point
+    assert free.metrics["ov_timing"].startswith("timing law")
+    ego_delay = _arrival(slow.trace.ego, point) - _arrival(free.trace.ego, point)
+    ov_delay = _arrival(slow.trace.actors["adversary"], point) - _arrival(
+        free.trace.actors["adversary"], point
+    )
+    assert ego_delay > 10.0
+    assert ov_delay > 0.6 * ego_delay
+    assert slow.metrics["ov_switch_time"] - free.metrics["ov_switch_time"] > 0.6 * ego_delay
+
+
+def test_an_ego_that_never_moves_keeps_the_ov_waiting() -> None:
+    """The law's first phase: the OV stands until the ego starts."""
+    s = _paper_situation("IntSit-1")
+    b = make_backend("esmini", road=str(TOWN03), sim_timeout=5.0)
+    out = b.run(s, Scripted(brake_at=0.0), 1, record=True)
+    ov = out.trace.actors["adversary"]
+    assert max(r[4] for r in ov) == 0.0
+    assert math.dist(ov[0][1:3], ov[-1][1:3]) < 1e-6
+
+
+def test_a_cropped_road_gives_the_same_outcomes() -> None:
+    """esmini on the part of Town03 the run's paths come near plays exactly as on the whole
+    file (the speed-up of docs/esmini.md changes no outcome)."""
+    stack = make_stack("reference")
+    whole = make_backend("esmini", road=str(TOWN03), crop_road=False)
+    part = make_backend("esmini", road=str(TOWN03))
+    for intsit, friction in (("IntSit-1", "1.0"), ("IntSit-6", "0.2"), ("IntSit-10", "0.6")):
+        s = _paper_situation(intsit, friction)
+        a, b = whole.run(s, stack, 3), part.run(s, stack, 3)
+        assert (a.status, a.end_reason, a.sim_time, a.min_distance, a.aeb_time) == (
+            b.status, b.end_reason, b.sim_time, b.min_distance, b.aeb_time
+        )  # fmt: skip
+        assert a.metrics["road"] == b.metrics["road"] == "Town03.xodr"
+
+
+class ObjectRecorder(AVStack):
+    """Wants object lists; drives slowly along +x of its own frame, keeps what it gets."""
+
+    wants = "objects"
+
+    def __init__(self) -> None:
+        self.lists: list = []
+        self.other: list = []
+
+    def reset(self, info: RunInfo) -> None:
+        self.lists.clear()
+
+    def step(self, observation: Observation) -> Control:
+        if observation.objects is not None:
+            self.lists.append((observation.t, observation.objects))
+        if observation.detections is not None or observation.image is not None:
+            self.other.append(observation)
+        return Control(throttle=0.2)
+
+
+def test_a_stack_that_wants_objects_gets_esmini_s_objects(backend) -> None:
+    """Object lists at the sensor rate (10 Hz), built from esmini's object states by the
+    same code as the embedded backend's; no detections instead."""
+    stack = ObjectRecorder()
+    backend.run(situation(TriggerDistance=15.0), stack, 2)
+    assert stack.lists and not stack.other
+    times = [t for t, _ in stack.lists]
+    assert times[:3] == pytest.approx([0.0, 0.1, 0.2])
+    labels = {o.label for _, objs in stack.lists for o in objs}
+    assert labels and labels <= {"car", "truck", "cyclist", "pedestrian"}
+
+
+def test_lane_departure_is_the_embedded_world_s_test(backend) -> None:
+    """Straight on: no lane departure. Drifting left into the oncoming lane: the lane is
+    left (centre more than (lane - ego width) / 2 + 0.5 m off the route) before the road
+    (the far sidewalk)."""
+    s = situation(TriggerDistance=60.0)
+    straight = backend.run(s, Scripted(steer=0.0), 1)
+    assert straight.metrics["lane_departure_time"] is None
+    drift = backend.run(s, Scripted(steer=0.02), 1)
+    lane, road = drift.metrics["lane_departure_time"], drift.metrics["road_departure_time"]
+    assert lane is not None and road is not None and lane < road
+
+
+def test_camera_mode_and_image_stacks_are_one_clear_error() -> None:
+    from sitcov.errors import SetupError
+
+    with pytest.raises(ConfigError, match="renders no camera frames"):
+        make_backend("esmini", scenario=str(CROSSING), perception="camera")
+
+    class WantsImages(Scripted):
+        wants = "image"
+
+    b = make_backend("esmini", scenario=str(CROSSING))
+    with pytest.raises(SetupError, match="wants camera images, which the esmini backend"):
+        b.run(situation(TriggerDistance=15.0), WantsImages(), 1)
+
+
+def test_pet_at_the_timed_ov_s_conflict_zone() -> None:
+    """PET is measured at the conflict zone of the exported situation's OV: 0 after a
+    collision with it, the gap between one leaving and the other entering otherwise."""
+    b = make_backend("esmini", road=str(TOWN03))
+    stack = make_stack("reference")
+    seen = []
+    for intsit, friction, seed in (("IntSit-3", "1.0", 5), ("IntSit-8", "0.1", 1)):
+        out = b.run(_paper_situation(intsit, friction), stack, seed)
+        seen.append(out)
+        if out.collision and out.metrics["collision_actor"] == "adversary":
+            assert out.pet == 0.0
+        elif out.pet is not None:
+            assert out.pet > 0.0
+    assert any(o.pet is not None for o in seen)
+
+
+def test_a_carla_map_file_s_situations_need_its_road() -> None:
     with pytest.raises(ConfigError, match="--road"):
-        make_backend("esmini")
+        make_backend("esmini", map="Town03")
+
+
+@pytest.mark.parametrize("name", ["t-junction", "crossroads"])
+def test_without_a_road_a_shipped_map_runs_on_its_own_opendrive_export(name: str) -> None:
+    """No --road: the situation is placed on the embedded map's own export (the file
+    ``sitcov export-xodr`` writes), the OV timed on it, the ego at its goal."""
+    from sitcov.roads._writer import xodr_text
+    from sitcov.sim.embedded import load_map
+    from sitcov.sim.embedded._odr import road_network
+
+    b = make_backend("esmini", map=name)
+    assert b.road.name == f"{name}.xodr"
+    assert b.road.read_text(encoding="utf-8") == xodr_text(road_network(load_map(name))[0])
+    hs = load_hyperspace()
+    labels = {e: hs.labels(e)[0] for e in hs.element_names}
+    labels.update(intsit="IntSit-3", friction="1.0")
+    s = hs.situation_from_bins(labels, np.random.default_rng(0))
+    out = b.run(s, make_stack("reference"), 5)
+    assert out.metrics["road"] == f"{name}.xodr"
+    assert out.metrics["ov_timing"].startswith("timing law")
+    assert out.metrics["road_departure_time"] is None and out.status == "pass"
+    if name == "t-junction":  # on crossroads the two meet and stand (a standoff)
+        assert out.end_reason == "goal" and out.metrics["route_completion"] > 0.98
+        assert out.pet is not None
+        assert make_backend("esmini").road.name == "t-junction.xodr"  # the default map
 
 
 def test_a_campaign_on_a_user_scenario_is_deterministic(tmp_path: Path) -> None:
@@ -202,6 +376,23 @@ def test_a_campaign_on_a_user_scenario_is_deterministic(tmp_path: Path) -> None:
             rows.append([(r.situation, r.seed, r.outcome) for r in store.iter_runs("c")])
     assert len(rows[0]) == 12 and rows[0] == rows[1]
     assert all(o.metrics["parameters"]["TriggerDistance"] for _, _, o in rows[0])
+
+
+def test_a_campaign_of_sitcov_s_own_situations_is_deterministic(tmp_path: Path) -> None:
+    """Same seed, same rows for exported situations too (dry runs, timed OV, crop, PET):
+    the paper's hyperspace on the t-junction's own export, in worker processes."""
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+
+    rows = []
+    for name in ("a", "b"):
+        config = CampaignConfig(
+            name="c", backend="esmini", runs=8, seed=2, workers=1, executor="processes"
+        )
+        with open_store(tmp_path / f"{name}.db") as store:
+            run_campaign(config, store)
+            rows.append([(r.situation, r.seed, r.outcome) for r in store.iter_runs("c")])
+    assert len(rows[0]) == 8 and rows[0] == rows[1]
+    assert all(o.metrics["road"] == "t-junction.xodr" for _, _, o in rows[0])
 
 
 def test_unknown_element_stops_the_campaign_before_the_database(tmp_path: Path) -> None:

@@ -124,6 +124,11 @@ def test_scenario_flags_need_the_esmini_backend() -> None:
     options = run_overrides(backend="esmini", esmini={"scenario": CROSSING, "road": "x.xodr"})
     assert options["backend_options"]["scenario"] == str(CROSSING)
     assert Path(options["backend_options"]["road"]).is_absolute()
+    # --map goes with esmini too (where situations are placed); other CARLA flags do not
+    options = run_overrides(backend="esmini", carla={"map": "crossroads"})
+    assert options["backend_options"] == {"map": "crossroads"}
+    with pytest.raises(ConfigError, match="--carla-host"):
+        run_overrides(backend="esmini", carla={"map": "Town03", "host": "h"})
 
 
 def test_a_missing_library_is_one_line(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
