@@ -218,11 +218,17 @@ def run_road(
     meta: Mapping[str, Any] | None = None,
     metrics: Mapping[str, Any] | None = None,
 ) -> str:
-    """The road a run of a campaign with stored ``config`` was played on: the esmini
-    backend's ``road`` option, else the OpenDRIVE file in the run's trace (``meta["map"]``,
-    the file esmini loaded) when it still exists, else the road of the run's scenario file
-    (``metrics["scenario"]`` picks it in a folder); for other backends the trace's map,
-    else the campaign's embedded map."""
+    """The road a run of a campaign with stored ``config`` was played on.
+
+    esmini backend: its ``road`` option (``--road``), else the road of the run's scenario
+    file (``metrics["scenario"]`` picks it in a folder), else, for sitcov's own situations
+    without ``--road`` (played on an embedded map's own OpenDRIVE export, in the same
+    coordinates), that embedded map (``backend_options.map``, else the default); the
+    OpenDRIVE file in the run's trace (``meta["map"]``) when none of these is known.
+    Other backends: the trace's map, else the campaign's embedded map.
+    """
+    from sitcov.campaign._build import DEFAULT_EMBEDDED_MAP
+
     config = dict(config or {})
     options = config.get("backend_options") or {}
     options = options if isinstance(options, Mapping) else {}
@@ -230,18 +236,14 @@ def run_road(
     if config.get("backend") == "esmini":
         if options.get("road"):
             return str(options["road"])
-        if traced and is_opendrive(str(traced)) and Path(str(traced)).is_file():
-            return str(traced)
         scenario, name = options.get("scenario"), (metrics or {}).get("scenario")
         road = _scenario_road(str(scenario) if scenario else None, str(name) if name else None)
         if road is not None:
             return road
-        if options.get("map"):
-            return str(options["map"])
+        if not scenario:
+            return str(options.get("map") or DEFAULT_EMBEDDED_MAP)
     if traced:
         return str(traced)
-    from sitcov.campaign._build import DEFAULT_EMBEDDED_MAP
-
     return str(options.get("map") or DEFAULT_EMBEDDED_MAP)
 
 

@@ -200,5 +200,11 @@ def test_which_road_a_stored_run_used(tmp_path: Path) -> None:
     assert run_road(given) == "/r.xodr"
     folder = {"backend": "esmini", "backend_options": {"scenario": str(crossing.parent)}}
     assert Path(run_road(folder, None, {"scenario": "crossing"})).resolve() == straight
+    # sitcov's own situations without --road: the embedded map whose export esmini played
+    export = {"map": "/tmp/gone/t-junction.xodr"}
+    assert run_road({"backend": "esmini", "backend_options": {"map": "x-junction"}}, export) == (
+        "x-junction"
+    )
+    assert run_road({"backend": "esmini"}, export) == "t-junction"
     assert run_road({"backend": "embedded"}, {"map": "x-junction"}) == "x-junction"
     assert run_road({"backend_options": {"map": "y-junction"}}) == "y-junction"
