@@ -93,6 +93,7 @@ def animate_outcome(
     max_frames: int = MAX_FRAMES,
     dpi: int = 72,
     dashcam: Any = None,
+    road: Any = None,
 ) -> Path:
     """Write the animation of a run recorded with ``record=True``.
 
@@ -103,6 +104,8 @@ def animate_outcome(
         fps, max_frames, dpi: frame rate, most frames, resolution.
         dashcam: a :class:`~sitcov.report._dashcam.DashCam` of the run (camera mode): its
             view is drawn under the top-down one in every frame; None: no strip.
+        road: the road drawn under the actors (``sitcov.report._road.road_drawing``: an
+            embedded map or an OpenDRIVE file); None: the map named in the trace.
 
     Raises:
         ConfigError: no trace, an unknown format, or ``.mp4`` without ffmpeg.
@@ -127,7 +130,7 @@ def animate_outcome(
             expected="ffmpeg on PATH for .mp4 (or write .gif / .html)",
         )
     frames = render_frames(
-        outcome, title=title, fps=fps, max_frames=max_frames, dpi=dpi, dashcam=dashcam
+        outcome, title=title, fps=fps, max_frames=max_frames, dpi=dpi, dashcam=dashcam, road=road
     )
     out.parent.mkdir(parents=True, exist_ok=True)
     if suffix == ".gif":
@@ -147,6 +150,7 @@ def render_frames(
     max_frames: int = MAX_FRAMES,
     dpi: int = 72,
     dashcam: Any = None,
+    road: Any = None,
 ) -> list[Any]:
     """The animation's frames as RGB arrays (height x width x 3, uint8).
 
@@ -157,7 +161,7 @@ def render_frames(
     import matplotlib.pyplot as plt
     import numpy as np
 
-    fig, update, steps, moving = _figure(outcome, title, fps, max_frames, dpi, dashcam)
+    fig, update, steps, moving = _figure(outcome, title, fps, max_frames, dpi, dashcam, road)
     try:
         for artist in moving:
             artist.set_animated(True)
@@ -281,8 +285,14 @@ def html_player(frames: list[Any], fps: int, *, title: str = "", uid: str = "run
     )
 
 
-def _figure(
-    outcome: Outcome, title: str, fps: int, max_frames: int, dpi: int, dashcam: Any = None
+def _figure(  # noqa: PLR0915
+    outcome: Outcome,
+    title: str,
+    fps: int,
+    max_frames: int,
+    dpi: int,
+    dashcam: Any = None,
+    road: Any = None,
 ) -> tuple:
     """The figure, its per-frame update function and the frame indices (and, with
     ``dashcam``, a row below with the ego's camera view)."""
@@ -290,11 +300,13 @@ def _figure(
     import numpy as np
     from matplotlib.patches import Polygon
 
-    from sitcov.sim.embedded import load_map
-    from sitcov.sim.embedded._render import draw_map, drawn_actors, outline, view_limits
+    from sitcov.report._road import road_drawing
+    from sitcov.sim.embedded._render import drawn_actors, outline
 
     trace = outcome.trace
-    meta = trace.meta or {}
+    meta = dict(trace.meta or {})
+    if not meta.get("collision_point") and (outcome.metrics or {}).get("collision_point"):
+        meta["collision_point"] = outcome.metrics["collision_point"]  # esmini keeps it there
     times = [row[0] for row in trace.ego]
     steps = _frame_steps(times, fps, max_frames)
     if dashcam is None:
@@ -317,8 +329,10 @@ def _figure(
             + (": detector boxes" if dashcam.detector is not None else ""),
             fontsize=9,
         )
-    limits = view_limits(trace)
-    _background(ax, load_map(str(meta.get("map", "t-junction"))), limits, draw_map)
+    if road is None:
+        road = road_drawing(str(meta.get("map", "t-junction")))
+    limits = road.view(trace)
+    _background(ax, road, limits)
     ax.tick_params(labelsize=7)
     actors = drawn_actors(trace, meta)
     patches, trails = [], []
@@ -379,7 +393,9 @@ def _figure(
         words = [f"t = {t:5.2f} s", f"ego {trace.ego[i][4]:4.1f} m/s"]
         if aeb_time is not None and t >= aeb_time:
             words.append("AEB braking")
-        if collision_time is not None and t >= collision_time - 1e-9:
+        # a trace may end on the step before contact (esmini's rows precede each step)
+        hit = outcome.end_reason == "collision" and i == len(times) - 1
+        if collision_time is not None and (t >= collision_time - 1e-9 or hit):
             words.append(f"COLLISION with {label_focus}")
             if meta.get("collision_point"):
                 crash.set_data([meta["collision_point"][0]], [meta["collision_point"][1]])
@@ -394,9 +410,10 @@ def _figure(
     return fig, update, steps, moving + ([camera_image] if camera_image is not None else [])
 
 
-def _background(ax: Any, jmap: Any, limits: Any, draw_map: Any) -> None:
-    """The map drawn once into a raster image shown behind the actors: redrawing its
-    hundreds of polygons and markings in every frame would cost most of the drawing time."""
+def _background(ax: Any, road: Any, limits: Any) -> None:
+    """The road (a ``sitcov.report._road`` drawing) drawn once into a raster image shown
+    behind the actors: redrawing its hundreds of polygons and markings in every frame
+    would cost most of the drawing time."""
     import matplotlib.pyplot as plt
     import numpy as np
 
@@ -405,7 +422,7 @@ def _background(ax: Any, jmap: Any, limits: Any, draw_map: Any) -> None:
     bg = plt.figure(figsize=(side, side * (y1 - y0) / (x1 - x0)), dpi=100)
     try:
         bax = bg.add_axes((0, 0, 1, 1))
-        draw_map(bax, jmap)
+        road.draw(bax, ((x0, x1), (y0, y1)))
         bax.set_xlim(x0, x1)
         bax.set_ylim(y0, y1)
         bax.set_aspect("auto")
@@ -487,7 +504,13 @@ def animate_run(db: str | Path, run_id: str, out: str | Path, **options: Any) ->
     values = run.situation.to_dict()["values"]
     dashcam = run_dashcam(run.config, values, run.seed, outcome, boxes=True)
     try:
-        return animate_outcome(outcome, out, title=_wrap(title), dashcam=dashcam, **options)
+        from sitcov.report._road import road_drawing, run_road
+
+        meta = outcome.trace.meta if outcome.trace else None
+        road = road_drawing(run_road(run.config, meta, outcome.metrics))
+        return animate_outcome(
+            outcome, out, title=_wrap(title), dashcam=dashcam, road=road, **options
+        )
     finally:
         if dashcam is not None:
             dashcam.close()

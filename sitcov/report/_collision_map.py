@@ -2,11 +2,13 @@
 
 Each collision a run stores (``outcome.metrics["collision_point"]``: the centroid of the
 two boxes' overlap at the first step they touched, map frame [m]; the embedded, esmini and
-CARLA backends record it) is drawn on the junction of the campaign's map, coloured by the
-kind of road user hit (``collision_kind``), filled when the campaign's judge counts the run
-as a failure and hollow when it does not (e.g. a standing ego was hit under the default
-judge). Campaigns on different maps get a panel each. Runs stored before the point was
-recorded (store schema < 5) are counted in the caption, not drawn.
+CARLA backends record it) is drawn on the junction of the campaign's map (for esmini
+campaigns: on the lanes of their OpenDRIVE road near the collisions,
+``sitcov.report._road``), coloured by the kind of road user hit (``collision_kind``),
+filled when the campaign's judge counts the run as a failure and hollow when it does not
+(e.g. a standing ego was hit under the default judge). Campaigns on different maps get a
+panel each. Runs stored before the point was recorded (store schema < 5) are counted in
+the caption, not drawn.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from sitcov.report import _figures
+from sitcov.report._road import road_drawing, run_road
 from sitcov.report._sections import b64
 
 #: Marker colour per kind of road user hit (Okabe-Ito: colour-blind safe); others grey.
@@ -51,10 +54,14 @@ class CollisionPoint:
     failed: bool
 
 
-def campaign_map(config: Mapping[str, Any]) -> str:
-    """The embedded map a campaign ran on (its ``backend_options.map``, else the default)."""
+def campaign_map(config: Mapping[str, Any], metrics: Mapping[str, Any] | None = None) -> str:
+    """The map a campaign ran on (its ``backend_options.map``, else the default embedded
+    map); for the esmini backend the OpenDRIVE road of the run with ``metrics``
+    (:func:`sitcov.report._road.run_road`)."""
     from sitcov.campaign._build import DEFAULT_EMBEDDED_MAP
 
+    if config.get("backend") == "esmini":
+        return run_road(config, None, metrics)
     options = config.get("backend_options") or {}
     ref = options.get("map") if isinstance(options, Mapping) else None
     return str(ref) if ref else DEFAULT_EMBEDDED_MAP
@@ -104,16 +111,14 @@ def collision_map_section(
 
 
 def collision_figure(points: Sequence[CollisionPoint]) -> Any:
-    """One panel per map: the junction drawn as the top-down pictures draw it, the
+    """One panel per map: the junction (or the OpenDRIVE road near the collisions) drawn as
+    the top-down pictures draw it, the
     collisions as markers coloured and shaped by the kind hit, filled for failures, hollow
     otherwise, those within :data:`GRID` metres of each other as one marker whose area
     grows with their number; one legend for all panels below them (counts over every map,
     and the marker sizes)."""
     plt = _figures._plt()
     from matplotlib.lines import Line2D
-
-    from sitcov.sim.embedded import load_map
-    from sitcov.sim.embedded._render import draw_map
 
     maps = list(dict.fromkeys(p.map for p in points))
     cols = min(COLUMNS, len(maps))
@@ -138,10 +143,10 @@ def collision_figure(points: Sequence[CollisionPoint]) -> Any:
         ax.set_visible(False)
     for ax, ref in zip(axes.flat, maps, strict=False):
         mine = [p for p in points if p.map == ref]
-        jmap = load_map(ref)
-        draw_map(ax, jmap)
-        ax.grid(False)
+        road = road_drawing(ref)
         (x0, x1), (y0, y1) = _limits(mine)
+        road.draw(ax, ((x0, x1), (y0, y1)))
+        ax.grid(False)
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
         for kind, failed in groups:
@@ -156,7 +161,7 @@ def collision_figure(points: Sequence[CollisionPoint]) -> Any:
                     zorder=6 if not failed else 5,
                 )
         failed = sum(p.failed for p in mine)
-        ax.set_title(f"{jmap.name}: {len(mine)} collisions, {failed} failures", fontsize=10)
+        ax.set_title(f"{road.name}: {len(mine)} collisions, {failed} failures", fontsize=10)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         ax.tick_params(labelsize=8)

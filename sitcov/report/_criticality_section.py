@@ -84,12 +84,19 @@ def criticality_section(
     the judged runs of ``campaigns`` (read one at a time: only their measures are kept)."""
     measured, points, unlocated = [], [], 0
     for name in campaigns:
-        map_ref = campaign_map(store.campaign(name).config)
+        config = store.campaign(name).config
+        map_ref = campaign_map(config)
+        per_run = config.get("backend") == "esmini"  # a catalogue's files name their roads
         for r in store.iter_runs(name, ("pass", "fail")):
             if r.outcome is None:
                 continue
             measured.append((_Ref(r.campaign, r.index, r.status), run_measures(r)))
-            point = collision_point(r, map_ref)
+            ref = (
+                campaign_map(config, r.outcome.metrics)
+                if per_run and r.outcome.collision
+                else map_ref
+            )
+            point = collision_point(r, ref)
             if point:
                 points.append(point)
             elif point is False:

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from sitcov.errors import SitcovError
+from sitcov.report._road import road_drawing, run_road
 from sitcov.report._traces import close_builders, traced_outcome
 
 
@@ -90,7 +91,11 @@ def failure_pictures(
                 outcome = traced_outcome(store, run, builders)
                 safe = "".join(c if c.isalnum() else "_" for c in ref)
                 path = fig_dir / f"failure_{safe}.png"
-                render_topdown(outcome, path)
+                road = road_drawing(
+                    run_road(run.config, outcome.trace.meta if outcome.trace else None,
+                             outcome.metrics)
+                )  # fmt: skip
+                render_topdown(outcome, path, road)
                 data = path.read_bytes()
             except (SitcovError, ValueError, TypeError, OSError) as exc:
                 problems.append(f"{ref}: {exc}")
@@ -105,7 +110,7 @@ def failure_pictures(
                 detail.append(f"re-simulation gave {outcome.status}, stored {run.status}")
             pictures.append(
                 {
-                    "gif": _animation(outcome, ref, _dashcam(store, run, outcome))
+                    "gif": _animation(outcome, ref, _dashcam(store, run, outcome), road)
                     if animate
                     else None,
                     "png": base64.b64encode(data).decode("ascii"),
@@ -118,8 +123,10 @@ def failure_pictures(
     finally:
         close_builders(builders)
     note = (
-        "Top-down views drawn by the embedded backend's renderer. Runs without a stored trace were "
-        "simulated again from their stored situation, seed and campaign config."
+        "Top-down views drawn by the embedded backend's renderer, on the campaign's map or, for "
+        "runs on an OpenDRIVE road (esmini backend), on that road's lanes near the run. Runs "
+        "without a stored trace were simulated again from their stored situation, seed and "
+        "campaign config."
     )
     if problems:
         note += " Not drawn: " + "; ".join(problems)
@@ -158,9 +165,9 @@ def _dashcam(store: Any, run: Any, outcome: Any) -> Any:
     return run_dashcam(run.config, values, run.seed, outcome, boxes=False)
 
 
-def _animation(outcome: Any, ref: str, dashcam: Any = None) -> str | None:
+def _animation(outcome: Any, ref: str, dashcam: Any = None, road: Any = None) -> str | None:
     """A small GIF of the run, base64 (None when the run has no trace to animate), with
-    ``dashcam``'s strip when given."""
+    ``dashcam``'s strip when given, on ``road`` (a road drawing; None: the trace's map)."""
     from sitcov.report._animate import gif_bytes, render_frames
 
     if outcome.trace is None or not outcome.trace.ego:
@@ -172,5 +179,6 @@ def _animation(outcome: Any, ref: str, dashcam: Any = None) -> str | None:
         max_frames=REPORT_FRAMES,
         dpi=REPORT_DPI,
         dashcam=dashcam,
+        road=road,
     )
     return base64.b64encode(gif_bytes(frames, REPORT_FPS)).decode("ascii")

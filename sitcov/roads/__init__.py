@@ -3,6 +3,8 @@
 In: ``read_opendrive`` parses a file, ``list_junctions`` describes every junction with its
 legs, ``junction_map_data`` turns one junction into the data of a sitcov map (``layout:
 lanes``, docs/roads.md), which the embedded world loads as it loads the shipped YAML maps.
+Drawing: ``lane_outlines`` samples every lane and lane border (the report's pictures of
+runs on a user's OpenDRIVE road).
 Out: the writer's input types end in ``Spec`` (``RoadSpec``, ``LaneSpec`` ...); the maps of
 ``sim/`` describe themselves with them (``sitcov.sim.embedded._odr``) and ``write_xodr``
 writes the ``.xodr`` (docs/export-xosc.md).
@@ -31,6 +33,7 @@ from sitcov.roads._opendrive import (
     Road,
     read_opendrive,
 )
+from sitcov.roads._outline import LaneBorder, LaneOutline, lane_outlines
 from sitcov.roads._writer import (
     ConnectionSpec,
     CrosswalkSpec,
@@ -59,6 +62,8 @@ __all__ = [
     "JunctionSpec",
     "Lane",
     "LaneLink",
+    "LaneBorder",
+    "LaneOutline",
     "LaneSection",
     "LaneSpec",
     "LegInfo",
@@ -76,6 +81,7 @@ __all__ = [
     "junction_centre",
     "junction_legs",
     "junction_map_data",
+    "lane_outlines",
     "leg_names",
     "list_junctions",
     "nearest_junction",

@@ -78,7 +78,11 @@ def drawn_actors(trace: Trace, meta: dict) -> list[dict[str, Any]]:
     then the primary OV, then ``actor2``, ``actor3``, ... in slot order)."""
     length, width = meta.get("length", 4.5), meta.get("width", 1.6)
     sizes = meta.get("actors") or {}
-    rows = {"ov": trace.ov, **{k: v for k, v in (trace.actors or {}).items() if k != "ov"}}
+    named = trace.actors or {}
+    if named and "ov" not in named and any(r == trace.ov for r in named.values()):
+        rows = dict(named)  # the primary OV is one of the named actors (esmini's entities)
+    else:
+        rows = {"ov": trace.ov, **{k: v for k, v in named.items() if k != "ov"}}
     shade: dict[str, int] = {}
     out = [
         {
@@ -161,7 +165,7 @@ def _draw_actor(ax: Any, actor: dict[str, Any]) -> Any:
 def render_topdown(
     outcome_or_trace: Outcome | Trace,
     path: str | FsPath,
-    map: JunctionMap | str | None = None,  # noqa: A002
+    map: JunctionMap | str | Any | None = None,  # noqa: A002
 ) -> FsPath:
     """Draw the road, every actor's route and trajectory with its outline at a few instants
     (colour, shape and line style by kind; a legend names each), the conflict point and the
@@ -170,7 +174,10 @@ def render_topdown(
     Args:
         outcome_or_trace: an Outcome run with ``record=True``, or its Trace.
         path: the PNG file to write.
-        map: the map (default: the one named in the trace, else the T-junction).
+        map: the map (default: the one named in the trace, else the T-junction), or any
+            road drawing with a ``name``, ``draw(ax, limits)`` and ``view(trace)`` (the
+            report's drawing of an OpenDRIVE road, ``sitcov.report._road``): the picture
+            shows its ``view`` of the run.
 
     Returns:
         The path written.
@@ -181,10 +188,23 @@ def render_topdown(
     trace = outcome_or_trace.trace if isinstance(outcome_or_trace, Outcome) else outcome_or_trace
     if trace is None:
         raise ConfigError("render_topdown: the outcome has no trace; run it with record=True")
-    meta = trace.meta or {}
+    meta = dict(trace.meta or {})
+    if not meta.get("collision_point") and isinstance(outcome_or_trace, Outcome):
+        point = (outcome_or_trace.metrics or {}).get("collision_point")
+        if point:  # backends that keep it in the metrics only (esmini)
+            meta["collision_point"] = point
     if map is None:
         map = meta.get("map", "t-junction")
-    jmap = map if isinstance(map, JunctionMap) else load_map(str(map))
+    if isinstance(map, JunctionMap) or not hasattr(map, "draw"):
+        jmap = map if isinstance(map, JunctionMap) else load_map(str(map))
+
+        def draw(ax: Any, limits: Any) -> None:
+            draw_map(ax, jmap)
+
+        name, view = jmap.name, view_limits
+    else:
+        draw, name = map.draw, map.name
+        view = getattr(map, "view", view_limits)
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -192,7 +212,8 @@ def render_topdown(
 
     fig, ax = plt.subplots(figsize=(7, 7), dpi=110)
     try:
-        draw_map(ax, jmap)
+        limits = view(trace)
+        draw(ax, limits)
         handles = [_draw_actor(ax, actor) for actor in drawn_actors(trace, meta)]
         if meta.get("conflict_point"):
             cx, cy = meta["conflict_point"]
@@ -211,7 +232,6 @@ def render_topdown(
             handles += ax.plot(
                 cx, cy, marker="*", color="black", markersize=16, zorder=6, ls="", label="collision"
             )
-        limits = view_limits(trace)
         if limits is not None:
             ax.set_xlim(*limits[0])
             ax.set_ylim(*limits[1])
@@ -220,7 +240,7 @@ def render_topdown(
         # sizes readable when the report shows the picture at half its width
         ax.legend(handles=handles, loc="upper right", fontsize=11, framealpha=0.9)
         end = trace.ego[-1][0] if trace.ego else math.nan
-        ax.set_title(f"{jmap.name}: run of {end:.1f} s", fontsize=13)
+        ax.set_title(f"{name}: run of {end:.1f} s", fontsize=13)
         ax.set_xlabel("x [m]", fontsize=11)
         ax.set_ylabel("y [m]", fontsize=11)
         ax.tick_params(labelsize=10)
