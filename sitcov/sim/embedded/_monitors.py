@@ -758,18 +758,16 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
         return None, ms
     route, pet, prox, hit, leave, progress = ms[0], ms[1], ms[2], ms[3], ms[k - 1], ms[k]
     pairs = ms[4] if with_actor_pairs else None
-    ego, actors = world.ego, world.actors
+    ego = world.ego
     body = ego.body
     xs, ys, sin, cos = route.xs, route.ys, route.sin, route.cos
     lane, road = route.lane, route.road
     hs, left, right, half_l, half_w = route._road
     lane_limit = lane.limit
     half_e = pet.half_e
-    pet_pairs = pet._pairs
     best, best_ttc, best_drac = prox.best, prox.best_ttc, prox.best_drac
     reach, consts, kernel = prox._reach, prox._k, prox._kernel
-    indexed = list(enumerate(actors))
-    radius = ego.radius
+    items = [(j, a, z) for j, (a, z) in enumerate(pet._pairs)]
     leave_pairs = leave._pairs
     progress_update = progress.update
     sine = math.sin
@@ -790,28 +788,29 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
         lat = -lat if lat < 0.0 else lat
         if lat > route.max_lat:
             route.max_lat = lat
-        # PETMonitor.update
+        # PETMonitor.update, ProximityMonitor.update and CollisionMonitor's bounding
+        # circles in one pass over the actors (each actor's state is its own: the same
+        # values as three passes)
         s_e = ego.s
-        for a, z in pet_pairs:
+        evx, evy = b.vx, b.vy
+        far_step = world.k & 3 == 0
+        touch = False
+        for j, a, z in items:
             if z[5] is None:
                 if z[4] is None and s_e + half_e >= z[0]:
                     z[4] = t
                 if s_e - half_e > z[1]:
                     z[5] = t
-            if a.active and z[7] is None:
+            if not a.active:
+                continue
+            if z[7] is None:
                 s, ha = a.s, a.half_l
                 if z[6] is None and s + ha >= z[2]:
                     z[6] = t
                 if s - ha > z[3]:
                     z[7] = t
-        # ProximityMonitor.update
-        evx, evy = b.vx, b.vy
-        far_step = world.k & 3 == 0
-        for j, a in indexed:
-            if not a.active:
-                continue
-            gap = a.gap
-            near = gap - reach[j] < best[j] and (gap < FAR or far_step)
+            gap, r = a.gap, reach[j]  # r: the ego's radius plus the actor's
+            near = gap - r < best[j] and (gap < FAR or far_step)
             o = a.body
             d, ttc, drac = kernel(
                 bx, by, yaw, evx, evy, o.x, o.y, o.yaw, o.vx, o.vy, consts[j], near
@@ -822,13 +821,13 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
                 best_ttc[j] = ttc
             if drac >= 0.0 and (best_drac[j] is None or drac > best_drac[j]):
                 best_drac[j] = drac
+            if gap < r:
+                touch = True
         # CollisionMonitor.update: its own call once some actor's bounding circle touches
-        for a in actors:
-            if a.gap < radius + a.radius:  # gap: inf if inactive
-                reason = hit.update(world)
-                if reason is not None:
-                    return reason
-                break
+        if touch:
+            reason = hit.update(world)
+            if reason is not None:
+                return reason
         if pairs is not None:
             pairs.update(world)
         # LeaveMapRule.update
