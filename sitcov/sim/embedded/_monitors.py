@@ -769,7 +769,7 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
     reach, consts, kernel = prox._reach, prox._k, prox._kernel
     items = [(j, a, z) for j, (a, z) in enumerate(pet._pairs)]
     leave_pairs = leave._pairs
-    progress_update = progress.update
+    progress_update, goal_s = progress.update, progress.goal_s
     sine = math.sin
 
     def update() -> str | None:
@@ -834,10 +834,16 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
         for a, end in leave_pairs:
             if a.active and a.s >= end:
                 a.active = False
-        # ProgressMonitor.update: its own call unless the ego moves without a new best
-        if s_e > progress.best or b.vx * b.vx + b.vy * b.vy < _STILL2:
-            return progress_update(world)
-        progress.clear_since = None
-        return None
+        # ProgressMonitor.update: the new best and the goal, and the moving ego's reset,
+        # written out; its own call while the ego stands (which then finds no new best)
+        if s_e > progress.best:
+            progress.best = s_e
+            if s_e >= goal_s:
+                progress.goal_time = t
+                return "goal"
+        if b.vx * b.vx + b.vy * b.vy >= _STILL2:
+            progress.clear_since = None
+            return None
+        return progress_update(world)
 
     return update, ms[k + 1 :]
