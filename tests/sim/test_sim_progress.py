@@ -237,3 +237,27 @@ def test_compiled_path_test_is_the_python_one():
         assert fast(pts, lo, hi, x, y, c, s, hl, hw, reach) is want
         answers.add(want)
     assert answers == {True, False}
+
+
+def test_the_route_window_is_a_binary_search_for_the_first_point_at_or_after():
+    """``path_occupied`` finds its window with ``bisect_left``: the first index whose arc
+    length is >= the one sought (the halving loop it replaced), duplicates and ends too."""
+    from bisect import bisect_left
+
+    def first_at_or_after(ss, s):
+        lo, hi = 0, len(ss)
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if ss[mid] < s:
+                lo = mid + 1
+            else:
+                hi = mid
+        return lo
+
+    rnd = random.Random(3)
+    for _ in range(3000):
+        ss = tuple(
+            sorted(rnd.choice([0.0, 1.0, 2.5]) + rnd.random() for _ in range(rnd.randrange(0, 40)))
+        )
+        s = rnd.choice([*ss, -1.0, 50.0, rnd.uniform(-1.0, 4.0)]) if ss else 0.0
+        assert bisect_left(ss, s) == first_at_or_after(ss, s)

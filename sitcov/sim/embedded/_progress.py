@@ -28,6 +28,7 @@ while the ego stands and has not been blocked yet.
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from typing import Any
 
 import numpy as np
@@ -71,8 +72,9 @@ def path_occupied(world: Any, xs: Any, ys: Any, ss: Any, pts: Any = None) -> boo
     ego = world.ego
     front = ego.s + ego.half_l
     reach = ego.half_w + PATH_MARGIN
-    lo = _first_at_or_after(ss, ego.s)
-    hi = _first_at_or_after(ss, front + PATH_AHEAD)
+    # the first route points at arc length >= the ego's and >= PATH_AHEAD beyond its front
+    lo = bisect_left(ss, ego.s)
+    hi = bisect_left(ss, front + PATH_AHEAD)
     if pts is None:
         near, pts = path_near, (xs, ys)
     else:
@@ -155,18 +157,6 @@ def path_near_fn() -> Any:
     return _PATH_NEAR
 
 
-def _first_at_or_after(ss: Any, s: float) -> int:
-    """Index of the first route point at arc length >= ``s`` (len(ss) if none)."""
-    lo, hi = 0, len(ss)
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if ss[mid] < s:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
-
-
 class ProgressMonitor:
     """The ego's route progress, goal time, standstill and blocked time (module docstring).
 
@@ -180,6 +170,7 @@ class ProgressMonitor:
         self.goal_s = max(route.length - GOAL_TOLERANCE, 1e-9)
         self.xs, self.ys, self.ss = route.xs, route.ys, route.ss
         self.pts = route._track_array  # the points as one float array (compiled test)
+        path_near_fn()  # compiled (or loaded) with the run's setup, not in its loop
         self.budget = float(budget)
         self.best = world.ego.s
         self.goal_time: float | None = None
