@@ -21,6 +21,8 @@ from sitcov.sim.embedded._progress import (
     PATH_AHEAD,
     PATH_MARGIN,
     STILL_SPEED,
+    path_near,
+    path_near_fn,
     path_occupied,
 )
 
@@ -205,5 +207,57 @@ def test_path_occupied_is_the_point_box_distance_test_along_the_path():
         near = actor.gap <= PATH_AHEAD + ego.half_l + actor.radius + reach  # its pre-test
         want = near and any(_point_box_distance(x, y, box) < reach for x, y in points)
         assert path_occupied(world, route.xs, route.ys, route.ss) is want, at
+        pts = route._track_array  # the compiled point test (numba there) says the same
+        assert path_occupied(world, route.xs, route.ys, route.ss, pts) is want, at
         hits += want
     assert 500 < hits < 3500
+
+
+def test_compiled_path_test_is_the_python_one():
+    """:func:`path_near` compiled (numba installed) answers as the Python code on the
+    route's float array, near the boundary too (``reach`` at a point's exact distance)."""
+    fast = path_near_fn()
+    if fast is path_near:
+        pytest.skip("numba not installed: only the Python test runs")
+    rnd = random.Random(5)
+    route = Path.from_points([(float(x), 0.3 * math.sin(x / 7.0)) for x in range(60)])
+    pts, plain = route._track_array, (route.xs, route.ys)
+    answers = set()
+    for _ in range(20000):
+        lo = rnd.randrange(0, 60)
+        hi = rnd.randrange(lo, 61)
+        x, y, yaw = rnd.uniform(-5.0, 65.0), rnd.uniform(-4.0, 4.0), rnd.uniform(-4.0, 4.0)
+        c, s = math.cos(yaw), math.sin(yaw)
+        hl, hw = rnd.choice([(2.3, 0.9), (0.25, 0.25), (0.9, 0.3)])
+        reach = rnd.choice([1.4, rnd.uniform(0.0, 3.0)])
+        if rnd.random() < 0.2 and lo < hi:  # reach at exactly one point's distance
+            i = rnd.randrange(lo, hi)
+            reach = _point_box_distance(route.xs[i], route.ys[i], (x, y, yaw, hl, hw))
+        want = path_near(plain, lo, hi, x, y, c, s, hl, hw, reach)
+        assert fast(pts, lo, hi, x, y, c, s, hl, hw, reach) is want
+        answers.add(want)
+    assert answers == {True, False}
+
+
+def test_the_route_window_is_a_binary_search_for_the_first_point_at_or_after():
+    """``path_occupied`` finds its window with ``bisect_left``: the first index whose arc
+    length is >= the one sought (the halving loop it replaced), duplicates and ends too."""
+    from bisect import bisect_left
+
+    def first_at_or_after(ss, s):
+        lo, hi = 0, len(ss)
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if ss[mid] < s:
+                lo = mid + 1
+            else:
+                hi = mid
+        return lo
+
+    rnd = random.Random(3)
+    for _ in range(3000):
+        ss = tuple(
+            sorted(rnd.choice([0.0, 1.0, 2.5]) + rnd.random() for _ in range(rnd.randrange(0, 40)))
+        )
+        s = rnd.choice([*ss, -1.0, 50.0, rnd.uniform(-1.0, 4.0)]) if ss else 0.0
+        assert bisect_left(ss, s) == first_at_or_after(ss, s)

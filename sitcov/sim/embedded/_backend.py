@@ -39,6 +39,7 @@ from sitcov.sim.embedded._monitors import (  # noqa: F401 - constants re-exporte
     LaneDepartureMonitor,
     RoadDepartureMonitor,
     default_monitors,
+    fused_update,
 )
 from sitcov.sim.embedded._progress import BLOCKED_TIME, STILL_SPEED  # noqa: F401
 from sitcov.sim.embedded._scene import (  # noqa: F401
@@ -511,8 +512,21 @@ def _object_noise(value: Any) -> Any:
 
 def run_loop(world: World, monitors: list[Any], n_max: int, record: bool) -> str:
     """Step the world until a monitor ends the run or ``n_max`` steps passed; the end reason."""
-    updates = [m.update for m in monitors]
+    fused, rest = fused_update(world, monitors)  # the built-in list's work in one call
     step = world.step
+    if fused is not None and not rest:
+        while True:
+            if record:
+                world.record()
+            step()
+            reason = fused()
+            if reason is not None:
+                return reason
+            if world.k >= n_max:
+                return "sim_timeout"
+    updates = [m.update for m in rest]
+    if fused is not None:
+        updates.insert(0, lambda _world: fused())
     while True:
         if record:
             world.record()

@@ -65,7 +65,7 @@ from sitcov.sim.embedded._collision import (
     overlap,
 )
 from sitcov.sim.embedded._dynamics import G
-from sitcov.sim.embedded._progress import GOAL_TOLERANCE, ProgressMonitor
+from sitcov.sim.embedded._progress import _STILL2, GOAL_TOLERANCE, ProgressMonitor
 
 #: How far the ego's box may reach beyond its lane's edge before it counts as a lane
 #: departure [m] (a wheel over the marking is normal driving; half a metre is not).
@@ -732,3 +732,118 @@ def default_monitors(
         # ends a run early: no monitor to call every step
         *([EarlyEndMonitor(world, early_end, progress)] if early_end else []),
     ]
+
+
+def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
+    """The built-in monitors' per-step work in one call, when ``monitors`` starts with
+    the list :func:`default_monitors` makes (exactly those classes, in that order):
+    ``(update, rest)``, where ``update()`` does what the leading monitors' ``update(world)``
+    calls do one after the other (the same operations in the same order on the same
+    objects: their reports are unchanged) and ``rest`` are the monitors left to call
+    after it. Any other list (a user's own, a subclass): ``(None, list(monitors))``, every
+    monitor called through the public protocol.
+
+    Why: the run loop calls the monitors on every step, and six Python calls that each
+    look up the world, the ego and the actors again cost more than the work they do.
+    """
+    ms = list(monitors)
+    n = len(ms)
+    classes = [type(m) for m in ms[:7]]
+    with_actor_pairs = classes[4:5] == [ActorCollisionMonitor]
+    expected = [EgoRouteMonitor, PETMonitor, ProximityMonitor, CollisionMonitor]
+    expected += [ActorCollisionMonitor] if with_actor_pairs else []
+    expected.append(LeaveMapRule)
+    k = len(expected)
+    if classes[:k] != expected or n <= k or type(ms[k]) is not ProgressMonitor:
+        return None, ms
+    route, pet, prox, hit, leave, progress = ms[0], ms[1], ms[2], ms[3], ms[k - 1], ms[k]
+    pairs = ms[4] if with_actor_pairs else None
+    ego = world.ego
+    body = ego.body
+    xs, ys, sin, cos = route.xs, route.ys, route.sin, route.cos
+    lane, road = route.lane, route.road
+    hs, left, right, half_l, half_w = route._road
+    lane_limit = lane.limit
+    half_e = pet.half_e
+    best, best_ttc, best_drac = prox.best, prox.best_ttc, prox.best_drac
+    reach, consts, kernel = prox._reach, prox._k, prox._kernel
+    items = [(j, a, z) for j, (a, z) in enumerate(pet._pairs)]
+    leave_pairs = leave._pairs
+    progress_update, goal_s = progress.update, progress.goal_s
+    sine = math.sin
+
+    def update() -> str | None:
+        b = body
+        bx, by, yaw = b.x, b.y, b.yaw
+        t = world.t
+        # EgoRouteMonitor.update
+        i = ego.hint
+        lat = -(bx - xs[i]) * sin[i] + (by - ys[i]) * cos[i]
+        if lane.time is None and (lat > lane_limit or -lat > lane_limit):
+            lane.update(t, bx, by, yaw, i, lat)
+        if road.time is None:
+            r = half_w + half_l * abs(sine(yaw - hs[i])) + CLEARANCE_SLACK
+            if not (lat + r < left[i] and r - lat < right[i]):
+                road.update(t, bx, by, yaw, i, lat)
+        lat = -lat if lat < 0.0 else lat
+        if lat > route.max_lat:
+            route.max_lat = lat
+        # PETMonitor.update, ProximityMonitor.update and CollisionMonitor's bounding
+        # circles in one pass over the actors (each actor's state is its own: the same
+        # values as three passes)
+        s_e = ego.s
+        evx, evy = b.vx, b.vy
+        far_step = world.k & 3 == 0
+        touch = False
+        for j, a, z in items:
+            if z[5] is None:
+                if z[4] is None and s_e + half_e >= z[0]:
+                    z[4] = t
+                if s_e - half_e > z[1]:
+                    z[5] = t
+            if not a.active:
+                continue
+            if z[7] is None:
+                s, ha = a.s, a.half_l
+                if z[6] is None and s + ha >= z[2]:
+                    z[6] = t
+                if s - ha > z[3]:
+                    z[7] = t
+            gap, r = a.gap, reach[j]  # r: the ego's radius plus the actor's
+            near = gap - r < best[j] and (gap < FAR or far_step)
+            o = a.body
+            d, ttc, drac = kernel(
+                bx, by, yaw, evx, evy, o.x, o.y, o.yaw, o.vx, o.vy, consts[j], near
+            )
+            if d < best[j]:
+                best[j] = d
+            if ttc >= 0.0 and (best_ttc[j] is None or ttc < best_ttc[j]):
+                best_ttc[j] = ttc
+            if drac >= 0.0 and (best_drac[j] is None or drac > best_drac[j]):
+                best_drac[j] = drac
+            if gap < r:
+                touch = True
+        # CollisionMonitor.update: its own call once some actor's bounding circle touches
+        if touch:
+            reason = hit.update(world)
+            if reason is not None:
+                return reason
+        if pairs is not None:
+            pairs.update(world)
+        # LeaveMapRule.update
+        for a, end in leave_pairs:
+            if a.active and a.s >= end:
+                a.active = False
+        # ProgressMonitor.update: the new best and the goal, and the moving ego's reset,
+        # written out; its own call while the ego stands (which then finds no new best)
+        if s_e > progress.best:
+            progress.best = s_e
+            if s_e >= goal_s:
+                progress.goal_time = t
+                return "goal"
+        if b.vx * b.vx + b.vy * b.vy >= _STILL2:
+            progress.clear_since = None
+            return None
+        return progress_update(world)
+
+    return update, ms[k + 1 :]

@@ -28,7 +28,10 @@ while the ego stands and has not been blocked yet.
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from typing import Any
+
+import numpy as np
 
 from sitcov.sim._judge import STATIONARY_SPEED
 
@@ -54,7 +57,7 @@ PATH_MARGIN = 0.5
 ARRIVAL_TIME = 5.0
 
 
-def path_occupied(world: Any, xs: Any, ys: Any, ss: Any) -> bool:
+def path_occupied(world: Any, xs: Any, ys: Any, ss: Any, pts: Any = None) -> bool:
     """Whether a road user occupies the ego's path or a conflict zone ahead of it.
 
     Occupied means, for some active actor: (a) its box comes within the ego's half width
@@ -62,13 +65,22 @@ def path_occupied(world: Any, xs: Any, ys: Any, ss: Any) -> bool:
     of the ego's front, or (b) it has a conflict zone with the ego that neither has left
     yet, whose start on the ego's route lies within :data:`PATH_AHEAD` of the ego's front,
     and it is inside that zone or moving and due there within :data:`ARRIVAL_TIME`.
-    ``xs``, ``ys``, ``ss``: the ego route's points and arc lengths.
+    ``xs``, ``ys``, ``ss``: the ego route's points and arc lengths; ``pts``: the route's
+    ``_track_array`` (its points as one float array), for the compiled point test
+    (:func:`path_near`), or None (the Python one).
     """
     ego = world.ego
     front = ego.s + ego.half_l
     reach = ego.half_w + PATH_MARGIN
-    lo = _first_at_or_after(ss, ego.s)
-    hi = _first_at_or_after(ss, front + PATH_AHEAD)
+    # the first route points at arc length >= the ego's and >= PATH_AHEAD beyond its front
+    lo = bisect_left(ss, ego.s)
+    hi = bisect_left(ss, front + PATH_AHEAD)
+    if pts is None:
+        near, pts = path_near, (xs, ys)
+    else:
+        near = _PATH_NEAR or path_near_fn()
+        if near is path_near:  # no numba: the Python test on the plain sequences
+            pts = (xs, ys)
     for a in world.actors:
         if not a.active:
             continue
@@ -85,34 +97,64 @@ def path_occupied(world: Any, xs: Any, ys: Any, ss: Any) -> bool:
                 return True
         if a.gap > PATH_AHEAD + ego.half_l + a.radius + reach:
             continue
-        # _point_box_distance(xs[i], ys[i], a.box()) < reach for each point, written out
-        # with the box's trigonometry done once (the same operations: the same values)
         b = a.body
-        x, y, hl, hw = b.x, b.y, a.half_l, a.half_w
         c, s = math.cos(b.yaw), math.sin(b.yaw)
-        for i in range(lo, min(hi + 1, len(xs))):
-            dx, dy = xs[i] - x, ys[i] - y
-            ex = abs(dx * c + dy * s) - hl
-            if ex >= reach:
-                continue  # hypot(ex, .) >= ex >= reach
-            ey = abs(-dx * s + dy * c) - hw
-            if ey >= reach:
-                continue
-            if math.hypot(ex if ex > 0.0 else 0.0, ey if ey > 0.0 else 0.0) < reach:
-                return True
+        end = min(hi + 1, len(xs))
+        if near(pts, lo, end, b.x, b.y, c, s, a.half_l, a.half_w, reach):
+            return True
     return False
 
 
-def _first_at_or_after(ss: Any, s: float) -> int:
-    """Index of the first route point at arc length >= ``s`` (len(ss) if none)."""
-    lo, hi = 0, len(ss)
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if ss[mid] < s:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
+def path_near(
+    pts: Any,
+    lo: int,
+    hi: int,
+    x: float,
+    y: float,
+    c: float,
+    s: float,
+    hl: float,
+    hw: float,
+    reach: float,
+) -> bool:
+    """Whether a route point ``lo <= i < hi`` lies closer than ``reach`` to the box (centre
+    ``x``, ``y``, heading's cos ``c`` and sin ``s``, half sizes ``hl``, ``hw``) [m]:
+    ``_point_box_distance(xs[i], ys[i], box) < reach``, written out with the box's
+    trigonometry done once and a one-axis early out (the same operations: the same
+    values). ``pts``: the route's xs and ys as its first two rows (a float array for the
+    compiled kernel, :func:`path_near_fn`; any pair of sequences here)."""
+    xs, ys = pts[0], pts[1]
+    for i in range(lo, hi):
+        dx, dy = xs[i] - x, ys[i] - y
+        ex = abs(dx * c + dy * s) - hl
+        if ex >= reach:
+            continue  # hypot(ex, .) >= ex >= reach
+        ey = abs(-dx * s + dy * c) - hw
+        if ey >= reach:
+            continue
+        if hypot(ex if ex > 0.0 else 0.0, ey if ey > 0.0 else 0.0) < reach:
+            return True
+    return False
+
+
+#: ``math.hypot`` under the name :func:`path_near` uses (``_jit.py`` binds the name to its
+#: correctly rounded version in the compiled code: the same bits).
+hypot = math.hypot
+
+_PATH_NEAR: Any = None
+
+
+def path_near_fn() -> Any:
+    """:func:`path_near` compiled by numba when it is installed (the same bits), else
+    itself. Loaded once per process, on first use."""
+    global _PATH_NEAR
+    if _PATH_NEAR is None:
+        from sitcov._jit import compiled, typed_entry
+
+        pts = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
+        example = (pts, 0, 3, 1.0, 0.5, 1.0, 0.0, 2.3, 0.9, 1.4)
+        _PATH_NEAR = typed_entry(compiled(path_near, *example)) or path_near
+    return _PATH_NEAR
 
 
 class ProgressMonitor:
@@ -127,6 +169,8 @@ class ProgressMonitor:
         route = world.ego.route
         self.goal_s = max(route.length - GOAL_TOLERANCE, 1e-9)
         self.xs, self.ys, self.ss = route.xs, route.ys, route.ss
+        self.pts = route._track_array  # the points as one float array (compiled test)
+        path_near_fn()  # compiled (or loaded) with the run's setup, not in its loop
         self.budget = float(budget)
         self.best = world.ego.s
         self.goal_time: float | None = None
@@ -152,7 +196,7 @@ class ProgressMonitor:
         self.still_steps += 1
         if self.blocked_time is not None:
             return
-        if path_occupied(world, self.xs, self.ys, self.ss):
+        if path_occupied(world, self.xs, self.ys, self.ss, self.pts):
             self.clear_since = None
         elif self.clear_since is None:
             self.clear_since = world.t
@@ -178,7 +222,7 @@ class ProgressMonitor:
         t = world.t
         reason = world.end_reason
         standing = ego.body.speed < STILL_SPEED
-        occupied = standing and path_occupied(world, self.xs, self.ys, self.ss)
+        occupied = standing and path_occupied(world, self.xs, self.ys, self.ss, self.pts)
         blocked = self.blocked_time
         since = self.clear_since
         if blocked is None and reason == "stopped" and since is not None:
