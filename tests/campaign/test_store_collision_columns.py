@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from campaign_helpers import run_cli as sitcov
+from needs import need_module
 
 from sitcov.av import make_stack
 from sitcov.campaign import CampaignInfo, PlannedRun, open_store
@@ -157,8 +158,8 @@ def test_a_read_only_version_4_file_is_read_as_it_is(old_db: Path, tmp_path: Pat
 def test_exports_carry_the_collision_location_and_drac_typed(new_db: Path, tmp_path: Path):
     """CSV and Parquet: the contact point, heading, speed and DRAC of each run as floats
     (pandas reads them as float64), equal to the stored metrics; the actor table's DRAC."""
-    pd = pytest.importorskip("pandas")
-    pytest.importorskip("pyarrow")
+    pd = need_module("pandas", "test")
+    need_module("pyarrow", "parquet")
     from sitcov.campaign._export import COLLISION_COLUMNS, export_parquet
 
     out, actors = tmp_path / "runs.parquet", tmp_path / "actors.parquet"

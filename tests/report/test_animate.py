@@ -130,7 +130,6 @@ def _animated(tmp_path, capsys, perception: str):
 def test_a_camera_mode_run_has_a_dash_cam_strip_and_a_pem_run_none(tmp_path, capsys, ssd_model_dir):
     """Camera mode: a strip under the top-down view that shows the camera's view (sky over
     ground: varied pixels) and changes from frame to frame; PEM mode: the plain layout."""
-    pytest.importorskip("PIL")
     from sitcov.report._dashcam import camera_mode
 
     assert camera_mode({"backend_options": {"perception": "camera"}})

@@ -311,7 +311,8 @@ def test_camera_mode_and_image_stacks_are_one_clear_error() -> None:
 
 def test_pet_at_the_timed_ov_s_conflict_zone() -> None:
     """PET is measured at the conflict zone of the exported situation's OV: 0 after a
-    collision with it, the gap between one leaving and the other entering otherwise."""
+    collision with it or while both were in the zone at once (docs/metrics.md), the gap
+    between one leaving and the other entering otherwise."""
     b = make_backend("esmini", road=str(TOWN03))
     stack = make_stack("reference")
     seen = []
@@ -321,8 +322,8 @@ def test_pet_at_the_timed_ov_s_conflict_zone() -> None:
         if out.collision and out.metrics["collision_actor"] == "adversary":
             assert out.pet == 0.0
         elif out.pet is not None:
-            assert out.pet > 0.0
-    assert any(o.pet is not None for o in seen)
+            assert out.pet >= 0.0
+    assert any(o.pet is not None and o.pet > 0.0 for o in seen)
 
 
 def test_a_carla_map_file_s_situations_need_its_road() -> None:
