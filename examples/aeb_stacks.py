@@ -5,8 +5,9 @@ with one change in how it decides to brake:
 
 - :class:`Threshold07`: the score test at θ = 0.7 instead of 0.5;
 - :class:`ThreeFrames`: brakes only when the tests pass in three consecutive camera frames;
-- :class:`RightBlind`: ignores every detection whose box centre is in the right half of
-  the image, so it brakes late (or not at all) for road users coming from its right.
+- :class:`RightBlind`: ignores every detection whose box centre is right of 40 % of the
+  image width (blind in the right 60 % of its image), so it brakes late or not at all for
+  road users coming from its right.
 
 They work in PEM mode (they read the detections) and in camera mode (the reference stack's
 detector, :class:`sitcov.perception.SSDDetector`, unless one is given). The agreement
@@ -54,16 +55,30 @@ class ThreeFrames(ReferenceStack):
 
 
 class RightBlind(ReferenceStack):
-    """The reference stack blind in the right half of its camera image: a detection whose
-    box centre is at or right of the image centre is dropped before the AEB's tests."""
+    """The reference stack blind in the right part of its camera image: a detection whose
+    box centre is at or right of ``blind_from`` (0.4) of the image width is dropped before
+    the AEB's tests.
+
+    Why 0.4 and not the image centre: a road user on a collision course from the ego's
+    right is braked for (the reference AEB's first firing detection) with its box centre
+    at 0.48-0.65 of the image width (10th-90th percentile; one from the left at
+    0.11-0.34, one ahead at 0.42-0.53). Blind from the centre, the stack still brakes for
+    most of them a frame or two later, once the box centre has crossed to the left half,
+    and fails no more often from the right than from the left (34/103 vs 31/105, p =
+    0.35): no weakness for the agreement experiment to find. Blind from 0.4 it covers
+    where those decisive boxes are: 88/103 vs 40/105. (PEM runs of situations 0-299 of
+    seed 8: ``python benchmarks/bench_blind_side.py --seed 8 --situations 300``;
+    docs/pem.md, "Agreement across stacks".)
+    """
 
     name: ClassVar[str] = "right-blind"
+    blind_from: ClassVar[float] = 0.4
 
     def _perceive(self, detections: Sequence[Detection] | None, image: Any) -> bool:
         if detections is None:
             if image is None:
                 return False
             detections = self._detect(image)
-        half = 0.5 * self.camera.width
-        left = tuple(d for d in detections if 0.5 * (d.box[0] + d.box[2]) < half)
+        edge = self.blind_from * self.camera.width
+        left = tuple(d for d in detections if 0.5 * (d.box[0] + d.box[2]) < edge)
         return super()._perceive(left, None)

@@ -9,11 +9,16 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
   frames apart), ``e_t`` fresh every frame;
 - the score ``logit(score_t) = m(x_t) + g(n_t)``, ``g(n) = sigma n`` below 0 and
   ``sigma * up * n`` above (a split normal: the detector's scores spread less upwards);
-- the detector outputs the road user with probability ``Phi(d0 + d1 m(x_t) + lam a_t)``
-  (its misses, which come in bursts with the same AR state).
+- the detector outputs the road user with probability ``Phi(d0 + d1 m(x_t) - dt trunc_t -
+  df fill_t + lam a_t)`` (its misses, which come in bursts with the same AR state), with
+  ``trunc_t`` the share of the box outside the image and ``fill_t`` the box's width over
+  the image's (:func:`sitcov.perception._pem.fill_of`): the SSD gives no box to most road
+  users that fill the image or are cut by its edge, which no term of ``m`` (fitted on the
+  frames it does score) describes.
 
 In ``pem.yaml``: ``noise_sigma`` = sigma, ``noise_up_ratio`` = up, ``noise_frame_share`` =
-1 - s, ``noise_tau`` = -frame_dt / ln(rho), ``detect_bias/gain/ar`` = d0, d1, lam. It is
+1 - s, ``noise_tau`` = -frame_dt / ln(rho), ``detect_bias/gain/ar`` = d0, d1, lam,
+``detect_trunc_gain``/``detect_fill_gain`` = dt, df. It is
 the same model for every stack: no term is chosen on any stack's verdicts.
 
 The data are recorded frames of the real detector (:mod:`sitcov.calibration._frames`):
@@ -28,7 +33,7 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
    scores above :data:`CENSOR`, for each ``size_max_px`` on a grid (the best by likelihood);
 2. the exact likelihood of every track (a forward filter on a grid of the AR state,
    :func:`track_loglik`), maximised over the intercept, a common scale of the other
-   coefficients, sigma, up, s, rho, d0, d1 and lam. A camera run recorded with the
+   coefficients, sigma, up, s, rho, d0, d1, lam (and dt, df). A camera run recorded with the
    reference stack stops calling its detector when its AEB fires; the sequence
    likelihood conditions each frame on the earlier ones, which in principle leaves that
    stopping rule ignorable, but with the detection term it does not undo the selection
@@ -36,8 +41,9 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
    intercept too low): runs recorded to their end (``--record-frames``) are the data
    to fit on.
 
-Model choice (:func:`choose_model`): independent frames (``s = 0``) or the AR(1) model, by
-the log-likelihood of held-out tracks over run-grouped folds.
+Model choice (:func:`choose_model`, :func:`held_out_choice`): independent frames
+(``s = 0``), the AR(1) model, or the AR(1) model with the detection term's geometry (dt,
+df; without it they are 0), by the log-likelihood of held-out tracks.
 """
 
 from __future__ import annotations
@@ -72,10 +78,11 @@ RHO_MAX = 0.98
 #: Percentile of the reported boxes' heights below which the PEM reports nothing [%]
 #: (low: the logit, fitted on every size, already makes small boxes rare).
 MIN_PX_PERCENTILE = 0.5
-#: Model candidates: (name, ridge penalty, AR(1) term).
+#: Model candidates: (name, ridge penalty, AR(1) term, detection geometry terms).
 CANDIDATES = (
-    ("independent", 1.0, False),
-    ("ar1", 1.0, True),
+    ("independent", 1.0, False, False),
+    ("ar1", 1.0, True, False),
+    ("ar1_edge", 1.0, True, True),
 )
 
 
@@ -165,6 +172,18 @@ def _design_for(t: Tracks, size_max: float, ref: float) -> np.ndarray:
     return _design(t.feats, 1.0, size_max, ref)
 
 
+def geometry(t: Tracks) -> np.ndarray:
+    """The detection term's geometry per frame (rows): truncation and ``fill``
+    (:func:`sitcov.perception._pem.fill_of` for the default camera's width)."""
+    from sitcov.perception._base import CameraSpec
+    from sitcov.perception._pem import fill_of
+
+    width = float(CameraSpec().width)
+    return np.asarray(
+        [(f.truncation, fill_of(f.width_px, width)) for f in t.feats], dtype=float
+    ).reshape(-1, 2)
+
+
 def _observed(t: Tracks) -> tuple[np.ndarray, np.ndarray]:
     """(logit score, observed) per frame; a score >= 1 - 1e-6 counts as 1 - 1e-6."""
     obs = t.score >= CENSOR
@@ -197,7 +216,7 @@ class Noise:
     """The model's noise and detection terms (module docstring): ``sigma`` the logit
     score's noise scale below its median, ``up`` the scale above it over ``sigma``,
     ``share`` the AR part's share of the unit latent noise, ``rho`` the AR coefficient per
-    frame; detection ``P = Phi(d0 + d1 * m + lam * a_t)``."""
+    frame; detection ``P = Phi(d0 + d1 * m - dt * trunc - df * fill + lam * a_t)``."""
 
     sigma: float
     share: float
@@ -206,6 +225,8 @@ class Noise:
     d1: float = 0.0
     lam: float = 0.0
     up: float = 1.0
+    dt: float = 0.0
+    df: float = 0.0
 
 
 def _ginv(v: np.ndarray, noise: Noise) -> np.ndarray:
@@ -214,14 +235,19 @@ def _ginv(v: np.ndarray, noise: Noise) -> np.ndarray:
 
 
 def frame_logliks(
-    m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise
-) -> np.ndarray:
-    """Log-likelihood of each frame (rows) given the AR state at each grid node (columns)."""
+    m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise,
+    geom: np.ndarray | None = None,
+) -> np.ndarray:  # fmt: skip
+    """Log-likelihood of each frame (rows) given the AR state at each grid node (columns);
+    ``geom`` the frames' :func:`geometry` (needed when ``dt`` or ``df`` is not 0)."""
     from scipy.special import log_ndtr
 
     c = float(_logit(CENSOR))
     ra, re = math.sqrt(noise.share), math.sqrt(1.0 - noise.share)
-    det = noise.d0 + noise.d1 * m[:, None] + noise.lam * u[None, :]
+    lin = noise.d0 + noise.d1 * m
+    if geom is not None and (noise.dt != 0.0 or noise.df != 0.0):
+        lin = lin - noise.dt * geom[:, 0] - noise.df * geom[:, 1]
+    det = lin[:, None] + noise.lam * u[None, :]
     log_det, log_miss = log_ndtr(det), log_ndtr(-det)
     v = y - m
     n = _ginv(v, noise)
@@ -235,14 +261,18 @@ def frame_logliks(
 
 
 def track_loglik(
-    m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, noise: Noise
-) -> np.ndarray:
+    m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, noise: Noise,
+    geom: np.ndarray | None = None,
+) -> np.ndarray:  # fmt: skip
     """Log-likelihood of each track (array over tracks, in track order): the forward
     filter over the AR state's grid; ``m`` the PEM logit per frame, ``y``/``obs`` the
-    logit score and whether one >= CENSOR was recorded."""
+    logit score and whether one >= CENSOR was recorded, ``geom`` the frames'
+    :func:`geometry` (computed from ``t`` when the noise needs it and it is not given)."""
     n_tracks = int(t.track.max()) + 1 if len(t.track) else 0
     u, prior = _grid(noise)
-    log_e = frame_logliks(m, y, obs, u, noise)
+    if geom is None and (noise.dt != 0.0 or noise.df != 0.0):
+        geom = geometry(t)
+    log_e = frame_logliks(m, y, obs, u, noise, geom)
     starts = np.flatnonzero(np.r_[True, t.track[1:] != t.track[:-1]])
     lengths = np.diff(np.r_[starts, len(t.track)])
     order = np.argsort(-lengths, kind="stable")  # longest first: active tracks are a prefix
@@ -293,11 +323,15 @@ class FrameFit:
         return float(track_loglik(self.logit(t), y, obs, t, self.noise).sum())
 
 
-def fit_tracks(t: Tracks, *, ridge: float, ar: bool, size_ref: float) -> FrameFit:
-    """Steps 1 and 2 of the module docstring on ``t``."""
+def fit_tracks(
+    t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False
+) -> FrameFit:
+    """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
+    term's geometry gains dt and df)."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
+    geom = geometry(t) if edge else None
     if int(np.sum(t.score >= FLOOR)) < 10:
         raise SitcovError(f"only {int(np.sum(t.score >= FLOOR))} frames detected at >= {FLOOR}")
     best: tuple[float, np.ndarray, float, float, np.ndarray] | None = None
@@ -311,27 +345,56 @@ def fit_tracks(t: Tracks, *, ridge: float, ar: bool, size_ref: float) -> FrameFi
     rest = x[:, 1:] @ beta[1:]
 
     def unpack(p: np.ndarray) -> tuple[float, float, Noise]:
+        # p: b0, kappa, ln sigma, d0, d1, ln up [, share, rho, lam (ar)] [, dt, df (edge)]
         up = math.exp(min(3.0, max(-5.0, p[5])))
         share = SHARE_MAX / (1.0 + math.exp(-p[6])) if ar else 0.0
         rho = RHO_MAX / (1.0 + math.exp(-p[7])) if ar else 0.0
         lam = p[8] if ar else 0.0
+        at = 9 if ar else 6
+        dt, df = (float(p[at]), float(p[at + 1])) if edge else (0.0, 0.0)
         sigma = math.exp(min(3.0, max(-6.0, p[2])))
         return float(p[0]), float(p[1]), Noise(sigma, share, rho, float(p[3]), float(p[4]),
-                                               float(lam), up)  # fmt: skip
+                                               float(lam), up, dt, df)  # fmt: skip
 
     def nll(p: np.ndarray) -> float:
         b0, kappa, noise = unpack(p)
-        return -float(track_loglik(b0 + kappa * rest, y, obs, t, noise).sum())
+        return -float(track_loglik(b0 + kappa * rest, y, obs, t, noise, geom).sum())
 
     rate = float(np.clip(np.mean(obs), 0.02, 0.98))
     # start: no detection slope, a slightly narrower upper spread, an AR share of 0.7
     # and rho 0.8 (the car fit's neighbourhood: fewer iterations on a loaded machine)
     start = [beta[0], 1.0, math.log(sigma0), float(_ndtri(rate)), 0.0, -0.2]
     start += [0.85, 1.5, 0.5] if ar else []
+    if edge:  # the detection terms from a probit of "output" on (1, m, trunc, fill)
+        d0, d1, dt, df = _probit_start(x @ beta, obs, geom)
+        start[3:5] = [d0, d1]
+        start += [dt, df]
     res = minimize(nll, np.asarray(start), method="L-BFGS-B",
-                   options={"maxiter": 80, "ftol": 1e-6})  # fmt: skip
-    b0, kappa, noise = unpack(res.x if ar else np.r_[res.x, 0.0, 0.0, 0.0])
+                   options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+    b0, kappa, noise = unpack(res.x)
     return FrameFit(np.r_[b0, kappa * beta[1:]], size_max, size_ref, noise)
+
+
+def _probit_start(
+    m: np.ndarray, obs: np.ndarray, geom: np.ndarray | None
+) -> tuple[float, float, float, float]:
+    """Start values of the detection term ``(d0, d1, dt, df)``: a probit of whether a
+    score >= CENSOR was recorded on ``(1, m, -trunc, -fill)``, frames independent (the
+    joint fit then adds the AR state; started at 0, the detection slope ``d1`` stays in
+    the local optimum where it stands in for the missing geometry, negative)."""
+    from scipy.optimize import minimize
+    from scipy.special import log_ndtr
+
+    g = np.zeros((len(m), 2)) if geom is None else geom
+    x = np.column_stack([np.ones_like(m), m, -g[:, 0], -g[:, 1]])
+    y = obs.astype(float)
+
+    def nll(b: np.ndarray) -> float:
+        z = x @ b
+        return -float(np.sum(y * log_ndtr(z) + (1.0 - y) * log_ndtr(-z)))
+
+    res = minimize(nll, np.zeros(4), method="BFGS")
+    return float(res.x[0]), float(res.x[1]), float(res.x[2]), float(res.x[3])
 
 
 def _ndtri(p: float) -> float:
@@ -352,19 +415,19 @@ def choose_model(
     *,
     folds: int,
     size_ref: float,
-    candidates: Sequence[tuple[str, float, bool]] = CANDIDATES,
+    candidates: Sequence[tuple[str, float, bool, bool]] = CANDIDATES,
 ) -> tuple[str, dict[str, Any]]:
     """The candidate with the best held-out sequence log-likelihood (per held-out frame),
     over run-grouped folds: each fold's runs are left out of the fit and scored."""
     table: dict[str, Any] = {}
     parts = _folds(t.group, folds)
     all_groups = np.unique(t.group)
-    for name, ridge, ar in candidates:
+    for name, ridge, ar, edge in candidates:
         total, frames = 0.0, 0
         for held in parts:
             train = t.subset(np.setdiff1d(all_groups, held))
             test = t.subset(held)
-            fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref)
+            fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
             total += fit.loglik(test)
             frames += len(test.score)
         table[name] = {"heldout_loglik_per_frame": round(total / max(1, frames), 4),
@@ -398,6 +461,8 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         detect_bias=round(nz.d0, 4),
         detect_gain=round(nz.d1, 4),
         detect_ar=round(nz.lam, 4),
+        detect_trunc_gain=round(nz.dt, 4),
+        detect_fill_gain=round(nz.df, 4),
         noise_up_ratio=round(nz.up, 4),
         rain_sigma=0.0,
         rain_miss=0.0,
@@ -409,14 +474,14 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
 
 def held_out_choice(
     t: Tracks, held: Tracks, *, size_ref: float,
-    candidates: Sequence[tuple[str, float, bool]] = CANDIDATES,
+    candidates: Sequence[tuple[str, float, bool, bool]] = CANDIDATES,
 ) -> tuple[str, dict[str, Any], dict[str, FrameFit]]:  # fmt: skip
     """Each candidate fitted on ``t`` and scored by its sequence log-likelihood on the
     held-out tracks ``held`` (per frame): (the best, the table, the fits)."""
     table: dict[str, Any] = {}
     fits: dict[str, FrameFit] = {}
-    for name, ridge, ar in candidates:
-        fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+    for name, ridge, ar, edge in candidates:
+        fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
         table[name] = {
             "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
             "heldout_frames": len(held.score),
@@ -456,12 +521,12 @@ def fit_kind(
         # (after the moment an AEB would fire) that the calibration runs stop before
         data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
         t = tracks_of(data)
-        _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+        _, ridge, ar, edge = next(c for c in CANDIDATES if c[0] == chosen)
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
     else:
         chosen, table = choose_model(t, folds=folds, size_ref=size_ref)
-        _, ridge, ar = next(c for c in CANDIDATES if c[0] == chosen)
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref)
+        _, ridge, ar, edge = next(c for c in CANDIDATES if c[0] == chosen)
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
     params = to_params(fit, base, t, data.runs)
     nz = fit.noise
     lag1 = nz.share * nz.rho

@@ -40,8 +40,12 @@ fitted by maximum likelihood on recorded detector frames; ``e_t`` is drawn only 
 ``noise_frame_share`` > 0, so files without it draw as before)
 
 The detector outputs the actor at all in a frame with probability ``Phi(detect_bias +
-detect_gain * z + detect_ar * u_t)`` (its misses: the frames in which the SSD gives the
-actor no box; one more N(0, 1) draw per frame, only when that probability is not 1).
+detect_gain * z - detect_trunc_gain * truncation - detect_fill_gain * fill + detect_ar *
+u_t)`` (its misses: the frames in which the SSD gives the actor no box; one more N(0, 1)
+draw per frame, only when that probability is not 1), with ``fill = ln(clamp(w / W,
+FILL_MIN, 1) / FILL_MIN)`` the unclipped box width over the image width (:func:`fill_of`:
+0 up to 5 % of the image, ln 20 for a box as wide as the image or wider): the SSD gives
+no box to most road users that fill the image or are cut by its edge.
 A detection is reported when the score reaches the detector's output ``floor``; rain also
 drops whole frames with probability ``rain_miss * rain_noise``, decided by a second
 process of the same form (so misses come in runs too), and the box corners jitter by a
@@ -115,6 +119,27 @@ class PEMFeatures(NamedTuple):
 
 
 _TINY = 1e-9  # floor inside logarithms [-]
+#: Box width over image width below which the detection term's ``fill`` is 0 [-].
+FILL_MIN = 0.05
+
+
+def fill_of(width_px: float, image_width: float) -> float:
+    """The detection term's ``fill``: ``ln(clamp(width_px / image_width, FILL_MIN, 1) /
+    FILL_MIN)``, 0 for a box narrower than :data:`FILL_MIN` of the image and ln 20 for one
+    as wide as the image or wider (``min``/``max`` written out: compiled in the kernel)."""
+    frac = width_px / image_width if image_width > 0.0 else 0.0
+    frac = FILL_MIN if frac < FILL_MIN else frac
+    frac = 1.0 if frac > 1.0 else frac
+    return math.log(frac / FILL_MIN)
+
+
+def detect_offset(features: PEMFeatures, params: PEMParams, image_width: float = 800.0) -> float:
+    """What the box's geometry adds to the detection term's argument:
+    ``-detect_trunc_gain * truncation - detect_fill_gain * fill`` (:func:`fill_of`;
+    ``image_width`` [px], the default camera's 800)."""
+    return -params.detect_trunc_gain * features.truncation - params.detect_fill_gain * fill_of(
+        features.width_px, image_width
+    )
 
 
 #: The coefficients :func:`_logit` reads, in the order of its array (:func:`coefficients`).
@@ -234,9 +259,12 @@ def pem_score(features: PEMFeatures, params: PEMParams) -> float:
     return _sigmoid(pem_logit(features, params))
 
 
-def pass_probability(features: PEMFeatures, params: PEMParams, threshold: float) -> float:
+def pass_probability(
+    features: PEMFeatures, params: PEMParams, threshold: float, image_width: float = 800.0
+) -> float:
     """P(the sensor reports this frame's actor with a score >= ``threshold``): the detector
-    outputs it (``Phi(detect_bias + detect_gain z + detect_ar u)``), its noisy score
+    outputs it (``Phi(detect_bias + detect_gain z + detect_offset + detect_ar u)``,
+    :func:`detect_offset` for an image ``image_width`` px wide), its noisy score
     reaches ``max(threshold, floor)``, and rain does not drop the frame; averaged over the
     noise's AR(1) part ``u`` (Gauss-Hermite, 40 nodes). 0 for a box lower than
     ``size_min_px``. The noise ``n = sqrt(ar) u + sqrt(1 - ar) e`` enters the logit as
@@ -255,9 +283,11 @@ def pass_probability(features: PEMFeatures, params: PEMParams, threshold: float)
         need = -math.inf if gap >= 0.0 else math.inf
     else:
         need = -gap / sigma if gap > 0.0 else -gap / (sigma * params.noise_up_ratio)
+    base = params.detect_bias + params.detect_gain * z
+    base += detect_offset(features, params, image_width)
     total = 0.0
     for u, w in zip(nodes, weights, strict=True):
-        out = params.detect_bias + params.detect_gain * z + params.detect_ar * u
+        out = base + params.detect_ar * u
         if ar >= 1.0 or math.isinf(need):
             passes = 1.0 if math.sqrt(ar) * u >= need else 0.0
         else:
@@ -316,37 +346,40 @@ def _normal_cdf(x: float) -> float:
 #: actor kind, size and colour and run): the class's :data:`COEFFICIENTS`, then the
 #: camera (mount_x, mount_z, focal length, image width and height), the actor's box
 #: (length, width, height), the scene (fog extinction and start, illumination, rain
-#: noise) and the body colour's features (contrast, detail, chroma, red_green,
-#: yellow_blue). One array: each array argument costs a compiled call about 0.3 us.
+#: noise), the body colour's features (contrast, detail, chroma, red_green,
+#: yellow_blue) and the detection term's geometry gains (detect_trunc_gain,
+#: detect_fill_gain). One array: each array argument costs a compiled call about 0.3 us.
 _CAMERA = len(COEFFICIENTS)
-_BOX, _SCENE, _COLOR = _CAMERA + 5, _CAMERA + 8, _CAMERA + 12
+_BOX, _SCENE, _COLOR, _DETECT = _CAMERA + 5, _CAMERA + 8, _CAMERA + 12, _CAMERA + 17
 
 
 def _pem_view(
     q: Any, ex: float, ey: float, eyaw: float, ax: float, ay: float, ayaw: float
 ) -> tuple:
     """One actor at (ax, ay, ayaw) seen from the ego at (ex, ey, eyaw): ``(seen, x0, y0,
-    x1, y1, z)``, the box clipped to the image [px] and the noise-free logit, or ``seen``
-    False (zeros) when the box is not in the image or lower than ``size_min_px``.
+    x1, y1, z, d)``, the box clipped to the image [px], the noise-free logit and what the
+    box's geometry adds to the detection term (:func:`detect_offset`), or ``seen`` False
+    (zeros) when the box is not in the image or lower than ``size_min_px``.
 
     The projection (:func:`~sitcov.perception._camera._project`), the features and
     :func:`_logit` in one call, compiled by numba when it is there (``sitcov/_jit.py``;
     the same bits). ``q``: the coefficients and what is constant over a run (layout above).
     """
-    cam, box, scene, col = _CAMERA, _BOX, _SCENE, _COLOR
+    cam, box, scene, col, det = _CAMERA, _BOX, _SCENE, _COLOR, _DETECT
     ok, x0, y0, x1, y1, u0, v0, u1, v1, trunc, dist, _, view, visible, facing = _project(
         ex, ey, eyaw, ax, ay, ayaw, q[box], q[box + 1], q[box + 2],
         q[cam], q[cam + 1], q[cam + 2], q[cam + 3], q[cam + 4],
     )  # fmt: skip
     height = v1 - v0
     if not ok or not visible or height < q[_SIZE_MIN]:
-        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     z = _logit(
         q, height, view, trunc, fog_transmittance(q[scene], q[scene + 1], dist),
         q[scene + 2], q[scene + 3], u1 - u0, _offset(q[cam + 3], u0, u1), facing,
         q[col], q[col + 1], q[col + 2], q[col + 3], q[col + 4],
     )  # fmt: skip
-    return True, x0, y0, x1, y1, z
+    d = -q[det] * trunc - q[det + 1] * fill_of(u1 - u0, q[cam + 3])
+    return True, x0, y0, x1, y1, z, d
 
 
 _VIEW_FN: Any = None
@@ -361,8 +394,9 @@ def _view_kernel() -> Any:
         from sitcov._jit import compiled, typed_entry
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
-                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1])  # fmt: skip
-        helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0])  # fmt: skip
+        helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit,
+                   fill_of)  # fmt: skip
         _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
         _VIEW_FN = typed_entry(_VIEW_FN) or _pem_view
     return _VIEW_FN
@@ -405,7 +439,7 @@ def _pem_frame(
     updated in place); ``normals``: standard normals of the run from index ``at`` on (at
     least :data:`FRAME_NORMALS`); ``frame``: this frame's number.
     """
-    seen, x0, y0, x1, y1, z = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
+    seen, x0, y0, x1, y1, z, d = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
     if not seen:
         return 0, at, 0.0, 0.0, 0.0, 0.0, 0.0
     if track[4] == 0.0:
@@ -435,10 +469,16 @@ def _pem_frame(
     if n > 0.0 and c[_F_UP] != 1.0:
         sig *= c[_F_UP]
     score = _sigmoid(z + sig * n)
-    if c[_F_GAIN] != 0.0 or c[_F_AR] != 0.0 or c[_F_BIAS] < DETECT_ALWAYS:
+    if (
+        c[_F_GAIN] != 0.0
+        or c[_F_AR] != 0.0
+        or c[_F_BIAS] < DETECT_ALWAYS
+        or q[_DETECT] != 0.0
+        or q[_DETECT + 1] != 0.0
+    ):
         e = normals[at]
         at += 1
-        if c[_F_BIAS] + c[_F_GAIN] * z + c[_F_AR] * track[1] + e < 0:
+        if c[_F_BIAS] + c[_F_GAIN] * z + d + c[_F_AR] * track[1] + e < 0:
             return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
     if score < c[_F_FLOOR]:
         return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -477,12 +517,12 @@ def _frame_kernel() -> Any:
         from sitcov._jit import compiled, typed_entry
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
-                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1])  # fmt: skip
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0])  # fmt: skip
         c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
         c = np.append(c, [800.0, 450.0])
         track, normals = np.zeros(5), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
-        helpers += (_pem_view, _sigmoid)
+        helpers += (fill_of, _pem_view, _sigmoid)
         example = (q, c, track, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
         _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
     return _FRAME_FN
@@ -732,6 +772,8 @@ class PEMSensor(Sensor):
             conditions.illumination,
             conditions.rain_noise,
             *self._colors(actor.color, conditions),
+            params.detect_trunc_gain,
+            params.detect_fill_gain,
         ]
         if (_VIEW_FN or _view_kernel()) is not _pem_view:
             import numpy as np
@@ -863,7 +905,7 @@ class PEMSensor(Sensor):
         rain = conditions.rain_noise
         out = []
         for key, ((q, p, label), pose) in enumerate(actors):
-            seen, x0, y0, x1, y1, z = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
+            seen, x0, y0, x1, y1, z, d = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
             if not seen:
                 continue
             n, m = self._noise(key, normals)
@@ -873,9 +915,16 @@ class PEMSensor(Sensor):
             if n > 0.0 and p.noise_up_ratio != 1.0:
                 sig *= p.noise_up_ratio  # the scores' narrower upper spread
             score = _sigmoid(z + sig * n)
-            if p.detect_gain != 0.0 or p.detect_ar != 0.0 or p.detect_bias < DETECT_ALWAYS:
+            if (
+                p.detect_gain != 0.0
+                or p.detect_ar != 0.0
+                or p.detect_bias < DETECT_ALWAYS
+                or p.detect_trunc_gain != 0.0
+                or p.detect_fill_gain != 0.0
+            ):
                 (e,) = normals.take(1)  # whether the detector outputs it at all
-                if p.detect_bias + p.detect_gain * z + p.detect_ar * self._tracks[key].u + e < 0:
+                out_arg = p.detect_bias + p.detect_gain * z + d + p.detect_ar * self._tracks[key].u
+                if out_arg + e < 0:
                     continue
             if score < p.floor:
                 continue

@@ -66,6 +66,13 @@ class PEMParams:
             at all in a frame: probability ``Phi(detect_bias + detect_gain * z +
             detect_ar * u_t)`` with ``z`` the noise-free logit and ``u_t`` the noise's
             AR(1) part (unit variance); the default (8, 0, 0) always outputs it [-].
+        detect_trunc_gain, detect_fill_gain: the road user cut by the image edge or
+            filling it: ``- detect_trunc_gain * truncation - detect_fill_gain * fill``
+            added to the detection term's argument, with ``fill = ln(clamp(w / W,
+            FILL_MIN, 1) / FILL_MIN)`` the unclipped box width ``w`` over the image width
+            ``W`` (0 for boxes narrower than :data:`sitcov.perception._pem.FILL_MIN` of
+            the image). The SSD gives no box to most road users that fill or overflow the
+            image; 0 (the default, files written before these terms) changes nothing [-].
         noise_up_ratio: the logit noise's scale above its median over the scale below
             (``noise_sigma``): the detector's scores spread less upwards than downwards
             (1 = a normal law) [-].
@@ -113,6 +120,8 @@ class PEMParams:
     chroma_gain: float = 0.0
     red_green_gain: float = 0.0
     yellow_blue_gain: float = 0.0
+    detect_trunc_gain: float = 0.0
+    detect_fill_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

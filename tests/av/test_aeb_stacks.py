@@ -12,6 +12,7 @@ from sitcov.perception import CameraSpec, Detection
 ROOT = Path(__file__).resolve().parents[2]
 NEAR_LEFT = Detection((200.0, 150.0, 380.0, 300.0), 0.6)  # centre 290 < 400, wide: close
 NEAR_RIGHT = Detection((420.0, 150.0, 600.0, 300.0), 0.6)
+NEAR_MID = Detection((250.0, 150.0, 430.0, 300.0), 0.6)  # centre 340: 0.425 of the width
 
 
 @pytest.fixture(autouse=True)
@@ -45,9 +46,12 @@ def test_three_frames_needs_three_consecutive_passing_frames() -> None:
     assert _brakes(stack, [hit, hit]) == [False, False]  # reset clears the streak
 
 
-def test_right_blind_ignores_the_right_half_only() -> None:
+def test_right_blind_ignores_the_right_60_percent_only() -> None:
+    """Blind from 0.4 of the image width on (examples/aeb_stacks.py says why)."""
     stack = make_stack("examples.aeb_stacks:RightBlind")
     assert _brakes(stack, [(NEAR_RIGHT,)]) == [False]
+    assert _brakes(stack, [(NEAR_MID,)]) == [False]
+    assert _brakes(make_stack("reference"), [(NEAR_MID,)]) == [True]
     assert _brakes(stack, [(NEAR_LEFT,)]) == [True]
     assert _brakes(stack, [(NEAR_RIGHT, NEAR_LEFT)]) == [True]
 

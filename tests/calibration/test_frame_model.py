@@ -20,11 +20,16 @@ from sitcov.perception._pem import PEMFeatures, PEMParams
 def _draw(
     seed: int, *, runs: int = 150, length: int = 40, sigma: float = 0.8, share: float = 0.75,
     rho: float = 0.9, bias: float = -0.6, gain: float = 0.6, stop_at: float | None = None,
+    fill_miss: float = 0.0,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
     recorded as the recorder does (0 below 0.05). ``stop_at``: a run's frames end at the
-    first score >= it (the reference AEB's stopping)."""
+    first score >= it (the reference AEB's stopping). ``fill_miss``: the detector outputs
+    the box with probability ``Phi(2 - fill_miss * ln(clamp(w / 800, 0.05, 1) / 0.05))``
+    (fewer boxes the more of the 800 px image the road user fills)."""
+    from scipy.stats import norm
+
     rng = np.random.default_rng(seed)
     s_a, s_e = sigma * math.sqrt(share), sigma * math.sqrt(1 - share)
     out = KindFrames()
@@ -40,6 +45,9 @@ def _draw(
             z = bias + gain * math.log(min(h, 60.0) / 25.0) + s_a * a + s_e * rng.standard_normal()
             score = 1.0 / (1.0 + math.exp(-z))
             rec = score if score >= 0.05 else 0.0
+            fill = math.log(min(max(2.5 * h / 800.0, 0.05), 1.0) / 0.05)
+            if fill_miss and rng.uniform() >= norm.cdf(2.0 - fill_miss * fill):
+                rec = 0.0  # no box at all
             feats = PEMFeatures(h, view, 0.0, width_px=2.5 * h, facing=1.0)
             frames.append(RunFrame(feats, rec, None, 2.5 * h, k, 0, 1.45 * 336 / h))
             if stop_at is not None and score >= stop_at:
@@ -75,7 +83,7 @@ def test_runs_cut_at_the_aebs_firing_bias_the_fit_low() -> None:
 
 
 def test_model_choice_follows_the_held_out_likelihood() -> None:
-    cands = (("independent", 1.0, False), ("ar1", 1.0, True))
+    cands = (("independent", 1.0, False, False), ("ar1", 1.0, True, False))
     t = fm.tracks_of(_draw(3, runs=60))
     chosen, table = fm.choose_model(t, folds=3, size_ref=25.0, candidates=cands)
     assert chosen == "ar1"
@@ -87,6 +95,26 @@ def test_model_choice_follows_the_held_out_likelihood() -> None:
         - table0["independent"]["heldout_loglik_per_frame"]
     )
     assert gain < 0.01  # no correlation: the AR(1) term buys (next to) nothing held out
+
+
+def test_the_detection_terms_geometry_is_recovered_and_chosen_when_it_is_there() -> None:
+    """A detector that gives fewer boxes the more of the image the road user fills: the
+    ``ar1_edge`` fit recovers the fill gain and wins held out; without it, it buys
+    (next to) nothing held out."""
+    cands = (("ar1", 1.0, True, False), ("ar1_edge", 1.0, True, True))
+    t = fm.tracks_of(_draw(8, runs=80, fill_miss=1.0))
+    fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, edge=True)
+    assert fit.noise.df == pytest.approx(1.0, abs=0.3)
+    assert fit.noise.dt == pytest.approx(0.0, abs=0.5)  # nothing truncated: no signal
+    held = fm.tracks_of(_draw(9, runs=80, fill_miss=1.0))
+    chosen, table, _ = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
+    assert chosen == "ar1_edge", table
+    plain, plain_held = fm.tracks_of(_draw(8, runs=80)), fm.tracks_of(_draw(9, runs=80))
+    _, table0, _ = fm.held_out_choice(plain, plain_held, size_ref=25.0, candidates=cands)
+    gain = (
+        table0["ar1_edge"]["heldout_loglik_per_frame"] - table0["ar1"]["heldout_loglik_per_frame"]
+    )
+    assert gain < 0.01
 
 
 def test_the_fitted_parameters_pass_the_check_on_held_out_runs() -> None:

@@ -299,7 +299,8 @@ def test_view_angle_equals_the_folded_math_remainder(monkeypatch) -> None:
 
 
 def _view_array(rnd: random.Random) -> list[float]:
-    """A random array for ``_pem._pem_view``: coefficients, camera, box, scene, colour."""
+    """A random array for ``_pem._pem_view``: coefficients, camera, box, scene, colour,
+    detection gains."""
     coeffs = [rnd.uniform(-3.0, 3.0) for _ in _pem.COEFFICIENTS]
     size_min = rnd.choice([1.0, 6.0, 30.0])
     coeffs[_pem._SIZE_MIN], coeffs[_pem._SIZE_REF] = size_min, rnd.uniform(10.0, 40.0)
@@ -309,7 +310,8 @@ def _view_array(rnd: random.Random) -> list[float]:
     scene = [rnd.choice([0.0, 0.02, 5.0]), rnd.choice([0.0, 20.0]), rnd.uniform(1e-12, 1.0)]
     scene.append(rnd.choice([0.0, rnd.uniform(0.0, 1.0)]))
     color = [rnd.uniform(-1.0, 1.0) for _ in range(5)]
-    return coeffs + camera + [450.0] + box + scene + color
+    detect = [rnd.choice([0.0, rnd.uniform(-3.0, 3.0)]) for _ in range(2)]
+    return coeffs + camera + [450.0] + box + scene + color + detect
 
 
 def test_compiled_pem_view_is_bit_identical_to_python(monkeypatch) -> None:
