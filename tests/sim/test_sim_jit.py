@@ -635,10 +635,12 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
         ex, ey, eyaw = rnd.uniform(-50, 50), rnd.uniform(-50, 50), rnd.uniform(-4, 4)
         pose = (ex + rnd.uniform(-30, 30), ey + rnd.uniform(-30, 30), rnd.uniform(-4, 4))
         args = (rnd.randint(0, 3), float(rnd.randint(4, 9)), ex, ey, eyaw, *pose)
-        t_py, t_c = list(track), np.array(track)
-        want = _pem._pem_frame(q, c, t_py, normals, *args)
-        got = fast(q, np.array(c), t_c, np.array(normals), *args)
-        assert _bits(got) == _bits(want) and _bits(t_c.tolist()) == _bits(t_py), (c, args)
+        s_py = np.concatenate((c, track, q))  # the Python code writes the track in place
+        s_c = s_py.copy()
+        want = _pem._pem_frame(s_py, normals, *args)
+        got = fast(s_c, np.array(normals), *args)
+        assert _bits(got) == _bits(want), (c, args)
+        assert _bits(s_c.tolist()) == _bits(s_py.tolist()), (c, args)
     ego = SimpleNamespace(x=0.0, y=0.0, yaw=0.0)
     kinds = [("car", 4.6, 1.8, 1.5), ("cyclist", 1.8, 0.6, 1.7), ("pedestrian", 0.5, 0.5, 1.8)]
     for rain in (0.0, 0.6):
