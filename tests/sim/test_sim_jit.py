@@ -540,6 +540,10 @@ def test_compiled_timed_car_move_is_bit_identical_and_is_the_law_then_the_move(
     pts = (path.xs, path.ys, path.hs, path.ss)
     arr = np.array(pts)
     route = path.tracker().args[0]
+    # what drive passes: the steering's points then the tracking's, one array per route
+    both = _controllers._car_move_points(path, route)
+    assert both is _controllers._car_move_points(path, route)
+    assert np.array_equal(both, np.concatenate((arr, route)))
     rnd = random.Random(9)
     moved = set()
     for _ in range(5000):
@@ -559,10 +563,10 @@ def test_compiled_timed_car_move_is_bit_identical_and_is_the_law_then_the_move(
         react = rnd.choice([0, 0, 1, 2, 3])
         kc = _dynamics._constants(vehicle._k, True)
         args = (*law, s, x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), yaw, vx, vy, r)
-        tail = (route, hint, mu, lat, _dynamics.DT, _dynamics.SUBSTEPS, react)
-        want = _controllers._timed_car_move(pts, (*k, *vehicle._k), *args, *tail)
-        kk = np.concatenate((np.array(k), kc))
-        assert _bits(fast(arr, kk, *args, *tail)) == _bits(want), (k, args, tail)
+        tail = (hint, mu, lat, _dynamics.DT, _dynamics.SUBSTEPS, react)
+        want = _controllers._timed_car_move((*pts, *route), (*k, *vehicle._k), *args, *tail)
+        kk, both = np.concatenate((np.array(k), kc)), np.concatenate((arr, route))
+        assert _bits(fast(both, kk, *args, *tail)) == _bits(want), (k, args, tail)
         moved.add((want[0], want[4]))
         # the law, then Vehicle.step (when the watcher has no say)
         phase, thr, brk, steer = _controllers._timed_car(pts, k, *args[:-1])

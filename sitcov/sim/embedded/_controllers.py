@@ -211,7 +211,6 @@ def _timed_car_move(
     vx: float,
     vy: float,
     r: float,
-    route: Any,
     hint: int,
     mu: float,
     lateral_accel: float,
@@ -229,11 +228,14 @@ def _timed_car_move(
     moves the body). ``moved``: 1 stood (tracked only), 2 integrated. ``kk``: the law's
     ``k`` (:data:`TIMED_K` values, as :func:`_timed_car` takes them) then the body's
     constants ``kc``, in one array (numba unboxes each array argument on every call, the
-    dearest part of it); ``route``: the body's route points as ``Vehicle.step`` passes
-    them; the body's steering angle is ``steer`` clamped to [-1, 1] times ``k[13]`` (its
-    ``steer_max``). One compiled call per step instead of two and their Python in between.
+    dearest part of it); ``pts``: the route's (xs, ys, hs, ss) as :func:`_timed_car` takes
+    them, then its points as ``Vehicle.step`` passes them (``route``: xs, ys, ss), in one
+    array (:func:`_car_move_points`); the body's steering angle is ``steer`` clamped to
+    [-1, 1] times ``k[13]`` (its ``steer_max``). One compiled call per step instead of two
+    and their Python in between.
     """
     k, kc = kk[:TIMED_K], kk[TIMED_K:]
+    route = pts[4:]
     phase, thr, brk, steer = _timed_car(pts, k, phase, ego_s, ego_speed, s, x, y, yaw, vx, vy)
     if (phase == 2 and react & 2) or (phase == 1 and react & 1):
         return phase, thr, brk, steer, 0, x, y, yaw, vx, vy, r, s, hint
@@ -264,14 +266,32 @@ def _timed_move_kernel() -> Any:
         k = np.array([3.0, 20.0, 4.2, 0.5, 0.5, 0.1, 1.0, 30.0, 25.0, 0.8, 4.0, 1.4, 2.7, 0.6])
         kc = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         route = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
-        kk = np.concatenate((k, kc))
-        example = (pts, kk, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01, 0.0, route, 0)
+        kk, pts = np.concatenate((k, kc)), np.concatenate((pts, route))
+        example = (pts, kk, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01, 0.0, 0)
         example += (1.0, 0.0, DT, SUBSTEPS, 0)
         helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit, _car_steer)
         helpers += (timing_law, _timed_car, integrate, ("track", track), integrate_tracked)
         fast = compiled(_timed_car_move, *example, helpers=helpers)
         _TIMED_MOVE = typed_entry(fast) or _timed_car_move
     return _TIMED_MOVE
+
+
+def _car_move_points(route: Any, points: Any) -> Any:
+    """:func:`_timed_car_move`'s ``pts``: the route's (xs, ys, hs, ss) then ``points``, the
+    body's route points (xs, ys, ss: ``Actor._points``), as one float array when
+    ``points`` is one (compiled), else one tuple. Once per route and points array, not
+    per run (a map's routes are cached, so runs share them; the kernel only reads it)."""
+    if not isinstance(points, np.ndarray):
+        return (route.xs, route.ys, route.hs, route.ss, *points)
+    if points is getattr(route, "_track_array", None):  # the route's own (Path.tracker)
+        return _car_move_array(route)
+    return np.concatenate((_car_points(route, True), points))
+
+
+@functools.lru_cache(maxsize=256)
+def _car_move_array(route: Any) -> Any:
+    """:func:`_car_move_points` of the route's own points array (cached per route)."""
+    return np.concatenate((_car_points(route, True), route._track_array))
 
 
 @functools.lru_cache(maxsize=256)
@@ -350,7 +370,7 @@ class TimingController:
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
         self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
-        self._kk: Any = None  # _move_constants', at the first step of drive
+        self._move: Any = None  # drive's (points, constants), at its first step
         self._looks = False  # any road user meets its route (set with _car)
         self._still: Any = None  # (s, ego s, law's command) of a standoff step, and
         self._still_cmd = (0.0, 0.0)  # what react answered then
@@ -445,9 +465,10 @@ class TimingController:
         if self._car is None:
             self._start_car(actor)
         law, b = self.law, actor.body
-        pts, kk = self._car[1], self._kk
-        if kk is None:
-            kk = self._kk = self._move_constants(b)
+        move = self._move
+        if move is None:
+            move = self._move = (_car_move_points(actor.route, points), self._move_constants(b))
+        pts, kk = move
         reacts = 0  # _reacts, written out (this runs every step)
         if self._looks:
             others = self._others
@@ -459,7 +480,7 @@ class TimingController:
             _TIMED_MOVE or _timed_move_kernel()
         )(
             pts, kk, law.phase_index, world.ego.s, world.ego_speed, actor.s, b.x, b.y, b.yaw,
-            b.vx, b.vy, b.r, points, actor.hint, mu, lateral, dt, SUBSTEPS, reacts,
+            b.vx, b.vy, b.r, actor.hint, mu, lateral, dt, SUBSTEPS, reacts,
         )  # fmt: skip
         law.phase_index = phase
         if phase == 2 and self.switch_time is None:
