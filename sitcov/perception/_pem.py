@@ -853,44 +853,6 @@ class PEMSensor(Sensor):
         track = old[3][_F_N : _F_N + 5] if old is not None else np.zeros(5)
         return q, p, constants, np.concatenate((held[1], track, q))
 
-    def _detect_compiled(
-        self,
-        frame_fn: Any,
-        ex: float,
-        ey: float,
-        eyaw: float,
-        actors: Sequence[tuple[Any, Any]],
-        conditions: Conditions,
-        constants: dict[int, tuple[PEMParams, Any]],
-    ) -> tuple[Detection, ...]:
-        """:meth:`detect_prepared`'s loop, each actor in one :func:`_pem_frame` call (the
-        same draws and values as the Python loop; normals drawn ahead in blocks).
-        ``constants``: this run's ``id(class parameters) -> (them, their constants)``."""
-
-        normals = self._normals
-        tracks = self._ftracks
-        frame = float(self._frame)
-        out = []
-        for key, ((q, p, label), pose) in enumerate(actors):
-            # the kernel's state (constants, noise track, view array) per position, made
-            # anew (keeping the position's track) when another actor or run comes there
-            held = tracks.get(key)
-            if held is None or held[0] is not q or held[1] is not p or held[2] is not constants:
-                held = self._frame_state(held, q, p, conditions, constants)
-                tracks[key] = held
-            state = held[3]
-            at, buf = normals._at, normals._array  # normals.ahead, written out
-            if buf is None or at + FRAME_NORMALS > len(buf):
-                buf, at = normals.ahead(FRAME_NORMALS)
-            code, at, x0, y0, x1, y1, score = frame_fn(
-                state, buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
-            )
-            if code:
-                normals._at = at  # normals.advance(at)
-                if code == 2:
-                    out.append(Detection((x0, y0, x1, y1), score, label))
-        return tuple(out)
-
     def detect_prepared(
         self,
         ex: float,
@@ -924,8 +886,35 @@ class PEMSensor(Sensor):
             ):
                 ready = self._frame_ready(conditions)
                 fs = self._fstate = (conditions, camera, self.params, self.frame_dt, ready, {})
-            if fs[4]:
-                return self._detect_compiled(frame_fn, ex, ey, eyaw, actors, conditions, fs[5])
+            if fs[4]:  # each actor in one _pem_frame call (the same draws and values as
+                # the Python loop below; normals drawn ahead in blocks)
+                constants, tracks = fs[5], self._ftracks  # id(class parameters) -> ...
+                frame = float(self._frame)
+                out = []
+                for key, ((q, p, label), pose) in enumerate(actors):
+                    # the kernel's state (constants, noise track, view array) per position,
+                    # made anew (keeping the position's track) when another actor or run
+                    # comes there
+                    held = tracks.get(key)
+                    if (
+                        held is None
+                        or held[0] is not q
+                        or held[1] is not p
+                        or held[2] is not constants
+                    ):
+                        held = self._frame_state(held, q, p, conditions, constants)
+                        tracks[key] = held
+                    at, buf = normals._at, normals._array  # normals.ahead, written out
+                    if buf is None or at + FRAME_NORMALS > len(buf):
+                        buf, at = normals.ahead(FRAME_NORMALS)
+                    code, at, x0, y0, x1, y1, score = frame_fn(
+                        held[3], buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
+                    )
+                    if code:
+                        normals._at = at  # normals.advance(at)
+                        if code == 2:
+                            out.append(Detection((x0, y0, x1, y1), score, label))
+                return tuple(out)
         w, h = float(camera.width), float(camera.height)
         view = _VIEW_FN or _view_kernel()
         rain = conditions.rain_noise
