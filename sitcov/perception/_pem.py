@@ -413,10 +413,13 @@ _F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(
 FRAME_NORMALS = 9
 
 
+#: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
+#: ``track``'s 5, then the view array ``q``).
+_F_N = 15
+
+
 def _pem_frame(
-    q: Any,
-    c: Any,
-    track: Any,
+    state: Any,
     normals: Any,
     at: int,
     frame: float,
@@ -434,11 +437,14 @@ def _pem_frame(
     builtins ``min``/``max`` written out as they decide). ``(code, next normal, x0, y0,
     x1, y1, score)``: code 0 not in view (nothing drawn), 1 not detected, 2 detected.
 
-    ``q``: :func:`_pem_view`'s array; ``c``: the constants (layout above); ``track``:
-    the actor's noise state ``[offset, u, m, frame, known]`` (``known`` 0: a new track;
-    updated in place); ``normals``: standard normals of the run from index ``at`` on (at
-    least :data:`FRAME_NORMALS`); ``frame``: this frame's number.
+    ``state``: the actor's constants ``c`` (layout above, :data:`_F_N` values), its
+    noise state ``track`` ``[offset, u, m, frame, known]`` (``known`` 0: a new track;
+    updated in place) and :func:`_pem_view`'s array ``q``, in one float array (numba
+    unboxes each array argument on every call, the dearest part of a call); ``normals``:
+    standard normals of the run from index ``at`` on (at least :data:`FRAME_NORMALS`);
+    ``frame``: this frame's number.
     """
+    c, track, q = state[:_F_N], state[_F_N : _F_N + 5], state[_F_N + 5 :]
     seen, x0, y0, x1, y1, z, d = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
     if not seen:
         return 0, at, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -520,10 +526,10 @@ def _frame_kernel() -> Any:
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0])  # fmt: skip
         c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
         c = np.append(c, [800.0, 450.0])
-        track, normals = np.zeros(5), np.zeros(FRAME_NORMALS)
+        state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
         helpers += (fill_of, _pem_view, _sigmoid)
-        example = (q, c, track, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
+        example = (state, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
         _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
     return _FRAME_FN
 
@@ -625,8 +631,9 @@ class PEMSensor(Sensor):
         self._rng: Any = None
         self._normals: NormalStream | None = None
         self._tracks: dict[int, _Track] = {}
-        #: the compiled frame's noise state per actor (``_pem_frame``'s ``track``) and
-        #: the run its constants are for (``detect_prepared``)
+        #: per actor position, the compiled frame's ``(q, p, constants, state)``
+        #: (``_frame_state``; the state holds the noise track) and the run its constants
+        #: are for (``detect_prepared``)
         self._ftracks: dict[int, Any] = {}
         self._fstate: tuple[Any, ...] | None = None
         self._frame = 0
@@ -826,44 +833,25 @@ class PEMSensor(Sensor):
         ]  # fmt: skip
         return np.array(values, dtype=np.float64)
 
-    def _detect_compiled(
+    def _frame_state(
         self,
-        frame_fn: Any,
-        ex: float,
-        ey: float,
-        eyaw: float,
-        actors: Sequence[tuple[Any, Any]],
+        old: tuple[Any, Any, Any, Any] | None,
+        q: Any,
+        p: PEMParams,
         conditions: Conditions,
         constants: dict[int, tuple[PEMParams, Any]],
-    ) -> tuple[Detection, ...]:
-        """:meth:`detect_prepared`'s loop, each actor in one :func:`_pem_frame` call (the
-        same draws and values as the Python loop; normals drawn ahead in blocks).
-        ``constants``: this run's ``id(class parameters) -> (them, their constants)``."""
+    ) -> tuple[Any, Any, Any, Any]:
+        """``(q, p, constants, state)``: :func:`_pem_frame`'s ``state`` for an actor with
+        view array ``q`` and class parameters ``p`` in this run (``constants``: its
+        ``id(p) -> (p, their constants)``), the noise track taken over from ``old`` (the
+        position's last state; a new track without one)."""
         import numpy as np
 
-        normals = self._normals
-        tracks = self._ftracks
-        frame = float(self._frame)
-        out = []
-        for key, ((q, p, label), pose) in enumerate(actors):
-            held = constants.get(id(p))
-            if held is None:  # holds p: no id reuse while cached
-                held = constants[id(p)] = (p, self._frame_constants(p, conditions))
-            c = held[1]
-            track = tracks.get(key)
-            if track is None:
-                track = tracks[key] = np.zeros(5)
-            at, buf = normals._at, normals._array  # normals.ahead, written out
-            if buf is None or at + FRAME_NORMALS > len(buf):
-                buf, at = normals.ahead(FRAME_NORMALS)
-            code, at, x0, y0, x1, y1, score = frame_fn(
-                q, c, track, buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
-            )
-            if code:
-                normals._at = at  # normals.advance(at)
-                if code == 2:
-                    out.append(Detection((x0, y0, x1, y1), score, label))
-        return tuple(out)
+        held = constants.get(id(p))
+        if held is None:  # holds p: no id reuse while cached
+            held = constants[id(p)] = (p, self._frame_constants(p, conditions))
+        track = old[3][_F_N : _F_N + 5] if old is not None else np.zeros(5)
+        return q, p, constants, np.concatenate((held[1], track, q))
 
     def detect_prepared(
         self,
@@ -898,8 +886,35 @@ class PEMSensor(Sensor):
             ):
                 ready = self._frame_ready(conditions)
                 fs = self._fstate = (conditions, camera, self.params, self.frame_dt, ready, {})
-            if fs[4]:
-                return self._detect_compiled(frame_fn, ex, ey, eyaw, actors, conditions, fs[5])
+            if fs[4]:  # each actor in one _pem_frame call (the same draws and values as
+                # the Python loop below; normals drawn ahead in blocks)
+                constants, tracks = fs[5], self._ftracks  # id(class parameters) -> ...
+                frame = float(self._frame)
+                out = []
+                for key, ((q, p, label), pose) in enumerate(actors):
+                    # the kernel's state (constants, noise track, view array) per position,
+                    # made anew (keeping the position's track) when another actor or run
+                    # comes there
+                    held = tracks.get(key)
+                    if (
+                        held is None
+                        or held[0] is not q
+                        or held[1] is not p
+                        or held[2] is not constants
+                    ):
+                        held = self._frame_state(held, q, p, conditions, constants)
+                        tracks[key] = held
+                    at, buf = normals._at, normals._array  # normals.ahead, written out
+                    if buf is None or at + FRAME_NORMALS > len(buf):
+                        buf, at = normals.ahead(FRAME_NORMALS)
+                    code, at, x0, y0, x1, y1, score = frame_fn(
+                        held[3], buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
+                    )
+                    if code:
+                        normals._at = at  # normals.advance(at)
+                        if code == 2:
+                            out.append(Detection((x0, y0, x1, y1), score, label))
+                return tuple(out)
         w, h = float(camera.width), float(camera.height)
         view = _VIEW_FN or _view_kernel()
         rain = conditions.rain_noise

@@ -540,6 +540,10 @@ def test_compiled_timed_car_move_is_bit_identical_and_is_the_law_then_the_move(
     pts = (path.xs, path.ys, path.hs, path.ss)
     arr = np.array(pts)
     route = path.tracker().args[0]
+    # what drive passes: the steering's points then the tracking's, one array per route
+    both = _controllers._car_move_points(path, route)
+    assert both is _controllers._car_move_points(path, route)
+    assert np.array_equal(both, np.concatenate((arr, route)))
     rnd = random.Random(9)
     moved = set()
     for _ in range(5000):
@@ -559,9 +563,10 @@ def test_compiled_timed_car_move_is_bit_identical_and_is_the_law_then_the_move(
         react = rnd.choice([0, 0, 1, 2, 3])
         kc = _dynamics._constants(vehicle._k, True)
         args = (*law, s, x + rnd.uniform(-1, 1), y + rnd.uniform(-1, 1), yaw, vx, vy, r)
-        tail = (route, hint, mu, lat, _dynamics.DT, _dynamics.SUBSTEPS, react)
-        want = _controllers._timed_car_move(pts, k, *args, vehicle._k, *tail)
-        assert _bits(fast(arr, np.array(k), *args, kc, *tail)) == _bits(want), (k, args, tail)
+        tail = (hint, mu, lat, _dynamics.DT, _dynamics.SUBSTEPS, react)
+        want = _controllers._timed_car_move((*pts, *route), (*k, *vehicle._k), *args, *tail)
+        kk, both = np.concatenate((np.array(k), kc)), np.concatenate((arr, route))
+        assert _bits(fast(both, kk, *args, *tail)) == _bits(want), (k, args, tail)
         moved.add((want[0], want[4]))
         # the law, then Vehicle.step (when the watcher has no say)
         phase, thr, brk, steer = _controllers._timed_car(pts, k, *args[:-1])
@@ -634,10 +639,12 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
         ex, ey, eyaw = rnd.uniform(-50, 50), rnd.uniform(-50, 50), rnd.uniform(-4, 4)
         pose = (ex + rnd.uniform(-30, 30), ey + rnd.uniform(-30, 30), rnd.uniform(-4, 4))
         args = (rnd.randint(0, 3), float(rnd.randint(4, 9)), ex, ey, eyaw, *pose)
-        t_py, t_c = list(track), np.array(track)
-        want = _pem._pem_frame(q, c, t_py, normals, *args)
-        got = fast(q, np.array(c), t_c, np.array(normals), *args)
-        assert _bits(got) == _bits(want) and _bits(t_c.tolist()) == _bits(t_py), (c, args)
+        s_py = np.concatenate((c, track, q))  # the Python code writes the track in place
+        s_c = s_py.copy()
+        want = _pem._pem_frame(s_py, normals, *args)
+        got = fast(s_c, np.array(normals), *args)
+        assert _bits(got) == _bits(want), (c, args)
+        assert _bits(s_c.tolist()) == _bits(s_py.tolist()), (c, args)
     ego = SimpleNamespace(x=0.0, y=0.0, yaw=0.0)
     kinds = [("car", 4.6, 1.8, 1.5), ("cyclist", 1.8, 0.6, 1.7), ("pedestrian", 0.5, 0.5, 1.8)]
     for rain in (0.0, 0.6):

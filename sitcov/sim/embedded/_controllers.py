@@ -193,9 +193,14 @@ def _timed_kernel() -> Any:
     return _TIMED
 
 
+#: How many of :func:`_timed_car_move`'s ``kk`` are the law's ``k`` (the rest: the
+#: body's ``kc``).
+TIMED_K = 14
+
+
 def _timed_car_move(
     pts: Any,
-    k: Any,
+    kk: Any,
     phase: int,
     ego_s: float,
     ego_speed: float,
@@ -206,8 +211,6 @@ def _timed_car_move(
     vx: float,
     vy: float,
     r: float,
-    kc: Any,
-    route: Any,
     hint: int,
     mu: float,
     lateral_accel: float,
@@ -222,11 +225,17 @@ def _timed_car_move(
 
     ``react``: bit 1 if the watcher must be asked in the law's phase 1, bit 2 in phase 2
     (:meth:`TimingController.drive`); then nothing moves (``moved`` 0: the caller asks and
-    moves the body). ``moved``: 1 stood (tracked only), 2 integrated. ``kc``, ``route``:
-    the body's constants and route points as ``Vehicle.step`` passes them; the body's
-    steering angle is ``steer`` clamped to [-1, 1] times ``k[13]`` (its ``steer_max``).
-    One compiled call per step instead of two and their Python in between.
+    moves the body). ``moved``: 1 stood (tracked only), 2 integrated. ``kk``: the law's
+    ``k`` (:data:`TIMED_K` values, as :func:`_timed_car` takes them) then the body's
+    constants ``kc``, in one array (numba unboxes each array argument on every call, the
+    dearest part of it); ``pts``: the route's (xs, ys, hs, ss) as :func:`_timed_car` takes
+    them, then its points as ``Vehicle.step`` passes them (``route``: xs, ys, ss), in one
+    array (:func:`_car_move_points`); the body's steering angle is ``steer`` clamped to
+    [-1, 1] times ``k[13]`` (its ``steer_max``). One compiled call per step instead of two
+    and their Python in between.
     """
+    k, kc = kk[:TIMED_K], kk[TIMED_K:]
+    route = pts[4:]
     phase, thr, brk, steer = _timed_car(pts, k, phase, ego_s, ego_speed, s, x, y, yaw, vx, vy)
     if (phase == 2 and react & 2) or (phase == 1 and react & 1):
         return phase, thr, brk, steer, 0, x, y, yaw, vx, vy, r, s, hint
@@ -257,13 +266,32 @@ def _timed_move_kernel() -> Any:
         k = np.array([3.0, 20.0, 4.2, 0.5, 0.5, 0.1, 1.0, 30.0, 25.0, 0.8, 4.0, 1.4, 2.7, 0.6])
         kc = _constants(Vehicle(default_params(), 0.0, 0.0, 0.0)._k, True)
         route = np.array([[0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 2.0]])
-        example = (pts, k, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01, 0.0, kc, route, 0)
+        kk, pts = np.concatenate((k, kc)), np.concatenate((pts, route))
+        example = (pts, kk, 1, 5.0, 3.0, 2.0, 0.0, 0.1, 0.2, 3.0, 0.01, 0.0, 0)
         example += (1.0, 0.0, DT, SUBSTEPS, 0)
         helpers = (("bisect_right", _bisect_right), _point_at, pure_pursuit, _car_steer)
         helpers += (timing_law, _timed_car, integrate, ("track", track), integrate_tracked)
         fast = compiled(_timed_car_move, *example, helpers=helpers)
         _TIMED_MOVE = typed_entry(fast) or _timed_car_move
     return _TIMED_MOVE
+
+
+def _car_move_points(route: Any, points: Any) -> Any:
+    """:func:`_timed_car_move`'s ``pts``: the route's (xs, ys, hs, ss) then ``points``, the
+    body's route points (xs, ys, ss: ``Actor._points``), as one float array when
+    ``points`` is one (compiled), else one tuple. Once per route and points array, not
+    per run (a map's routes are cached, so runs share them; the kernel only reads it)."""
+    if not isinstance(points, np.ndarray):
+        return (route.xs, route.ys, route.hs, route.ss, *points)
+    if points is getattr(route, "_track_array", None):  # the route's own (Path.tracker)
+        return _car_move_array(route)
+    return np.concatenate((_car_points(route, True), points))
+
+
+@functools.lru_cache(maxsize=256)
+def _car_move_array(route: Any) -> Any:
+    """:func:`_car_move_points` of the route's own points array (cached per route)."""
+    return np.concatenate((_car_points(route, True), route._track_array))
 
 
 @functools.lru_cache(maxsize=256)
@@ -342,6 +370,7 @@ class TimingController:
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
         self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
+        self._move: Any = None  # drive's (points, constants), at its first step
         self._looks = False  # any road user meets its route (set with _car)
         self._still: Any = None  # (s, ego s, law's command) of a standoff step, and
         self._still_cmd = (0.0, 0.0)  # what react answered then
@@ -435,11 +464,11 @@ class TimingController:
             return
         if self._car is None:
             self._start_car(actor)
-        _, pts, k = self._car
         law, b = self.law, actor.body
-        kc = b._kc
-        if kc is None:
-            kc = b._kc = _constants(b._k)
+        move = self._move
+        if move is None:
+            move = self._move = (_car_move_points(actor.route, points), self._move_constants(b))
+        pts, kk = move
         reacts = 0  # _reacts, written out (this runs every step)
         if self._looks:
             others = self._others
@@ -450,8 +479,8 @@ class TimingController:
         phase, thr, brk, steer, moved, x, y, yaw, vx, vy, r, s, i = (
             _TIMED_MOVE or _timed_move_kernel()
         )(
-            pts, k, law.phase_index, world.ego.s, world.ego_speed, actor.s, b.x, b.y, b.yaw,
-            b.vx, b.vy, b.r, kc, points, actor.hint, mu, lateral, dt, SUBSTEPS, reacts,
+            pts, kk, law.phase_index, world.ego.s, world.ego_speed, actor.s, b.x, b.y, b.yaw,
+            b.vx, b.vy, b.r, actor.hint, mu, lateral, dt, SUBSTEPS, reacts,
         )  # fmt: skip
         law.phase_index = phase
         if phase == 2 and self.switch_time is None:
@@ -469,6 +498,20 @@ class TimingController:
             b.x, b.y, b.yaw, b.vx, b.vy, b.r = x, y, yaw, vx, vy, r
             b.steer = (-1.0 if steer < -1.0 else (1.0 if steer > 1.0 else steer)) * b.p.steer_max
         actor.s, actor.hint = s, i
+
+    def _move_constants(self, b: Any) -> Any:
+        """:func:`_timed_car_move`'s ``kk``: the law's constants (``_bind_car``'s) then
+        the body's (``Vehicle.step``'s ``kc``), one array when they are arrays (compiled),
+        else one tuple; made at the car's first step (the body's constants stay)."""
+        k = self._car[2]
+        kc = b._kc
+        if kc is None:
+            kc = b._kc = _constants(b._k)
+        if len(k) != TIMED_K:
+            raise ValueError(f"timed car: {len(k)} law constants, expected {TIMED_K}")
+        if isinstance(k, np.ndarray) or isinstance(kc, np.ndarray):
+            return np.concatenate((np.asarray(k, dtype=np.float64), kc))
+        return (*k, *kc)
 
     def _bind_car(self, actor: Actor) -> tuple[Any, Any, Any]:
         """The kernel, the route's points and the constants of :func:`_timed_car`."""
