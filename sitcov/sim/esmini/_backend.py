@@ -15,6 +15,7 @@ The run ends at a collision, the goal, the storyboard's end, a standstill of
 
 from __future__ import annotations
 
+import bisect
 import math
 import tempfile
 from pathlib import Path
@@ -30,6 +31,13 @@ from sitcov.sim.embedded._collision import box_distance, contact_point, corners,
 from sitcov.sim.embedded._dynamics import Vehicle, default_params
 from sitcov.sim.embedded._ego import EgoDriver
 from sitcov.sim.embedded._monitors import GOAL_TOLERANCE, LANE_TOLERANCE, STOPPED_SPEED
+from sitcov.sim.embedded._progress import (
+    BLOCKED_TIME,
+    PATH_AHEAD,
+    PATH_MARGIN,
+    STILL_SPEED,
+    path_near,
+)
 from sitcov.sim.esmini._lib import library
 from sitcov.sim.esmini._road import cropped_road
 from sitcov.sim.esmini._scenario import (
@@ -506,6 +514,10 @@ class EsminiBackend(Backend):
         lanes = _LaneTest(route, road.lane_widths(route), ego_wid)
         idx = start = _advance(route, 0, cx, cy)  # the point the ego starts at
         still = 0.0
+        arc = _arc_lengths(route)
+        xs, ys = [p[0] for p in route], [p[1] for p in route]
+        standing_clear = 0.0  # how long the ego has stood with its path clear [s]
+        blocked: float | None = None
         ego_rows: list[tuple[float, float, float, float, float]] = []
         reason = "sim_timeout"
         k, t = 0, 0.0
@@ -562,6 +574,12 @@ class EsminiBackend(Backend):
             if lane_departure is None and lanes.left(idx, vehicle.x, vehicle.y):
                 lane_departure = t
             still = still + dt if vehicle.speed < STOPPED_SPEED else 0.0
+            if vehicle.speed < STILL_SPEED and not _path_taken(actors, xs, ys, arc, idx, hl, hw):
+                standing_clear += dt
+                if blocked is None and standing_clear >= BLOCKED_TIME - 1e-9:
+                    blocked = t
+            else:
+                standing_clear = 0.0
             if hit is not None:
                 reason = "collision"
                 break
@@ -571,8 +589,8 @@ class EsminiBackend(Backend):
             if session.ended():
                 reason = "scenario_end"
                 break
-            if still >= self.stop_patience:
-                reason = "stopped"
+            if still >= self.stop_patience and blocked is not None:
+                reason = "stopped"  # the verdict is known: blocked (docs/esmini.md)
                 break
             if k >= n_max:
                 break
@@ -588,7 +606,15 @@ class EsminiBackend(Backend):
             "road_departure_time": road_departure,
             "lane_departure_time": lane_departure,
             "route_length": round(length, 6),
-            "route_completion": round(min(1.0, progress / length), 6) if length > 0 else None,
+            "route_completion": (
+                1.0
+                if reason == "goal"
+                else (round(min(1.0, progress / length), 6) if length > 0 else None)
+            ),
+            "time_to_goal": round(t, 10) if reason == "goal" else None,
+            "blocked_time": blocked,
+            "route_incomplete_time": round(t, 10) if reason == "sim_timeout" else None,
+            "ego_stationary": (vehicle.speed < STILL_SPEED) if hit else None,
             "collision_actor": hit.name if hit else None,
             "collision_kind": hit.kind if hit else None,
             "collision_point": list(contact[0]) if hit else None,
@@ -822,6 +848,35 @@ def _bin_value(hyperspace: Any, label: str) -> Any:
                 if str(b.get("label", b.get("value"))) == label:
                     return b.get("value", label)
     return label
+
+
+def _arc_lengths(points: list[tuple[float, float]]) -> list[float]:
+    """Arc length [m] at every point of a route, from its first point."""
+    out = [0.0]
+    for a, b in zip(points, points[1:], strict=False):
+        out.append(out[-1] + math.dist(a, b))
+    return out
+
+
+def _path_taken(
+    actors: list[Any], xs: list[float], ys: list[float], arc: list[float], idx: int,
+    half_l: float, half_w: float,
+) -> bool:  # fmt: skip
+    """Whether a road user's box comes within the ego's half width plus ``PATH_MARGIN`` of
+    the ego's route over the ``PATH_AHEAD`` metres ahead of its front (the embedded
+    world's path test (a); its conflict-zone test (b) needs zones esmini's own
+    storyboard actors do not have)."""
+    front = arc[idx] + half_l
+    end = min(bisect.bisect_left(arc, front + PATH_AHEAD) + 1, len(xs))
+    reach = half_w + PATH_MARGIN
+    for a in actors:
+        if not a.active:
+            continue
+        b = a.body
+        c, s = math.cos(b.yaw), math.sin(b.yaw)
+        if path_near((xs, ys), idx, end, b.x, b.y, c, s, 0.5 * a.length, 0.5 * a.width, reach):
+            return True
+    return False
 
 
 def _length(points: list[tuple[float, float]]) -> float:

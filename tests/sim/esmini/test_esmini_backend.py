@@ -19,6 +19,7 @@ from sitcov.av import AVStack, Control, Observation, RunInfo, make_stack
 from sitcov.errors import ConfigError
 from sitcov.hyperspace import Situation, load_hyperspace
 from sitcov.sim import Judge, make_backend
+from sitcov.sim.embedded._progress import BLOCKED_TIME
 
 need_esmini_library()
 
@@ -68,10 +69,15 @@ def test_the_parameter_reaches_esmini(backend) -> None:
 
 
 def test_the_stack_drives_the_ego_not_the_storyboard(backend) -> None:
-    """A stack that never moves keeps the ego at its start: esmini does not move it."""
+    """A stack that never moves keeps the ego at its start: esmini does not move it, and
+    the verdict does not pass it: it stood BLOCKED_TIME with its path clear (`blocked`)."""
     still = Scripted(brake_at=0.0)
     out = backend.run(situation(TriggerDistance=30.0), still, 1, record=True)
-    assert out.end_reason == "stopped" and out.status == "pass"
+    assert out.end_reason == "stopped" and not out.collision
+    assert out.metrics["blocked_time"] == pytest.approx(BLOCKED_TIME, abs=0.06)
+    assert out.metrics["time_to_goal"] is None and out.metrics["route_incomplete_time"] is None
+    assert Judge.from_spec("default")(out).kind == "blocked"
+    assert Judge.from_spec("paper")(out).status == "pass"  # collisions only
     xs = {round(row[1], 9) for row in out.trace.ego}
     assert len(xs) == 1 and out.metrics["route_completion"] == 0.0
     assert out.trace.ego[0][1] == pytest.approx(20.0 + 1.4, abs=1e-6)  # s = 20 + box offset
@@ -457,3 +463,19 @@ def test_without_a_route_the_ego_follows_its_lane_ahead(tmp_path: Path) -> None:
         140.0, abs=1.0
     )
     assert all(y == pytest.approx(-1.75, abs=1e-6) for _, y in route)  # lane -1's centre
+
+
+def test_a_driving_ego_reaches_its_goal_with_the_embedded_facts(backend) -> None:
+    """A stack that drives and reaches its goal: completion 1, the time to goal is the
+    end, never blocked; a run that ends at the budget before the goal is route_incomplete."""
+    drive = Scripted()
+    out = backend.run(situation(TriggerDistance=10.0), drive, 1)
+    if out.end_reason == "goal":
+        m = out.metrics
+        assert m["route_completion"] == 1.0 and m["time_to_goal"] == out.sim_time
+        assert m["blocked_time"] is None and m["route_incomplete_time"] is None
+    short = make_backend("esmini", scenario=str(CROSSING), sim_timeout=3.0)
+    cut = short.run(situation(TriggerDistance=10.0), Scripted(), 1)
+    assert cut.end_reason == "sim_timeout" and cut.metrics["time_to_goal"] is None
+    assert cut.metrics["route_incomplete_time"] == pytest.approx(cut.sim_time)
+    assert Judge.from_spec("default")(cut).kind in ("route_incomplete", "collision")
