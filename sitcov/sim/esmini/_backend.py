@@ -32,6 +32,7 @@ from sitcov.sim.embedded._dynamics import Vehicle, default_params
 from sitcov.sim.embedded._ego import EgoDriver
 from sitcov.sim.embedded._monitors import GOAL_TOLERANCE, LANE_TOLERANCE, STOPPED_SPEED
 from sitcov.sim.embedded._progress import (
+    ARRIVAL_TIME,
     BLOCKED_TIME,
     PATH_AHEAD,
     PATH_MARGIN,
@@ -574,7 +575,11 @@ class EsminiBackend(Backend):
             if lane_departure is None and lanes.left(idx, vehicle.x, vehicle.y):
                 lane_departure = t
             still = still + dt if vehicle.speed < STOPPED_SPEED else 0.0
-            if vehicle.speed < STILL_SPEED and not _path_taken(actors, xs, ys, arc, idx, hl, hw):
+            if (
+                vehicle.speed < STILL_SPEED
+                and not _path_taken(actors, xs, ys, arc, idx, hl, hw)
+                and not (ov is not None and ov.due())
+            ):
                 standing_clear += dt
                 if blocked is None and standing_clear >= BLOCKED_TIME - 1e-9:
                     blocked = t
@@ -717,6 +722,8 @@ class _TimedOV:
         self.zone = zone
         self.halves = (ego_half_length, 0.5 * actor.length)
         self.times: list[float | None] = [None, None, None, None]  # entries and exits
+        #: the ego's and the OV's arc lengths on their routes at the last observation [m]
+        self.s_now: tuple[float, float] | None = None
 
     def observe(self, t: float, ego: Vehicle) -> None:
         """After a step: when the ego and the OV entered and left the conflict zone (the
@@ -725,15 +732,34 @@ class _TimedOV:
         if z is None:
             return
         b = self.actor.body
+        now = []
         for k, progress, xy, half in (
             (0, d.ego, (ego.x, ego.y), self.halves[0]),
             (2, d.ov, (b.x, b.y), self.halves[1]),
         ):
             s = progress.s[progress.update(*xy)]
+            now.append(s)
             if times[k] is None and s + half >= z[k]:
                 times[k] = t
             if times[k + 1] is None and s - half > z[k + 1]:
                 times[k + 1] = t
+
+        self.s_now = (now[0], now[1])
+
+    def due(self) -> bool:
+        """Whether the OV holds the ego at the conflict zone, as the embedded world's path
+        test (b) says (``path_occupied``): neither has left the zone, its start lies within
+        ``PATH_AHEAD`` of the ego's front, and the OV is in it or moving and due there
+        within ``ARRIVAL_TIME``. False before the first :meth:`observe` or without a zone."""
+        z, now = self.zone, self.s_now
+        if z is None or now is None:
+            return False
+        (s_ego, s_ov), (half_e, half_o) = now, self.halves
+        if z[0] - (s_ego + half_e) > PATH_AHEAD or s_ego - half_e > z[1] or s_ov - half_o > z[3]:
+            return False
+        ahead = z[2] - (s_ov + half_o)
+        speed = self.actor.speed
+        return ahead <= 0.0 or (speed >= STILL_SPEED and ahead <= speed * ARRIVAL_TIME)
 
     def pet(self, collided: bool) -> float | None:
         """Post-encroachment time at the conflict zone [s] (0 after a collision with the

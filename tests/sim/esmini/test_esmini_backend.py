@@ -479,3 +479,27 @@ def test_a_driving_ego_reaches_its_goal_with_the_embedded_facts(backend) -> None
     assert cut.end_reason == "sim_timeout" and cut.metrics["time_to_goal"] is None
     assert cut.metrics["route_incomplete_time"] == pytest.approx(cut.sim_time)
     assert Judge.from_spec("default")(cut).kind in ("route_incomplete", "collision")
+
+
+@pytest.mark.parametrize(
+    ("s_ego", "s_ov", "speed", "due"),
+    [
+        (50.0, 10.0, 8.0, True),  # the OV 28.5 m before the zone at 8 m/s: due in 3.6 s
+        (50.0, 10.0, 5.0, False),  # at 5 m/s: 5.7 s, not due within ARRIVAL_TIME
+        (50.0, 40.0, 0.0, True),  # standing inside the zone
+        (50.0, 30.0, 0.1, False),  # standing before it (below STILL_SPEED)
+        (20.0, 10.0, 8.0, False),  # the zone more than PATH_AHEAD ahead of the ego's front
+        (50.0, 60.0, 8.0, False),  # the OV has left the zone
+    ],
+)
+def test_the_timed_ov_holds_the_ego_as_the_embedded_conflict_test_says(s_ego, s_ov, speed, due):
+    """``_TimedOV.due``: the embedded world's path test (b) with the OV's conflict zone
+    (ego zone 60-65 m, OV zone 40-45 m on their routes, half lengths 2.4 and 2.25 m)."""
+    from types import SimpleNamespace
+
+    from sitcov.sim.esmini._backend import _TimedOV
+
+    ov = object.__new__(_TimedOV)
+    ov.zone, ov.s_now, ov.halves = (60.0, 65.0, 40.0, 45.0), (s_ego, s_ov), (2.4, 2.25)
+    ov.actor = SimpleNamespace(speed=speed)
+    assert ov.due() is due
