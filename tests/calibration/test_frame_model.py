@@ -117,9 +117,16 @@ def test_the_detection_terms_geometry_is_recovered_and_chosen_when_it_is_there()
     assert gain < 0.01
 
 
-def test_the_fitted_parameters_pass_the_check_on_held_out_runs() -> None:
-    data = _draw(5)
-    params, summary = fm.fit_kind(data, PEMParams(size_ref_px=25.0), folds=2)
+@pytest.fixture(scope="module")
+def car_fit():
+    """The fit of draw 5 that both check tests use (~45 CPU-s): once per module and worker
+    (the two tests share an xdist group, so one worker fits it)."""
+    return fm.fit_kind(_draw(5), PEMParams(size_ref_px=25.0), folds=2)
+
+
+@pytest.mark.xdist_group("frame_model_car_fit")
+def test_the_fitted_parameters_pass_the_check_on_held_out_runs(car_fit) -> None:
+    params, summary = car_fit
     assert summary["model_choice"]["chosen"].startswith("ar1")
     assert params.noise_frame_share == pytest.approx(0.25, abs=0.08)
     assert math.exp(-0.1 / params.noise_tau) == pytest.approx(0.9, abs=0.04)
@@ -144,13 +151,13 @@ def test_frames_file_round_trips_and_bad_lines_name_the_line(tmp_path: Path) -> 
         read_frames(bad)
 
 
-def test_check_command_prints_the_table_and_fails_when_off(tmp_path: Path, capsys) -> None:
+@pytest.mark.xdist_group("frame_model_car_fit")
+def test_check_command_prints_the_table_and_fails_when_off(tmp_path: Path, capsys, car_fit) -> None:
     """``sitcov calibrate --check``: the table on stdout, exit 0 within tolerance, 1 off it;
     bad options are one error line."""
     from sitcov.cli import main
 
-    data = _draw(5)  # the fit and check of the test above
-    params, _ = fm.fit_kind(data, PEMParams(size_ref_px=25.0), folds=2)
+    params, _ = car_fit  # the fit and check of the test above
     good = tmp_path / "pem.yaml"
     good.write_text(fm.frame_yaml({"car": (params, {"frames": 1})}, "x", [1], classes=False))
     frames = tmp_path / "frames.jsonl"
