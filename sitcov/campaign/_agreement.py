@@ -52,6 +52,7 @@ from typing import Any
 import numpy as np
 
 from sitcov.errors import ConfigError
+from sitcov.sim import WORLD_MODEL_VERSION
 
 #: Seed-sequence stream of the second run seed (0 and 1 are ask and run, sitcov._seeding).
 _SECOND_RUN_STREAM = 2
@@ -76,6 +77,7 @@ ROW_FIELDS = (
     "cpu_s",
     "wall_s",
     "stack",
+    "world_model",
 )
 #: The stack of a row that names none (rows files written before stacks were recorded).
 DEFAULT_STACK = "reference"
@@ -314,6 +316,7 @@ class SideRunner:
             "aeb_time": None if outcome.aeb_time is None else round(outcome.aeb_time, 4),
             "cpu_s": round(cpu, 4),
             "wall_s": round(wall, 4),
+            "world_model": WORLD_MODEL_VERSION,
         }
 
 
@@ -398,8 +401,13 @@ class RowsWriter:
 
 
 def _field(row: Mapping[str, Any], key: str) -> Any:
-    """``row[key]``; the stack of a row that names none is the reference stack."""
-    return row.get(key, DEFAULT_STACK) if key == "stack" else row[key]
+    """``row[key]``; the stack of a row that names none is the reference stack, the world
+    model of a row written before rows recorded it is unknown (empty)."""
+    if key == "stack":
+        return row.get(key, DEFAULT_STACK)
+    if key == "world_model":
+        return row.get(key)
+    return row[key]
 
 
 def write_rows(path: Path, rows: Iterable[Mapping[str, Any]]) -> None:
@@ -416,7 +424,10 @@ def read_rows(path: Path) -> list[dict[str, Any]]:
     """Rows written by :class:`RowsWriter`, typed back (ints, bools, floats, None)."""
     if rows_format(path) == "jsonl":
         rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
-        return [{**r, "stack": r.get("stack") or DEFAULT_STACK} for r in rows]
+        return [
+            {**r, "stack": r.get("stack") or DEFAULT_STACK, "world_model": r.get("world_model")}
+            for r in rows
+        ]
     with open(path, newline="") as fh:
         return [_typed(raw) for raw in csv.DictReader(fh)]
 
@@ -438,6 +449,7 @@ def _typed(raw: Mapping[str, str]) -> dict[str, Any]:
         "cpu_s": num(raw["cpu_s"]),
         "wall_s": num(raw["wall_s"]),
         "stack": raw.get("stack") or DEFAULT_STACK,
+        "world_model": int(raw["world_model"]) if raw.get("world_model") else None,
     }
 
 
@@ -777,6 +789,7 @@ def run_agreement(
         pem_file=pem_name,
         pem_sha256=hashlib.sha256(pem_path.read_bytes()).hexdigest(),
         sitcov_version=__version__,
+        world_model=WORLD_MODEL_VERSION,
         calibration_seeds=calibrated,
         workers=workers,
         runs={
@@ -803,7 +816,10 @@ def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[st
     A camera-mode run does not involve the PEM: after a recalibration its row is the same
     as before (with the same renderer, detector, backend and stack code, which the caller
     vouches for). A row is reused when its seed, index, stream and run seed match a
-    planned camera job and it was judged (pass or fail).
+    planned camera job, it was judged (pass or fail) and it was simulated by this world
+    model (``sitcov.sim.WORLD_MODEL_VERSION``): a row of another world model, or of a file
+    written before rows recorded it, judged another world (other verdicts, road users
+    that did not react) and is simulated again.
 
     Raises:
         ConfigError: the file cannot be read.
@@ -818,6 +834,8 @@ def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[st
         key = (row["seed"], row["index"], row["perception"], row["stream"], row["stack"])
         job = wanted.get(key)
         if job is None or row["status"] not in _JUDGED:
+            continue
+        if row.get("world_model") != WORLD_MODEL_VERSION:
             continue
         if row["run_seed"] == stream_seed(job.stream, job.seed, job.index):
             out[key] = row

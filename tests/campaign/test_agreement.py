@@ -14,6 +14,7 @@ from sitcov.analysis import wilson_interval
 from sitcov.campaign import _agreement as ag
 from sitcov.cli import main
 from sitcov.errors import ConfigError
+from sitcov.sim import WORLD_MODEL_VERSION
 
 #: A fake run fails when its run seed mod 100 is below this: P(fail) = 0.4 for any side.
 FAIL_BELOW = 40
@@ -36,6 +37,7 @@ def fake_run(job: ag.Job) -> dict:
         "aeb_time": None if failed else 1.25,
         "cpu_s": 0.5,
         "wall_s": 0.75,
+        "world_model": WORLD_MODEL_VERSION,
     }
 
 
@@ -254,10 +256,16 @@ def test_camera_rows_of_an_earlier_file_are_reused_not_rerun(tmp_path: Path) -> 
     """A recalibrated PEM re-runs only the PEM sides; every camera row comes from the file."""
     first = ag.run_agreement(seeds=[2, 4], situations=30, out=tmp_path / "a.csv", run_job=fake_run)
     old = ag.read_rows(tmp_path / "a.csv")
-    # one camera row with a run seed that is not its stream's: it must be simulated again
+    # one camera row with a run seed that is not its stream's, one judged by an older world
+    # model and one from a file that did not record it: each must be simulated again
     for row in old:
-        if (row["perception"], row["seed"], row["index"], row["stream"]) == ("camera", 2, 3, "B"):
+        key = (row["perception"], row["seed"], row["index"], row["stream"])
+        if key == ("camera", 2, 3, "B"):
             row["run_seed"] += 1
+        elif key == ("camera", 4, 7, "A"):
+            row["world_model"] = WORLD_MODEL_VERSION - 1
+        elif key == ("camera", 4, 8, "B"):
+            row["world_model"] = None
     ag.write_rows(tmp_path / "old.csv", old)
     simulated: list[ag.Job] = []
 
@@ -270,9 +278,11 @@ def test_camera_rows_of_an_earlier_file_are_reused_not_rerun(tmp_path: Path) -> 
         camera_rows=tmp_path / "old.csv",
     )  # fmt: skip
     camera = [j for j in simulated if j.perception == "camera"]
-    assert camera == [ag.Job(2, 3, "camera", "B")]
+    assert camera == [ag.Job(2, 3, "camera", "B"), ag.Job(4, 7, "camera", "A"),
+                      ag.Job(4, 8, "camera", "B")]  # fmt: skip
     assert sum(j.perception == "pem" for j in simulated) == 2 * 30 * 2
-    assert second["runs"]["camera_reused"] == 2 * 30 * 2 - 1
+    assert second["runs"]["camera_reused"] == 2 * 30 * 2 - 3
+    assert second["world_model"] == WORLD_MODEL_VERSION
     assert second["camera_rows_from"] == str(tmp_path / "old.csv")
     assert second["pairs"] == first["pairs"]
     assert ag.read_rows(tmp_path / "b.csv") == ag.read_rows(tmp_path / "a.csv")

@@ -9,6 +9,7 @@ import pytest
 
 from sitcov.campaign import _agreement as ag
 from sitcov.errors import SitcovError
+from sitcov.sim import WORLD_MODEL_VERSION
 
 ROOT = Path(__file__).resolve().parents[2]
 #: From tests/av/test_plugins.py: where the OV comes from in each intsit bin.
@@ -25,7 +26,7 @@ def fake_run(job: ag.Job) -> dict:
     return {
         **asdict(job), "situation_id": f"sit-{job.seed}-{job.index}", "run_seed": seed,
         "status": "fail" if failed else "pass", "failed": failed, "aeb_time": None,
-        "cpu_s": 0.5, "wall_s": 0.5,
+        "cpu_s": 0.5, "wall_s": 0.5, "world_model": WORLD_MODEL_VERSION,
     }  # fmt: skip
 
 
