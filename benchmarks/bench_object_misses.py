@@ -17,7 +17,9 @@ Part 2: ``--situations`` random situations of the default hyperspace (situation 
 examples/object_stack.py as a Python stack braking after the path is taken in 1 or in 3
 consecutive frames, on the embedded backend with ground-truth objects, the shipped noise
 with independent misses and with correlated misses: failures per configuration, and the
-runs whose verdict the three-frame rule changes against the one-frame rule.
+runs whose verdict the three-frame rule changes against the one-frame rule; the same with
+the position, heading and velocity errors off ("exact states": the misses alone), and the
+paired (sign test) comparison of independent against correlated misses.
 """
 
 from __future__ import annotations
@@ -174,8 +176,14 @@ def part2(situations: int, seed: int) -> None:
 
     gen = make_generator("random", load_hyperspace())
     sits = [gen.ask(ask_rng(seed, i)) for i in range(situations)]
-    configs = (("ground truth", None), ("independent misses", {"miss_tau": 0.0}),
-               ("correlated misses (shipped)", {}))  # fmt: skip
+    exact = {"pos_sigma0": 0.0, "pos_sigma_per_m": 0.0, "heading_sigma": 0.0, "vel_sigma": 0.0}
+    configs = (
+        ("ground truth", None),
+        ("independent misses", {"miss_tau": 0.0}),
+        ("correlated misses (shipped)", {}),
+        ("independent misses, exact states", {"miss_tau": 0.0, **exact}),
+        ("correlated misses, exact states", exact),
+    )
     print(
         f"\n| objects | 1-frame stack fails | 3-frame stack fails | 3-frame fails, "
         f"1-frame not | 1-frame fails, 3-frame not |  ({situations} situations, seed {seed})"
@@ -203,14 +211,15 @@ def part2(situations: int, seed: int) -> None:
             f"({time.perf_counter() - t0:.0f} s)",
             flush=True,
         )
-    ind, cor = every[configs[1][0]], every[configs[2][0]]
-    for need in (1, 3):
-        a = sum(x and not y for x, y in zip(ind[need], cor[need], strict=True))
-        b = sum(y and not x for x, y in zip(ind[need], cor[need], strict=True))
-        print(
-            f"{need}-frame stack: fails with independent misses only {a}, with correlated "
-            f"misses only {b} (paired; exact two-sided sign-test p {_sign_p(a, b):.3f})"
-        )
+    pairs = ((configs[1][0], configs[2][0]), (configs[3][0], configs[4][0]))
+    for first, second in pairs:
+        for need in (1, 3):
+            x, y = every[first][need], every[second][need]
+            a = sum(u and not v for u, v in zip(x, y, strict=True))
+            b = sum(v and not u for u, v in zip(x, y, strict=True))
+            print(f"{need}-frame stack, {first} vs {second}: fails only with the first {a}, "
+                  f"only with the second {b} (paired; exact two-sided sign-test p "
+                  f"{_sign_p(a, b):.3f})")  # fmt: skip
 
 
 def _sign_p(a: int, b: int) -> float:
