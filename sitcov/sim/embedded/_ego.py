@@ -78,7 +78,8 @@ class EgoDriver:
             if kind == "objects" and backend.object_noise is not None
             else None
         )
-        self.object_misses = ObjectMisses()  # the object lists' latent misses, this run
+        # the object lists' latent misses, this run
+        self.object_misses = ObjectMisses() if kind == "objects" else None
         self.aeb_time: float | None = None
         plain = getattr(type(stack), "plain_step", None)  # the built-in stack's fast path
         self.plain_step = plain(stack) if callable(plain) and kind != "objects" else None
