@@ -12,10 +12,12 @@ from sitcov.perception._models import (
 )
 from sitcov.perception._objects import (
     OBJECT_NOISE_FILE,
+    ObjectMisses,
     ObjectNoise,
     ObjectState,
     load_object_noise,
     object_list,
+    pem_miss_processes,
 )
 from sitcov.perception._pem import PEMFeatures, PEMSensor, pem_logit, pem_score
 from sitcov.perception._pem_params import PEM_PARAMS_FILE, PEMParams, load_pem_params
@@ -23,10 +25,12 @@ from sitcov.perception._renderer import render_frame
 
 __all__ = [
     "OBJECT_NOISE_FILE",
+    "ObjectMisses",
     "ObjectNoise",
     "ObjectState",
     "load_object_noise",
     "object_list",
+    "pem_miss_processes",
     "PEM_PARAMS_FILE",
     "ActorView",
     "CameraSpec",

@@ -28,6 +28,29 @@ by a function ``(label, distance, transmittance, conditions) -> p`` so a per-cla
 model (the PEM's per-class detection probability) drives the misses; the occlusion factor
 still applies.
 
+Misses in time. The detector the PEM models misses a road user in runs of frames, not
+frame by frame independently (docs/pem.md: its latent noise is an AR(1) process per road
+user, fitted on camera frames). So whether a road user is reported in a frame follows a
+latent standard normal per road user (its stable id) of the PEM's form
+
+    n_t = sqrt(1 - f - r) * u_t + sqrt(f) * e_t + sqrt(r) * a
+    u_t = rho * u_prev + sqrt(1 - rho^2) * N(0, 1),   rho = exp(-(t - t_prev) / tau)
+
+(``e_t`` drawn afresh each frame, ``a`` once per run), and it is reported when
+``Phi(n_t) < p_t``. ``n_t`` is N(0, 1) in every frame (each road user's state starts from
+the stationary law), so the per-frame miss rate stays exactly ``1 - p_t`` while misses
+come in runs: the lag-k correlation of ``n`` is ``(1 - f - r) * rho^k + r``. ``(tau, f,
+r)`` per class: the shipped PEM's fitted ``noise_tau``, ``noise_frame_share`` and
+``noise_run_share`` (:func:`pem_miss_processes`) with ``miss_tau: pem`` (the shipped
+objects.yaml) or by default when the hook drives the misses, else ``(miss_tau,
+miss_frame_share, 0)``. ``tau`` = 0 (and no run share) draws each frame independently
+with exactly the draws of earlier versions (one uniform per road user in range). Time
+runs in seconds, so a sensor rate other than the PEM's 10 Hz converts by itself; a road
+user that leaves (range, field of view, the world) and comes back continues its process
+from where it left it, ``rho`` spanning the time away (as the PEM's actors do), which
+for an absence much longer than ``tau`` is a fresh start. The state lives in an
+:class:`ObjectMisses`, one per run.
+
 Randomness: every draw comes from the generator the backend passes (its own stream per run,
 so the object list's noise shifts no other draw of the run).
 """
@@ -37,6 +60,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, fields, replace
+from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -118,6 +142,12 @@ class ObjectNoise:
         pos_sigma0, pos_sigma_per_m: position error sigma = pos_sigma0 + pos_sigma_per_m * d [m].
         heading_sigma: heading error sigma [rad].
         vel_sigma: velocity error sigma per axis [m/s].
+        miss_tau: correlation time of the misses' latent AR(1) process [s] (module
+            docstring): 0 misses independently frame by frame; ``"pem"`` takes the
+            process per class from the shipped PEM (:func:`pem_miss_processes`); None
+            (default): ``"pem"`` when ``detection_probability`` is set, else 0.
+        miss_frame_share: share of the latent's variance drawn afresh every frame [-]
+            (the detector's flicker; not used with ``"pem"``, which has its own).
         detection_probability: the hook (module docstring); None uses the terms above.
     """
 
@@ -134,7 +164,30 @@ class ObjectNoise:
     pos_sigma_per_m: float = 0.01
     heading_sigma: float = 0.05
     vel_sigma: float = 0.3
+    miss_tau: float | str | None = None
+    miss_frame_share: float = 0.0
     detection_probability: DetectionProbability | None = None
+
+    def __post_init__(self) -> None:
+        tau = self.miss_tau
+        if tau is not None and tau != "pem":
+            if isinstance(tau, bool) or not isinstance(tau, int | float) or not tau >= 0:
+                raise ConfigError(field="miss_tau", value=tau, expected="a number >= 0 or 'pem'")
+            if math.isinf(tau):
+                raise ConfigError(field="miss_tau", value=tau, expected="a finite number")
+        if not 0.0 <= self.miss_frame_share <= 1.0:
+            raise ConfigError(
+                field="miss_frame_share", value=self.miss_frame_share, expected="a number in [0, 1]"
+            )
+
+    def miss_process(self, label: str) -> tuple[float, float, float]:
+        """The latent miss process of a road user of ``label``: ``(tau [s], frame share,
+        run share)`` (module docstring); ``tau`` and run share 0: independent misses."""
+        tau = self.miss_tau
+        if tau == "pem" or (tau is None and self.detection_probability is not None):
+            processes = pem_miss_processes()
+            return processes.get(label, processes["car"])
+        return float(tau or 0.0), self.miss_frame_share, 0.0
 
     def probability(
         self, label: str, distance: float, occlusion: float, conditions: Conditions | None
@@ -154,6 +207,73 @@ class ObjectNoise:
         p_fog = 1.0 / (1.0 + math.exp(-max(-50.0, min(50.0, z))))
         rain = conditions.rain_noise if conditions is not None else 0.0
         return p_occ * p_range * p_fog * (1.0 - self.rain_miss * rain)
+
+
+@lru_cache(maxsize=1)
+def pem_miss_processes() -> dict[str, tuple[float, float, float]]:
+    """Per object-list label, the shipped PEM's latent noise process: ``(noise_tau [s],
+    noise_frame_share, noise_run_share)`` (docs/pem.md, "The noise"; ``car`` from
+    ``data/pem.yaml``, ``person`` and ``bicycle`` from ``data/pem_classes.yaml``).
+
+    The PEM's AR coefficient per frame is ``exp(-frame_dt / noise_tau)``; kept as a time
+    constant here so the object list's own step (the sensor rate) converts it."""
+    from sitcov.perception._pem_classes import load_class_params
+    from sitcov.perception._pem_params import load_pem_params
+
+    out = {}
+    for label, params in [("car", load_pem_params())] + list(load_class_params().values()):
+        out.setdefault(label, (params.noise_tau, params.noise_frame_share, params.noise_run_share))
+    return out
+
+
+class ObjectMisses:
+    """The latent miss state of every road user of one run (module docstring): per stable
+    id its AR(1) state ``u``, its run offset ``a`` and the time it was last drawn [s].
+
+    One per run (the backend makes it with the run's object-list generator); a road user
+    seen for the first time starts from the stationary law N(0, 1)."""
+
+    __slots__ = ("_state",)
+
+    def __init__(self) -> None:
+        self._state: dict[int, list[float]] = {}
+
+    def draw(
+        self,
+        ident: int,
+        time: float,
+        process: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> float:
+        """Advance road user ``ident``'s latent to ``time`` [s] and return ``n_t`` ~ N(0, 1).
+
+        Draws: one normal to start (two with a run share) or to advance, one more with a
+        frame share."""
+        tau, fresh, run = process
+        state = self._state.get(ident)
+        if state is None:
+            u = float(rng.standard_normal())
+            a = float(rng.standard_normal()) if run > 0.0 else 0.0
+            state = self._state[ident] = [u, a, time]
+        else:
+            gap = time - state[2]
+            rho = math.exp(-max(gap, 0.0) / tau) if tau > 0.0 else 0.0
+            if gap <= 0.0:  # the same frame again: unchanged
+                rho = 1.0
+            keep = 1.0 - rho * rho
+            state[0] = rho * state[0] + math.sqrt(keep if keep > 0.0 else 0.0) * float(
+                rng.standard_normal()
+            )
+            state[2] = time
+        ar = 1.0 - fresh - run
+        n = math.sqrt(ar if ar > 0.0 else 0.0) * state[0] + math.sqrt(run) * state[1]
+        if fresh > 0.0:
+            n += math.sqrt(fresh) * float(rng.standard_normal())
+        return n
+
+
+def _normal_cdf(x: float) -> float:
+    return 0.5 * math.erfc(-x / math.sqrt(2.0))
 
 
 def load_object_noise(path: str | Path | None = None, **overrides: Any) -> ObjectNoise:
@@ -177,14 +297,19 @@ def load_object_noise(path: str | Path | None = None, **overrides: Any) -> Objec
     if not isinstance(data, Mapping):
         raise ConfigError(file=str(file), value=data, expected="a mapping of parameters")
     known = {f.name for f in fields(ObjectNoise)} - {"detection_probability"}
-    values: dict[str, float] = {}
+    values: dict[str, Any] = {}
     for key, value in {**data, **overrides}.items():
         if key not in known:
             raise ConfigError(file=str(file), field=str(key), expected=" | ".join(sorted(known)))
+        if key == "miss_tau" and value == "pem":
+            values[key] = value
+            continue
         ok = not isinstance(value, bool) and isinstance(value, int | float) and value >= 0
-        unit = key in ("p_max", "rain_miss", "occlusion_hidden", "fog_t50")
+        unit = key in ("p_max", "rain_miss", "occlusion_hidden", "fog_t50", "miss_frame_share")
         if not ok or not math.isfinite(value) or (unit and value > 1):
             want = "a number in [0, 1]" if unit else "a number >= 0"
+            if key == "miss_tau":
+                want = "a number >= 0 [s] or 'pem'"
             raise ConfigError(file=str(file), field=str(key), value=value, expected=want)
         values[key] = float(value)
     for key in ("range_width", "fog_slope", "occlusion_hidden", "fog_t50", "max_range"):
@@ -241,6 +366,8 @@ def object_list(
     conditions: Conditions | None = None,
     noise: ObjectNoise | None = None,
     rng: np.random.Generator | None = None,
+    misses: ObjectMisses | None = None,
+    time: float = 0.0,
 ) -> tuple[ObjectState, ...]:
     """The object list of one frame.
 
@@ -253,6 +380,11 @@ def object_list(
         conditions: the run's weather (fog and rain act on the miss model).
         noise: the noise and miss model; None gives the ground truth.
         rng: the source of the model's draws (required with ``noise``).
+        misses: the run's latent miss state (:class:`ObjectMisses`), advanced in place;
+            None with a correlated miss process: a fresh one (every road user in its
+            first frame).
+        time: this frame's time [s] (the latent advances by the time since a road
+            user's last draw).
 
     Returns:
         The reported road users, nearest first.
@@ -280,8 +412,15 @@ def object_list(
             if dist > noise.max_range or bearing > 0.5 * noise.fov_deg:
                 continue
             p = noise.probability(label, dist, _hidden(lo, hi, blockers), conditions)
-            if rng.random() >= p:
-                continue
+            process = noise.miss_process(label)
+            if process[0] == 0.0 and process[2] == 0.0:  # independent: a uniform, as before
+                if rng.random() >= p:
+                    continue
+            else:
+                if misses is None:
+                    misses = ObjectMisses()
+                if not _normal_cdf(misses.draw(ident, time, process, rng)) < p:
+                    continue
             sigma = noise.pos_sigma0 + noise.pos_sigma_per_m * dist
             ex, ey, eh, ev, ew = rng.standard_normal(5).tolist()
             x, y = x + sigma * ex, y + sigma * ey

@@ -61,13 +61,23 @@ def test_python_stack_gets_the_same_object_lists_in_pem_and_camera_mode() -> Non
 
 
 def test_noisy_object_lists_are_seeded_and_miss_some() -> None:
-    noisy = EmbeddedBackend(object_noise="default", sim_timeout=4.0)
+    """The OV stays ~90 m away in these 4 s: the shipped model reports it in ~2 % of frames
+    (P halves at 60 m); with the range term moved out to 150 m it is reported in most and
+    its positions carry the documented error. The misses are correlated in time (the
+    shipped ``miss_tau: pem``) and seeded."""
+    from sitcov.perception import load_object_noise
+
+    shipped = _ObjectRecorder()
+    EmbeddedBackend(object_noise="default", sim_timeout=4.0).run(SITUATION, shipped, 3)
+    assert sum(bool(n) for _, n in shipped.lists) < 0.2 * len(shipped.lists)
+    noisy = EmbeddedBackend(object_noise=load_object_noise(range_50=150.0), sim_timeout=4.0)
     a, b, truth = _ObjectRecorder(), _ObjectRecorder(), _ObjectRecorder()
     noisy.run(SITUATION, a, 3)
     noisy.run(SITUATION, b, 3)
     EmbeddedBackend(sim_timeout=4.0).run(SITUATION, truth, 3)
     assert a.lists == b.lists  # the same seed, the same noise
     assert a.lists != truth.lists
+    assert sum(bool(n) for _, n in a.lists) > 0.7 * len(a.lists)
     err = [abs(n[0].x - g[0].x) for (_, n), (_, g) in zip(a.lists, truth.lists, strict=True)
            if n and g]  # fmt: skip
     assert 0.0 < sum(err) / len(err) < 1.0  # centimetres to decimetres, as documented

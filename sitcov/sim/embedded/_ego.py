@@ -21,7 +21,7 @@ import numpy as np
 
 from sitcov.av._base import EgoState, Observation
 from sitcov.perception._base import Pose
-from sitcov.perception._objects import object_list
+from sitcov.perception._objects import ObjectMisses, object_list
 from sitcov.perception._pem import NormalStream, PEMSensor
 
 #: The built-in PEM's normals are drawn this many at a time (``NormalStream``): its noise
@@ -78,6 +78,8 @@ class EgoDriver:
             if kind == "objects" and backend.object_noise is not None
             else None
         )
+        # the object lists' latent misses, this run
+        self.object_misses = ObjectMisses() if kind == "objects" else None
         self.aeb_time: float | None = None
         plain = getattr(type(stack), "plain_step", None)  # the built-in stack's fast path
         self.plain_step = plain(stack) if callable(plain) and kind != "objects" else None
@@ -108,8 +110,9 @@ class EgoDriver:
             seen = [(look, a.body) for a, look in looks if a.active]
         return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self._normals)
 
-    def _objects(self, world: Any) -> Any:
-        """The object list of this frame (ground truth + the backend's noise model)."""
+    def _objects(self, world: Any, t: float) -> Any:
+        """The object list of this frame at time ``t`` [s] (ground truth + the backend's
+        noise model, its misses correlated in time through ``self.object_misses``)."""
         ego = world.ego.body
         seen = [(i + 1, a.view(), *a.velocity()) for i, a in enumerate(world.actors) if a.active]
         return object_list(
@@ -119,6 +122,8 @@ class EgoDriver:
             conditions=self.cond,
             noise=self.backend.object_noise,
             rng=self.objects_rng,
+            misses=self.object_misses,
+            time=t,
         )
 
     def _perceive(self, world: Any, k: int) -> tuple[Any, Any]:
@@ -149,7 +154,7 @@ class EgoDriver:
             detections, image = self._detect_prepared(world), None
         elif self.kind == "objects":
             detections = image = None
-            objects = self._objects(world)
+            objects = self._objects(world, t)
         else:
             detections, image = self._perceive(world, k)
         if self.delay_p:

@@ -289,6 +289,33 @@ def test_a_stack_that_wants_objects_gets_esmini_s_objects(backend) -> None:
     assert labels and labels <= {"car", "truck", "cyclist", "pedestrian"}
 
 
+def test_esmini_s_noisy_object_lists_miss_in_runs_and_are_seeded() -> None:
+    """The same miss model as the embedded backend's (one ``EgoDriver``): the same seed
+    gives the same lists; with the misses correlated (``miss_tau`` 0.5 s) they come in
+    longer runs than independent ones at the same per-frame probability."""
+    from sitcov.perception import ObjectNoise
+
+    def runs(tau: float, seed: int) -> tuple[list, list[int]]:
+        noise = ObjectNoise(miss_tau=tau, detection_probability=lambda *a: 0.6)
+        stack = ObjectRecorder()
+        make_backend("esmini", scenario=str(CROSSING), object_noise=noise).run(
+            situation(TriggerDistance=15.0), stack, seed
+        )
+        lengths, n = [], 0
+        for _, objs in stack.lists:
+            if 1 in {o.id for o in objs}:
+                lengths, n = lengths + [n] * bool(n), 0
+            else:
+                n += 1
+        return stack.lists, lengths + [n] * bool(n)
+
+    a, ra = runs(0.5, 2)
+    assert a == runs(0.5, 2)[0] and ra
+    correlated = [n for seed in range(2, 8) for n in runs(0.5, seed)[1]]
+    independent = [n for seed in range(2, 8) for n in runs(0.0, seed)[1]]
+    assert sum(correlated) / len(correlated) > 1.3 * sum(independent) / len(independent)
+
+
 def test_lane_departure_is_the_embedded_world_s_test(backend) -> None:
     """Straight on: no lane departure. Drifting left into the oncoming lane: the lane is
     left (centre more than (lane - ego width) / 2 + 0.5 m off the route) before the road
