@@ -89,6 +89,10 @@ class EgoDriver:
         self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
         self._seen_all: list[tuple[Any, Any]] | None = None  # (prepared, body), all active
         self._normals = NormalStream(rng, NOISE_BLOCK)
+        if self.plain_step is not None and self.prepared and not delay_p:
+            # the usual run (the built-in stack on the built-in PEM, no perception delay):
+            # command's branches for it alone, decided once (an instance attribute)
+            self.command = self._command_plain  # type: ignore[method-assign]
 
     def _detect_prepared(self, world: Any) -> Any:
         """The PEM's detections for this frame through ``PEMSensor.detect_prepared``."""
@@ -180,6 +184,24 @@ class EgoDriver:
         if self.brakes:
             self.brakes.append(brake)
             brake = self.brakes.popleft()
+        return throttle, brake, steer
+
+    def _command_plain(self, world: Any, k: int, t: float) -> tuple[float, float, float]:
+        """:meth:`command` for the built-in stack on the built-in PEM without perception
+        delay: the same steps, the branches that cannot apply left out."""
+        detections = None if k % self.every or self.latched else self._detect_prepared(world)
+        ego = world.ego.body
+        throttle, brake, steer, fired = self.plain_step(
+            t, ego.x, ego.y, ego.yaw, world.ego_speed, detections, None
+        )
+        if fired is not None:
+            if self.aeb_time is None:
+                self.aeb_time = t
+            self.latched = self.plain_latches  # see command
+        brakes = self.brakes
+        if brakes:
+            brakes.append(brake)
+            brake = brakes.popleft()
         return throttle, brake, steer
 
     def _step(
