@@ -89,6 +89,7 @@ class EgoDriver:
         self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
         self._seen_all: list[tuple[Any, Any]] | None = None  # (prepared, body), all active
         self._normals = NormalStream(rng, NOISE_BLOCK)
+        self._frame_detect: Any = None  # the PEM's frame_detector, at the first frame
         if self.plain_step is not None and self.prepared and not delay_p:
             # the usual run (the built-in stack on the built-in PEM, no perception delay):
             # command's branches for it alone, decided once (an instance attribute)
@@ -110,7 +111,10 @@ class EgoDriver:
                     break
         if seen is None:
             seen = [(look, a.body) for a, look in looks if a.active]
-        return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self._normals)
+        detect = self._frame_detect
+        if detect is None:
+            detect = self._frame_detect = self.sensor.frame_detector(self.cond, self._normals)
+        return detect(ego.x, ego.y, ego.yaw, seen)
 
     def _objects(self, world: Any) -> Any:
         """The object list of this frame (ground truth + the backend's noise model)."""
