@@ -9,7 +9,8 @@ tracking ``_dynamics.integrate_tracked``, with the commands' clamps
 route tracking ``_path._track``, the cars' steering ``_controllers._car_steer``, a timed
 car's law and steering ``_controllers._timed_car`` and with its move
 ``_controllers._timed_car_move``, the proximity monitor's distance and TTC
-``_monitors.proximity``, the road monitor's exact test ``_collision.box_on_area``, the
+``_monitors.proximity`` (with the ego's route offset ``_monitors.proximity_route``),
+the road monitor's exact test ``_collision.box_on_area``, the
 PEM's whole frame of one actor ``perception._pem._pem_frame``, the reference stack's route
 following ``av._reference._route_step``); the hot ones are called through
 :func:`typed_entry`; without

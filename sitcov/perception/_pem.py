@@ -60,7 +60,7 @@ The parameters live in ``data/pem.yaml`` (documented in docs/pem.md), the output
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NamedTuple
 
@@ -852,6 +852,68 @@ class PEMSensor(Sensor):
             held = constants[id(p)] = (p, self._frame_constants(p, conditions))
         track = old[3][_F_N : _F_N + 5] if old is not None else np.zeros(5)
         return q, p, constants, np.concatenate((held[1], track, q))
+
+    def frame_detector(
+        self, conditions: Conditions, rng: np.random.Generator | NormalStream
+    ) -> Callable[[float, float, float, Sequence[tuple[Any, Any]]], tuple[Detection, ...]]:
+        """:meth:`detect_prepared` with a run's ``conditions`` and ``rng`` bound: ``(ex, ey,
+        eyaw, actors) -> detections``, the same values and draws, for a backend that
+        calls it every frame of the run.
+
+        Once :meth:`detect_prepared` has set up the run (its first frame), each frame
+        checks only that the sensor's run state is still the one it set up (no
+        :meth:`reset`, no other call with other conditions or rng in between) and runs
+        the compiled frame's loop itself; the sensor's ``camera``, ``params`` and
+        ``frame_dt`` stay as they were for the run (as :meth:`prepare`'s values assume).
+        Otherwise, or with :meth:`detect_prepared` overridden, it calls
+        :meth:`detect_prepared`."""
+        detect_prepared = self.detect_prepared
+        if type(self).detect_prepared is not PEMSensor.detect_prepared:
+            return lambda ex, ey, eyaw, actors: detect_prepared(
+                ex, ey, eyaw, actors, conditions, rng
+            )
+        run: list[Any] = [None]  # (run state, frame kernel, normals, tracks) once set up
+
+        def detect(
+            ex: float, ey: float, eyaw: float, actors: Sequence[tuple[Any, Any]]
+        ) -> tuple[Detection, ...]:
+            held = run[0]
+            if held is None or self._fstate is not held[0] or self._rng is not rng:
+                out = detect_prepared(ex, ey, eyaw, actors, conditions, rng)
+                fs, normals = self._fstate, self._normals
+                frame_fn = _FRAME_FN
+                ready = fs is not None and fs[4] and frame_fn and normals.block
+                run[0] = (fs, frame_fn, normals, self._ftracks) if ready else None
+                return out
+            fs, frame_fn, normals, tracks = held
+            # detect_prepared's compiled loop, written out (the same steps)
+            self._frame = frame = self._frame + 1
+            frame = float(frame)
+            constants = fs[5]
+            out = []
+            for key, ((q, p, label), pose) in enumerate(actors):
+                state = tracks.get(key)
+                if (
+                    state is None
+                    or state[0] is not q
+                    or state[1] is not p
+                    or state[2] is not constants
+                ):
+                    state = self._frame_state(state, q, p, conditions, constants)
+                    tracks[key] = state
+                at, buf = normals._at, normals._array
+                if buf is None or at + FRAME_NORMALS > len(buf):
+                    buf, at = normals.ahead(FRAME_NORMALS)
+                code, at, x0, y0, x1, y1, score = frame_fn(
+                    state[3], buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
+                )
+                if code:
+                    normals._at = at
+                    if code == 2:
+                        out.append(Detection((x0, y0, x1, y1), score, label))
+            return tuple(out)
+
+        return detect
 
     def detect_prepared(
         self,

@@ -298,6 +298,63 @@ def test_prepared_actors_give_detects_detections(name):
     assert rng_a.standard_normal() == rng_b.standard_normal()  # the same draws were made
 
 
+@params_ids
+def test_frame_detector_gives_detect_prepareds_detections(name):
+    """The run-bound ``frame_detector`` gives ``detect_prepared``'s detections draw for
+    draw (cars, a pedestrian and a cyclist, an actor leaving the list mid-run, a ``reset``
+    mid-run), calling ``detect_prepared`` itself only to set the run up (its first frame,
+    after the reset) when the compiled frame serves the scene (dry, or no class's rain
+    miss), else through ``detect_prepared`` every frame."""
+    for rain in (0, 40):
+        _check_frame_detector(name, rain)
+
+
+def _check_frame_detector(name, rain):
+    """One scene of :func:`test_frame_detector_gives_detect_prepareds_detections`."""
+    from sitcov.perception import _pem
+
+    params = replace(PARAM_SETS[name], rain_jitter=0.05)
+    cond = conditions_from_values({"precipitation": rain, "fog_density": 30})
+    plain, bound = PEMSensor(params), PEMSensor(params)
+    kinds = ("car", "pedestrian", "cyclist", "car")
+    sizes = ((4.7, 1.85, 1.5), (0.5, 0.5, 1.75), (1.8, 0.6, 1.7), (4.2, 1.8, 1.4))
+
+    def looks(sensor):
+        return [
+            sensor.prepare(ActorView(EGO, *size, kind=kind, color=(20 * i, 90, 200)), cond)
+            for i, (kind, size) in enumerate(zip(kinds, sizes, strict=True))
+        ]
+
+    looks_a, looks_b = looks(plain), looks(bound)
+    normals_a = NormalStream(np.random.default_rng(5), 128)
+    normals_b = NormalStream(np.random.default_rng(5), 128)
+    calls = []
+    detect_prepared = bound.detect_prepared
+    bound.detect_prepared = lambda *args: calls.append(1) or detect_prepared(*args)
+    detect = bound.frame_detector(cond, normals_b)
+    detections = 0
+    for frame in range(80):
+        if frame == 50:
+            plain.reset(frame_dt=0.1)
+            bound.reset(frame_dt=0.1)
+        ego = Pose(0.3 * frame, 0.01 * frame, 0.002 * frame)
+        poses = [Pose(4.0 + 0.5 * frame + 6.0 * i, 3.0 - 2.0 * i, 0.4 * i) for i in range(4)]
+        keep = range(4) if frame < 30 else (0, 2, 3)
+        want = plain.detect_prepared(
+            ego.x, ego.y, ego.yaw, [(looks_a[i], poses[i]) for i in keep], cond, normals_a
+        )
+        got = detect(ego.x, ego.y, ego.yaw, [(looks_b[i], poses[i]) for i in keep])
+        assert got == want, frame
+        detections += len(want)
+    assert detections > 20
+    assert normals_a.take(3) == normals_b.take(3)  # the same draws were made
+    if _pem._FRAME_FN and bound._fstate[4]:  # the compiled frame serves the scene: the
+        # bound loop served all frames but two
+        assert len(calls) == 2
+    else:
+        assert len(calls) == 80
+
+
 @pytest.mark.parametrize("block", [0, 1, 4, 7, 128])
 def test_normal_streams_give_the_generators_own_sequence(block):
     """A ``NormalStream`` hands out exactly the normals the generator would have drawn

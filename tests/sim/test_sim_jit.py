@@ -237,6 +237,48 @@ def test_compiled_proximity_is_bit_identical_to_python(monkeypatch) -> None:
     assert min(dracs) == -1.0 and max(dracs) > 1.0  # none (touching or apart), decelerating
 
 
+def test_compiled_proximity_route_is_bit_identical_to_python(monkeypatch) -> None:
+    """The fused monitor update's first call per step (the ego's route offset and the road
+    pre-test, then the proximity kernel) against the Python code and against
+    ``EgoRouteMonitor.update``'s arithmetic: egos on and beside their route, clear and
+    not clear of the road's clearance."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)  # about the compiled path
+    monkeypatch.setattr(_monitors, "_PROXIMITY_ROUTE", None)  # load it now, compiled
+    fast = _monitors.proximity_route_fn()
+    assert fast is not _monitors.proximity_route  # numba compiled it
+    rnd = random.Random(17)
+    n = 40
+    hs = tuple(rnd.uniform(-math.pi, math.pi) for _ in range(n))
+    rows = (
+        tuple(rnd.uniform(-50, 50) for _ in range(n)),
+        tuple(rnd.uniform(-50, 50) for _ in range(n)),
+        tuple(math.sin(h) for h in hs),
+        tuple(math.cos(h) for h in hs),
+        hs,
+        [rnd.uniform(0.0, 6.0) for _ in range(n)],
+        [rnd.uniform(0.0, 6.0) for _ in range(n)],
+    )
+    rt = np.array(rows)
+    xs, ys, sin, cos, _, left, right = rows
+    clears = []
+    for a, b in _boxes(20000, 3):
+        i = rnd.randrange(n)
+        ex, ey = xs[i] + rnd.uniform(-5, 5), ys[i] + rnd.uniform(-5, 5)
+        ev, av = (rnd.uniform(-2.0, 12.0), rnd.uniform(-0.5, 0.5)), (rnd.uniform(0, 8), 0.0)
+        k = (a[3], a[4], b[3], b[4], rnd.uniform(1.0, 3.0), rnd.uniform(1, 3), rnd.uniform(0.5, 1))
+        near = rnd.random() < 0.8
+        args = (ex, ey, a[2], *ev, *b[:3], *av)
+        want = _monitors.proximity_route(rows, i, *args, k, near)
+        assert repr(fast(rt, i, *args, np.array(k), near)) == repr(want), (args, k, near)
+        lat = -(ex - xs[i]) * sin[i] + (ey - ys[i]) * cos[i]  # EgoRouteMonitor.update's
+        r = k[6] + k[5] * abs(math.sin(a[2] - hs[i])) + _monitors.CLEARANCE_SLACK
+        assert want[:2] == (lat, lat + r < left[i] and r - lat < right[i])
+        assert want[2:] == _monitors.proximity(*args, k, near)
+        clears.append(want[1])
+    assert 1000 < sum(clears) < len(clears) - 1000  # clear and not clear both tested
+
+
 def test_compiled_projection_is_bit_identical_to_python(monkeypatch) -> None:
     """The camera projection's kernel (near-plane clipping included) with and without
     numba: every output field, for boxes in front, beside and behind the camera."""

@@ -370,7 +370,7 @@ class TimingController:
         self.brake = 0.0
         self._steer: Callable[[float], float] | None = None
         self._car: tuple[Any, Any, Any] | None = None  # _bind_car's, at the first step
-        self._move: Any = None  # drive's (points, constants), at its first step
+        self._move: Any = None  # drive's (points, constants, kernel), at its first step
         self._looks = False  # any road user meets its route (set with _car)
         self._still: Any = None  # (s, ego s, law's command) of a standoff step, and
         self._still_cmd = (0.0, 0.0)  # what react answered then
@@ -457,18 +457,23 @@ class TimingController:
         """:meth:`command` and the actor's move under it (``Actor.move``) in one: a car's
         in one compiled call (:func:`_timed_car_move`) unless its watcher has a say this
         step (the same values as the two calls)."""
-        points = actor._points
-        if actor.kind != "car" or points is None:
-            thr, brk, steer = self.command(actor, world)
-            actor.move(thr, brk, steer, mu, lateral, dt)
-            return
-        if self._car is None:
-            self._start_car(actor)
-        law, b = self.law, actor.body
         move = self._move
         if move is None:
-            move = self._move = (_car_move_points(actor.route, points), self._move_constants(b))
-        pts, kk = move
+            points = actor._points
+            if actor.kind != "car" or points is None:
+                thr, brk, steer = self.command(actor, world)
+                actor.move(thr, brk, steer, mu, lateral, dt)
+                return
+            if self._car is None:
+                self._start_car(actor)
+            b = actor.body
+            move = self._move = (
+                _car_move_points(actor.route, points),
+                self._move_constants(b),
+                _TIMED_MOVE or _timed_move_kernel(),
+            )
+        pts, kk, kernel = move
+        law, b = self.law, actor.body
         reacts = 0  # _reacts, written out (this runs every step)
         if self._looks:
             others = self._others
@@ -476,9 +481,7 @@ class TimingController:
                 (world.ego_speed < SLOW or world.ego_decel > EGO_BRAKING) and actor.gap < NEAR
             ):
                 reacts = 3 if others else 2
-        phase, thr, brk, steer, moved, x, y, yaw, vx, vy, r, s, i = (
-            _TIMED_MOVE or _timed_move_kernel()
-        )(
+        phase, thr, brk, steer, moved, x, y, yaw, vx, vy, r, s, i = kernel(
             pts, kk, law.phase_index, world.ego.s, world.ego_speed, actor.s, b.x, b.y, b.yaw,
             b.vx, b.vy, b.r, actor.hint, mu, lateral, dt, SUBSTEPS, reacts,
         )  # fmt: skip

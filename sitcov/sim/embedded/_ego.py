@@ -91,6 +91,11 @@ class EgoDriver:
         self._looks: list[tuple[Any, Any]] | None = None  # (actor, prepared) per actor
         self._seen_all: list[tuple[Any, Any]] | None = None  # (prepared, body), all active
         self._normals = NormalStream(rng, NOISE_BLOCK)
+        self._frame_detect: Any = None  # the PEM's frame_detector, at the first frame
+        if self.plain_step is not None and self.prepared and not delay_p:
+            # the usual run (the built-in stack on the built-in PEM, no perception delay):
+            # command's branches for it alone, decided once (an instance attribute)
+            self.command = self._command_plain  # type: ignore[method-assign]
 
     def _detect_prepared(self, world: Any) -> Any:
         """The PEM's detections for this frame through ``PEMSensor.detect_prepared``."""
@@ -108,7 +113,10 @@ class EgoDriver:
                     break
         if seen is None:
             seen = [(look, a.body) for a, look in looks if a.active]
-        return self.sensor.detect_prepared(ego.x, ego.y, ego.yaw, seen, self.cond, self._normals)
+        detect = self._frame_detect
+        if detect is None:
+            detect = self._frame_detect = self.sensor.frame_detector(self.cond, self._normals)
+        return detect(ego.x, ego.y, ego.yaw, seen)
 
     def _objects(self, world: Any, t: float) -> Any:
         """The object list of this frame at time ``t`` [s] (ground truth + the backend's
@@ -185,6 +193,24 @@ class EgoDriver:
         if self.brakes:
             self.brakes.append(brake)
             brake = self.brakes.popleft()
+        return throttle, brake, steer
+
+    def _command_plain(self, world: Any, k: int, t: float) -> tuple[float, float, float]:
+        """:meth:`command` for the built-in stack on the built-in PEM without perception
+        delay: the same steps, the branches that cannot apply left out."""
+        detections = None if k % self.every or self.latched else self._detect_prepared(world)
+        ego = world.ego.body
+        throttle, brake, steer, fired = self.plain_step(
+            t, ego.x, ego.y, ego.yaw, world.ego_speed, detections, None
+        )
+        if fired is not None:
+            if self.aeb_time is None:
+                self.aeb_time = t
+            self.latched = self.plain_latches  # see command
+        brakes = self.brakes
+        if brakes:
+            brakes.append(brake)
+            brake = brakes.popleft()
         return throttle, brake, steer
 
     def _step(

@@ -447,7 +447,90 @@ def proximity(
 #: correctly rounded version in the compiled code: the same bits).
 hypot = math.hypot
 
+
+def proximity_route(
+    rt: Any,
+    i: int,
+    ex: float,
+    ey: float,
+    eyaw: float,
+    evx: float,
+    evy: float,
+    ax: float,
+    ay: float,
+    ayaw: float,
+    avx: float,
+    avy: float,
+    k: Any,
+    distance: bool,
+) -> tuple[float, bool, float, float, float]:
+    """The ego's offset from its route at segment ``i`` and the road monitor's cheap
+    pre-test (:meth:`EgoRouteMonitor.update`'s operations), then :func:`proximity`:
+    ``(lat, clear, d, ttc, drac)``, ``clear`` True when the ego's box lies within the
+    road's clearance (no exact test needed). One compiled call per step for the fused
+    update's first active actor instead of the offset's Python and the proximity call.
+
+    ``rt``: the route's xs, ys, sines and cosines of the headings, the road monitor's
+    headings, left and right clearances (:func:`route_rows`); ``k``: :func:`proximity`'s
+    constants, then the road monitor's half length and half width of the ego.
+    """
+    lat = -(ex - rt[0][i]) * rt[2][i] + (ey - rt[1][i]) * rt[3][i]
+    reach = k[6] + k[5] * abs(math.sin(eyaw - rt[4][i])) + CLEARANCE_SLACK
+    clear = lat + reach < rt[5][i] and reach - lat < rt[6][i]
+    d, ttc, drac = proximity(ex, ey, eyaw, evx, evy, ax, ay, ayaw, avx, avy, k, distance)
+    return lat, clear, d, ttc, drac
+
+
+#: :func:`route_rows`' arrays per the ids of the sequences they hold (held with them, so
+#: the ids stay theirs): a map's routes and their clearances are cached, so runs share them.
+_ROWS: dict[tuple[int, ...], tuple[tuple[Any, ...], Any]] = {}
+
+
+def route_rows(monitor: EgoRouteMonitor, compiled: bool) -> Any:
+    """:func:`proximity_route`'s ``rt`` for an :class:`EgoRouteMonitor`: its route's xs,
+    ys, heading sines and cosines, then its road monitor's headings, left and right
+    clearances; one float array for the ``compiled`` kernel (made once per such
+    sequences, not per run), else a tuple of them."""
+    hs, left, right = monitor._road[:3]
+    rows = (monitor.xs, monitor.ys, monitor.sin, monitor.cos, hs, left, right)
+    if not compiled:
+        return rows
+    key = tuple(map(id, rows))
+    held = _ROWS.get(key)
+    if held is None:
+        if len(_ROWS) >= 256:
+            _ROWS.clear()
+        held = _ROWS[key] = (rows, np.array(rows, dtype=np.float64))
+    return held[1]
+
+
 _PROXIMITY: Any = None
+_PROXIMITY_ROUTE: Any = None
+
+
+def proximity_route_fn() -> Any:
+    """:func:`proximity_route` compiled by numba when it is installed (the same bits),
+    else itself. Loaded once per process, on first use."""
+    global _PROXIMITY_ROUTE
+    if _PROXIMITY_ROUTE is None:
+        from sitcov._jit import compiled, typed_entry
+
+        k = np.array([2.3, 0.9, 0.25, 0.25, 3.0, 2.3, 0.9])
+        rt = np.array(
+            [[0.0, 1.0], [0.0, 0.0], [0.0, 0.0], [1.0, 1.0], [0.0, 0.0]] + [[3.0] * 2] * 2
+        )
+        example = (rt, 0, 0.0, 0.0, 0.3, 5.0, 0.1, 4.0, 1.0, 1.2, 1.0, 0.0, k, True)
+        helpers = (
+            _axes_overlap,
+            _corners_to_box,
+            box_distance,
+            box_distance_flat,
+            time_to_collision,
+            proximity,
+        )
+        fast = compiled(proximity_route, *example, helpers=helpers)
+        _PROXIMITY_ROUTE = typed_entry(fast) or proximity_route
+    return _PROXIMITY_ROUTE
 
 
 def proximity_fn() -> Any:
@@ -767,6 +850,12 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
     half_e = pet.half_e
     best, best_ttc, best_drac = prox.best, prox.best_ttc, prox.best_drac
     reach, consts, kernel = prox._reach, prox._k, prox._kernel
+    # the first active actor's proximity call also gives the route offset (one call)
+    kernel_r = proximity_route_fn()
+    fast = kernel_r is not proximity_route
+    rt = route_rows(route, fast)
+    pack = np.array if fast else tuple
+    consts_r = [pack((*c, half_l, half_w)) for c in consts]
     items = [(j, a, z) for j, (a, z) in enumerate(pet._pairs)]
     leave_pairs = leave._pairs
     progress_update, goal_s = progress.update, progress.goal_s
@@ -776,25 +865,16 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
         b = body
         bx, by, yaw = b.x, b.y, b.yaw
         t = world.t
-        # EgoRouteMonitor.update
         i = ego.hint
-        lat = -(bx - xs[i]) * sin[i] + (by - ys[i]) * cos[i]
-        if lane.time is None and (lat > lane_limit or -lat > lane_limit):
-            lane.update(t, bx, by, yaw, i, lat)
-        if road.time is None:
-            r = half_w + half_l * abs(sine(yaw - hs[i])) + CLEARANCE_SLACK
-            if not (lat + r < left[i] and r - lat < right[i]):
-                road.update(t, bx, by, yaw, i, lat)
-        lat = -lat if lat < 0.0 else lat
-        if lat > route.max_lat:
-            route.max_lat = lat
         # PETMonitor.update, ProximityMonitor.update and CollisionMonitor's bounding
         # circles in one pass over the actors (each actor's state is its own: the same
-        # values as three passes)
+        # values as three passes); the first active actor's call also gives
+        # EgoRouteMonitor's offset and the road's pre-test (proximity_route)
         s_e = ego.s
         evx, evy = b.vx, b.vy
         far_step = world.k & 3 == 0
         touch = False
+        lat = None
         for j, a, z in items:
             if z[5] is None:
                 if z[4] is None and s_e + half_e >= z[0]:
@@ -812,9 +892,14 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
             gap, r = a.gap, reach[j]  # r: the ego's radius plus the actor's
             near = gap - r < best[j] and (gap < FAR or far_step)
             o = a.body
-            d, ttc, drac = kernel(
-                bx, by, yaw, evx, evy, o.x, o.y, o.yaw, o.vx, o.vy, consts[j], near
-            )
+            if lat is None:
+                lat, clear, d, ttc, drac = kernel_r(
+                    rt, i, bx, by, yaw, evx, evy, o.x, o.y, o.yaw, o.vx, o.vy, consts_r[j], near
+                )
+            else:
+                d, ttc, drac = kernel(
+                    bx, by, yaw, evx, evy, o.x, o.y, o.yaw, o.vx, o.vy, consts[j], near
+                )
             if d < best[j]:
                 best[j] = d
             if ttc >= 0.0 and (best_ttc[j] is None or ttc < best_ttc[j]):
@@ -823,6 +908,19 @@ def fused_update(world: Any, monitors: Sequence[Any]) -> tuple[Any, list[Any]]:
                 best_drac[j] = drac
             if gap < r:
                 touch = True
+        # EgoRouteMonitor.update (after the actors' pass: neither reads the other's state)
+        if lat is None:  # no active actor: the offset and pre-test here
+            lat = -(bx - xs[i]) * sin[i] + (by - ys[i]) * cos[i]
+            if road.time is None:
+                r = half_w + half_l * abs(sine(yaw - hs[i])) + CLEARANCE_SLACK
+                clear = lat + r < left[i] and r - lat < right[i]
+        if lane.time is None and (lat > lane_limit or -lat > lane_limit):
+            lane.update(t, bx, by, yaw, i, lat)
+        if road.time is None and not clear:
+            road.update(t, bx, by, yaw, i, lat)
+        lat = -lat if lat < 0.0 else lat
+        if lat > route.max_lat:
+            route.max_lat = lat
         # CollisionMonitor.update: its own call once some actor's bounding circle touches
         if touch:
             reason = hit.update(world)

@@ -93,6 +93,8 @@ class World:
         #: per actor, its controller's ``drive(actor, world, mu, lateral, dt)`` (command
         #: and move in one, e.g. a timed car's one compiled call), None if it has none
         self._drives = [(a, getattr(a.controller, "drive", None)) for a in self.actors]
+        #: the ego's move (``_ego_move_setup``), made at the first step
+        self._ego_move: Any = None
 
     def bodies_except(self, actor: Actor) -> Iterator[Actor]:
         """Every active actor (the ego included) but ``actor``."""
@@ -112,19 +114,24 @@ class World:
 
     def step(self) -> None:
         """One control period for every actor (see the module docstring)."""
-        ego, mu, dt, wind = self.ego, self.mu, self.dt, self.wind
+        ego, wind, dt = self.ego, self.wind, self.dt
         eb = ego.body
         speed = math.hypot(eb.vx, eb.vy)  # the ego's body is a Vehicle: its speed
         self.ego_decel = (self.ego_speed - speed) / dt
         self.ego_speed = speed
-        throttle, brake, steer = self.driver.command(self, self.k, self.t)
-        windy = wind.mean > 0.0
-        if windy:
-            wind.update(self.k)
-        lat_e = wind.lateral(ego) if windy else 0.0
+        k = self.k
+        throttle, brake, steer = self.driver.command(self, k, self.t)
+        mu = self.mu
+        if wind.mean > 0.0:
+            wind.update(k)
+            lateral = wind.lateral
+            lat_e = lateral(ego)
+        else:
+            lateral = None
+            lat_e = 0.0
         for a, drive in self._drives:
             if a.active:
-                lat = wind.lateral(a) if windy else 0.0
+                lat = 0.0 if lateral is None else lateral(a)
                 if a.crashed:
                     a.move(0.0, 1.0, 0.0, mu, lat, dt)
                 elif drive is not None:
@@ -132,13 +139,13 @@ class World:
                 else:
                     thr, brk, st = a.controller.command(a, self)
                     a.move(thr, brk, st, mu, lat, dt)
-        points = ego._points
-        if points is not None:  # Actor.move then Vehicle.step of a car, written out
-            kc = eb._kc
-            if kc is None:
-                kc = eb._kc = _constants(eb._k)
-            moved, delta, x, y, yaw, vx, vy, r, s, i = (_dynamics._MOVE or _move_kernel())(
-                kc, eb.p.steer_max, eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r,
+        em = self._ego_move
+        if em is None:
+            em = self._ego_move = self._ego_move_setup()
+        if em:  # Actor.move then Vehicle.step of a car, written out
+            move, kc, steer_max, points = em
+            moved, delta, x, y, yaw, vx, vy, r, s, i = move(
+                kc, steer_max, eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r,
                 throttle, brake, steer, mu, lat_e, dt, SUBSTEPS, points, ego.hint,
             )  # fmt: skip
             if moved:
@@ -147,8 +154,8 @@ class World:
             ego.s, ego.hint = s, i
         else:
             ego.move(throttle, brake, steer, mu, lat_e, dt)
-        self.k += 1
-        self.t = self.k * dt
+        self.k = k = k + 1
+        self.t = k * dt
         ex, ey = eb.x, eb.y
         hypot = math.hypot
         for a in self.actors:
@@ -159,3 +166,18 @@ class World:
                 a.gap = hypot(dx, dy)
             else:
                 a.gap = math.inf
+
+    def _ego_move_setup(self) -> tuple[Any, Any, float, Any] | tuple[()]:
+        """What :meth:`step` needs to move a car ego on its route in one compiled call
+        (``Vehicle.step``'s kernel, constants and steering limit, the route's points;
+        the body's parameters and route stay for the run), or ``()`` for
+        ``Actor.move``."""
+        ego = self.ego
+        points = ego._points
+        if points is None:
+            return ()
+        eb = ego.body
+        kc = eb._kc
+        if kc is None:
+            kc = eb._kc = _constants(eb._k)
+        return (_dynamics._MOVE or _move_kernel()), kc, eb.p.steer_max, points
