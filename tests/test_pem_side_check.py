@@ -1,0 +1,56 @@
+"""benchmarks/pem_side_check.py, whose per-side table docs/pem.md quotes: each run's frames
+go to its situation's approach side and distance band, and the rates are the held-out
+check's (detector share of frames at θ, the PEM's mean probability)."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from sitcov.calibration._frame_check import pass_probability
+from sitcov.calibration._frames import KindFrames, read_frames, write_frames
+from sitcov.campaign._agreement import approach_side
+from sitcov.perception._pem_params import load_pem_params
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def side_check() -> ModuleType:
+    spec = importlib.util.spec_from_file_location(
+        "pem_side_check", ROOT / "benchmarks/pem_side_check.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _side(run) -> str:
+    return approach_side(run.situation["bins"], run.situation["values"])
+
+
+def test_rates_per_side_and_band_are_the_checks_on_those_frames(side_check, tmp_path) -> None:
+    runs = read_frames(ROOT / "docs/data/pem-frames-seed2.jsonl.gz")["car"].runs
+    left = [r for r in runs if _side(r) == "left"][:2]
+    right = [r for r in runs if _side(r) == "right"][:1]
+    path = tmp_path / "frames.jsonl.gz"
+    write_frames(path, {"car": KindFrames(runs=left + right)})
+    lines = side_check.side_table(str(path), "car")
+    assert {line.split()[0] for line in lines} == {"left", "right"}
+    params = load_pem_params()
+    near = [
+        (f.features, f.score)
+        for r in left
+        for f in r.frames
+        if 10.0 <= f.distance < 20.0 and f.features.height_px >= 1.0
+    ]
+    line = next(x for x in lines if x.split()[:2] == ["left", "10-20"])
+    assert f"n={len(near):5d}" in line
+    det = np.mean([s >= 0.5 for _, s in near])
+    pem = np.mean([pass_probability(params, feats, 0.5) for feats, _ in near])
+    assert f"θ 0.5: detector {det:.2f} PEM {pem:.2f}" in line
