@@ -88,20 +88,24 @@ IMAGE_HEIGHT = 450.0
 MIN_PX_PERCENTILE = 0.5
 #: Model candidates: (name, ridge penalty, AR(1) term, detection geometry terms[, the score
 #: noise's size gain with its height cap: 0 = the score's own ``size_max_px``, else that
-#: many px]); a 4-tuple has no size gain.
+#: many px[, the size terms free in step 2]]); a 4-tuple has no size gain.
 CANDIDATES = (
     ("independent", 1.0, False, False),
     ("ar1", 1.0, True, False),
     ("ar1_edge", 1.0, True, True),
     ("ar1_edge_scale", 1.0, True, True, 0.0),
     ("ar1_edge_scale_image", 1.0, True, True, IMAGE_HEIGHT),
+    ("ar1_edge_scale_size", 1.0, True, True, 0.0, True),
+    ("ar1_edge_scale_image_size", 1.0, True, True, IMAGE_HEIGHT, True),
 )
 
 
-def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None]:
-    """(ridge, ar, edge, scale cap or None) of a :data:`CANDIDATES` entry (4 or 5 values)."""
+def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None, bool]:
+    """(ridge, ar, edge, scale cap or None, size terms free) of a :data:`CANDIDATES` entry
+    (4 to 6 values)."""
     cap = float(candidate[4]) if len(candidate) > 4 and candidate[4] is not None else None
-    return float(candidate[1]), bool(candidate[2]), bool(candidate[3]), cap
+    free = bool(candidate[5]) if len(candidate) > 5 else False
+    return float(candidate[1]), bool(candidate[2]), bool(candidate[3]), cap, free
 
 
 def _logit(p: np.ndarray | float) -> Any:
@@ -369,11 +373,14 @@ class FrameFit:
 
 def fit_tracks(
     t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False,
-    scale: float | None = None,
+    scale: float | None = None, free_size: bool = False,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
-    height capped at ``scale`` px, or at the fitted ``size_max_px`` for 0)."""
+    height capped at ``scale`` px, or at the fitted ``size_max_px`` for 0; ``free_size``:
+    the three size terms' coefficients fitted in step 2 too, not only scaled with the
+    others: the least squares of step 1 see only the scores above CENSOR, which bends
+    the score's mean over distance)."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -389,6 +396,7 @@ def fit_tracks(
     assert best is not None
     _, beta, sigma0, size_max, x = best
     rest = x[:, 1:] @ beta[1:]
+    sized = x[:, 1:4]  # size, size^2, sin(view) * size: _LINEAR's 2nd to 4th
     cap = (scale or size_max) if scale is not None else IMAGE_HEIGHT
     size = scale_size(t, size_ref, cap) if scale is not None else None
 
@@ -407,9 +415,15 @@ def fit_tracks(
         return float(p[0]), float(p[1]), Noise(sigma, share, rho, float(p[3]), float(p[4]),
                                                float(lam), up, dt, df, k, cap)  # fmt: skip
 
+    at_free = len(start_of(ar, edge, scale))
+
+    def mean(p: np.ndarray, b0: float, kappa: float) -> np.ndarray:
+        m = b0 + kappa * rest
+        return m + sized @ p[at_free : at_free + 3] if free_size else m
+
     def nll(p: np.ndarray) -> float:
         b0, kappa, noise = unpack(p)
-        return -float(track_loglik(b0 + kappa * rest, y, obs, t, noise, geom, size).sum())
+        return -float(track_loglik(mean(p, b0, kappa), y, obs, t, noise, geom, size).sum())
 
     rate = float(np.clip(np.mean(obs), 0.02, 0.98))
     # start: no detection slope, a slightly narrower upper spread, an AR share of 0.7
@@ -421,10 +435,19 @@ def fit_tracks(
         start[3:5] = [d0, d1]
         start += [dt, df]
     start += [0.0] if scale is not None else []
+    start += [0.0, 0.0, 0.0] if free_size else []
     res = minimize(nll, np.asarray(start), method="L-BFGS-B",
                    options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
     b0, kappa, noise = unpack(res.x)
-    return FrameFit(np.r_[b0, kappa * beta[1:]], size_max, size_ref, noise)
+    coef = np.r_[b0, kappa * beta[1:]]
+    if free_size:
+        coef[1:4] += res.x[at_free : at_free + 3]
+    return FrameFit(coef, size_max, size_ref, noise)
+
+
+def start_of(ar: bool, edge: bool, scale: float | None) -> list[int]:
+    """Positions of step 2's parameters before the free size terms (their count)."""
+    return list(range(6 + (3 if ar else 0) + (2 if edge else 0) + (scale is not None)))
 
 
 def _probit_start(
@@ -475,13 +498,13 @@ def choose_model(
     parts = _folds(t.group, folds)
     all_groups = np.unique(t.group)
     for cand in candidates:
-        name, (ridge, ar, edge, scale) = cand[0], _flags(cand)
+        name, (ridge, ar, edge, scale, free) = cand[0], _flags(cand)
         total, frames = 0.0, 0
         for held in parts:
             train = t.subset(np.setdiff1d(all_groups, held))
             test = t.subset(held)
             fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
-                             scale=scale)  # fmt: skip
+                             scale=scale, free_size=free)  # fmt: skip
             total += fit.loglik(test)
             frames += len(test.score)
         table[name] = {"heldout_loglik_per_frame": round(total / max(1, frames), 4),
@@ -537,9 +560,9 @@ def held_out_choice(
     table: dict[str, Any] = {}
     fits: dict[str, FrameFit] = {}
     for cand in candidates:
-        name, (ridge, ar, edge, scale) = cand[0], _flags(cand)
+        name, (ridge, ar, edge, scale, free) = cand[0], _flags(cand)
         fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
-                                scale=scale)  # fmt: skip
+                                scale=scale, free_size=free)  # fmt: skip
         table[name] = {
             "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
             "heldout_frames": len(held.score),
@@ -582,12 +605,14 @@ def fit_kind(
         # (after the moment an AEB would fire) that the calibration runs stop before
         data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
         t = tracks_of(data)
-        ridge, ar, edge, scale = _flags(next(c for c in candidates if c[0] == chosen))
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale)
+        ridge, ar, edge, scale, free = _flags(next(c for c in candidates if c[0] == chosen))
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
+                         free_size=free)  # fmt: skip
     else:
         chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates)
-        ridge, ar, edge, scale = _flags(next(c for c in candidates if c[0] == chosen))
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale)
+        ridge, ar, edge, scale, free = _flags(next(c for c in candidates if c[0] == chosen))
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
+                         free_size=free)  # fmt: skip
     params = to_params(fit, base, t, data.runs)
     nz = fit.noise
     lag1 = nz.share * nz.rho
