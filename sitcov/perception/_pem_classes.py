@@ -9,8 +9,9 @@ pem_logit`) gets its own coefficients per kind, stored in ``data/pem_classes.yam
       cyclist: {label: bicycle, params: {...}}
 
 Missing parameter names take the car PEM's values, except those of :data:`OWN_TERMS`
-(terms newer than the files: a class entry without them has no such term, as before). The label is the class the detection
-carries. The file is the output of ``sitcov calibrate --classes pedestrian,cyclist``
+(terms newer than the files: a class entry without them has no such term, as before).
+The label is the class the detection carries. The file is the output of ``sitcov
+calibrate --classes pedestrian,cyclist``
 (:mod:`sitcov.calibration._calibrate_classes`), which fits on static frames
 (:mod:`sitcov.calibration._class_fit`) and on frames along recorded camera-mode runs; its
 command heads the file.
