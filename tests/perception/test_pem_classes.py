@@ -123,7 +123,7 @@ def stored_samples() -> dict:
 
 CYCLIST_SWEEP = pytest.mark.xfail(strict=True, reason="cyclists of 45 px and more on the static "
                                   "sweep: the SSD finds them at >= 0.5 in 33 % (45-70 px) and 88 % "
-                                  "(>= 70 px), the PEM 46 % and 60 %: its detection term, fitted "
+                                  "(>= 70 px), the PEM 45 % and 59 %: its detection term, fitted "
                                   "mostly on run frames where close cyclists are missed, holds "
                                   "the sweep's close cyclists too (docs/pem.md)")  # fmt: skip
 
