@@ -7,8 +7,11 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
 - a latent unit noise ``n_t = sqrt(s) a_t + sqrt(1 - s) e_t``, ``a_t`` an AR(1) process
   over the road user's frames (``a_t = rho^g a_{t-g} + sqrt(1 - rho^(2g)) N(0, 1)``, ``g``
   frames apart), ``e_t`` fresh every frame;
-- the score ``logit(score_t) = m(x_t) + g(n_t)``, ``g(n) = sigma n`` below 0 and
-  ``sigma * up * n`` above (a split normal: the detector's scores spread less upwards);
+- the score ``logit(score_t) = m(x_t) + g(n_t)``, ``g(n) = sigma_t n`` below 0 and
+  ``sigma_t * up * n`` above (a split normal: the detector's scores spread less upwards),
+  ``sigma_t = sigma (h_t / size_ref) ** k`` with the box height ``h_t`` capped at ``cap``
+  (the scores on a large, close box spread more than on a small one; ``k`` = 0 without
+  the term);
 - the detector outputs the road user with probability ``Phi(d0 + d1 m(x_t) - dt trunc_t -
   df fill_t + lam a_t)`` (its misses, which come in bursts with the same AR state), with
   ``trunc_t`` the share of the box outside the image and ``fill_t`` the box's width over
@@ -18,7 +21,8 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
 
 In ``pem.yaml``: ``noise_sigma`` = sigma, ``noise_up_ratio`` = up, ``noise_frame_share`` =
 1 - s, ``noise_tau`` = -frame_dt / ln(rho), ``detect_bias/gain/ar`` = d0, d1, lam,
-``detect_trunc_gain``/``detect_fill_gain`` = dt, df. It is
+``detect_trunc_gain``/``detect_fill_gain`` = dt, df, ``noise_size_gain`` = k,
+``noise_size_max_px`` = cap. It is
 the same model for every stack: no term is chosen on any stack's verdicts.
 
 The data are recorded frames of the real detector (:mod:`sitcov.calibration._frames`):
@@ -33,7 +37,7 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
    scores above :data:`CENSOR`, for each ``size_max_px`` on a grid (the best by likelihood);
 2. the exact likelihood of every track (a forward filter on a grid of the AR state,
    :func:`track_loglik`), maximised over the intercept, a common scale of the other
-   coefficients, sigma, up, s, rho, d0, d1, lam (and dt, df). A camera run recorded with the
+   coefficients, sigma, up, s, rho, d0, d1, lam (and dt, df; and k). A camera run recorded with the
    reference stack stops calling its detector when its AEB fires; the sequence
    likelihood conditions each frame on the earlier ones, which in principle leaves that
    stopping rule ignorable, but with the detection term it does not undo the selection
@@ -42,8 +46,10 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
    to fit on.
 
 Model choice (:func:`choose_model`, :func:`held_out_choice`): independent frames
-(``s = 0``), the AR(1) model, or the AR(1) model with the detection term's geometry (dt,
-df; without it they are 0), by the log-likelihood of held-out tracks.
+(``s = 0``), the AR(1) model, the AR(1) model with the detection term's geometry (dt,
+df; without it they are 0), or that with the noise's size gain k (the height capped at
+the score's ``size_max_px`` or at the image height), by the log-likelihood of held-out
+tracks.
 """
 
 from __future__ import annotations
@@ -75,15 +81,31 @@ GRID_NODES = 17
 SHARE_MAX = 0.97
 #: Largest AR(1) coefficient per frame tried (the grid resolves kernels down to this).
 RHO_MAX = 0.98
+#: The default camera's image height [px]: a cap of the score noise's size term.
+IMAGE_HEIGHT = 450.0
 #: Percentile of the reported boxes' heights below which the PEM reports nothing [%]
 #: (low: the logit, fitted on every size, already makes small boxes rare).
 MIN_PX_PERCENTILE = 0.5
-#: Model candidates: (name, ridge penalty, AR(1) term, detection geometry terms).
+#: Model candidates: (name, ridge penalty, AR(1) term, detection geometry terms[, the score
+#: noise's size gain with its height cap: 0 = the score's own ``size_max_px``, else that
+#: many px[, the size terms free in step 2]]); a 4-tuple has no size gain.
 CANDIDATES = (
     ("independent", 1.0, False, False),
     ("ar1", 1.0, True, False),
     ("ar1_edge", 1.0, True, True),
+    ("ar1_edge_scale", 1.0, True, True, 0.0),
+    ("ar1_edge_scale_image", 1.0, True, True, IMAGE_HEIGHT),
+    ("ar1_edge_scale_size", 1.0, True, True, 0.0, True),
+    ("ar1_edge_scale_image_size", 1.0, True, True, IMAGE_HEIGHT, True),
 )
+
+
+def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None, bool]:
+    """(ridge, ar, edge, scale cap or None, size terms free) of a :data:`CANDIDATES` entry
+    (4 to 6 values)."""
+    cap = float(candidate[4]) if len(candidate) > 4 and candidate[4] is not None else None
+    free = bool(candidate[5]) if len(candidate) > 5 else False
+    return float(candidate[1]), bool(candidate[2]), bool(candidate[3]), cap, free
 
 
 def _logit(p: np.ndarray | float) -> Any:
@@ -184,6 +206,13 @@ def geometry(t: Tracks) -> np.ndarray:
     ).reshape(-1, 2)
 
 
+def scale_size(t: Tracks, size_ref: float, cap: float) -> np.ndarray:
+    """The log box height the score noise's scale follows per frame (``ln(h / size_ref)``,
+    ``h`` clamped to [1 px, ``cap``]: :func:`sitcov.perception._pem.noise_scale`)."""
+    h = np.asarray([f.height_px for f in t.feats], dtype=float)
+    return np.log(np.clip(h, 1.0, cap) / size_ref)
+
+
 def _observed(t: Tracks) -> tuple[np.ndarray, np.ndarray]:
     """(logit score, observed) per frame; a score >= 1 - 1e-6 counts as 1 - 1e-6."""
     obs = t.score >= CENSOR
@@ -216,7 +245,9 @@ class Noise:
     """The model's noise and detection terms (module docstring): ``sigma`` the logit
     score's noise scale below its median, ``up`` the scale above it over ``sigma``,
     ``share`` the AR part's share of the unit latent noise, ``rho`` the AR coefficient per
-    frame; detection ``P = Phi(d0 + d1 * m - dt * trunc - df * fill + lam * a_t)``."""
+    frame; detection ``P = Phi(d0 + d1 * m - dt * trunc - df * fill + lam * a_t)``;
+    ``sigma`` grows as ``(h / size_ref) ** k`` with the box height ``h`` clamped to
+    ``cap`` [px] (:func:`_scale`)."""
 
     sigma: float
     share: float
@@ -227,19 +258,33 @@ class Noise:
     up: float = 1.0
     dt: float = 0.0
     df: float = 0.0
+    k: float = 0.0
+    cap: float = 450.0
 
 
-def _ginv(v: np.ndarray, noise: Noise) -> np.ndarray:
-    """The latent unit noise ``n`` whose score offset ``g(n)`` is ``v`` [logit]."""
-    return np.where(v < 0.0, v / noise.sigma, v / (noise.sigma * noise.up))
+def _scale(noise: Noise, size: np.ndarray | None) -> np.ndarray | float:
+    """The score noise's scale below the median per frame: ``sigma * exp(k * size)``,
+    ``size`` the frames' log box height (:func:`scale_size`); ``sigma`` alone when ``k``
+    is 0 or no size is given."""
+    if noise.k == 0.0 or size is None:
+        return noise.sigma
+    return noise.sigma * np.exp(noise.k * size)
+
+
+def _ginv(v: np.ndarray, noise: Noise, sigma: np.ndarray | float | None = None) -> np.ndarray:
+    """The latent unit noise ``n`` whose score offset ``g(n)`` is ``v`` [logit] (``sigma``
+    the scale below the median per frame, :func:`_scale`; ``noise.sigma`` if None)."""
+    sig = noise.sigma if sigma is None else sigma
+    return np.where(v < 0.0, v / sig, v / (sig * noise.up))
 
 
 def frame_logliks(
     m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise,
-    geom: np.ndarray | None = None,
+    geom: np.ndarray | None = None, size: np.ndarray | None = None,
 ) -> np.ndarray:  # fmt: skip
     """Log-likelihood of each frame (rows) given the AR state at each grid node (columns);
-    ``geom`` the frames' :func:`geometry` (needed when ``dt`` or ``df`` is not 0)."""
+    ``geom`` the frames' :func:`geometry` (needed when ``dt`` or ``df`` is not 0), ``size``
+    their log apparent size (needed when ``k`` is not 0, :func:`_scale`)."""
     from scipy.special import log_ndtr
 
     c = float(_logit(CENSOR))
@@ -250,29 +295,31 @@ def frame_logliks(
     det = lin[:, None] + noise.lam * u[None, :]
     log_det, log_miss = log_ndtr(det), log_ndtr(-det)
     v = y - m
-    n = _ginv(v, noise)
-    slope = np.where(v < 0.0, noise.sigma, noise.sigma * noise.up)
+    sig = _scale(noise, size)
+    n = _ginv(v, noise, sig)
+    slope = np.where(v < 0.0, sig, sig * noise.up)
     r = (n[:, None] - ra * u[None, :]) / re
     seen = log_det - 0.5 * r * r - math.log(re) - 0.5 * math.log(2 * math.pi)
     seen = seen - np.log(slope)[:, None]
-    nc = _ginv(c - m, noise)
+    nc = _ginv(c - m, noise, sig)
     low = np.logaddexp(log_miss, log_det + log_ndtr((nc[:, None] - ra * u[None, :]) / re))
     return np.where(obs[:, None], seen, low)
 
 
 def track_loglik(
     m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, noise: Noise,
-    geom: np.ndarray | None = None,
+    geom: np.ndarray | None = None, size: np.ndarray | None = None,
 ) -> np.ndarray:  # fmt: skip
     """Log-likelihood of each track (array over tracks, in track order): the forward
     filter over the AR state's grid; ``m`` the PEM logit per frame, ``y``/``obs`` the
     logit score and whether one >= CENSOR was recorded, ``geom`` the frames'
-    :func:`geometry` (computed from ``t`` when the noise needs it and it is not given)."""
+    :func:`geometry` (computed from ``t`` when the noise needs it and it is not given),
+    ``size`` their log apparent size (for the noise's size gain ``k``)."""
     n_tracks = int(t.track.max()) + 1 if len(t.track) else 0
     u, prior = _grid(noise)
     if geom is None and (noise.dt != 0.0 or noise.df != 0.0):
         geom = geometry(t)
-    log_e = frame_logliks(m, y, obs, u, noise, geom)
+    log_e = frame_logliks(m, y, obs, u, noise, geom, size)
     starts = np.flatnonzero(np.r_[True, t.track[1:] != t.track[:-1]])
     lengths = np.diff(np.r_[starts, len(t.track)])
     order = np.argsort(-lengths, kind="stable")  # longest first: active tracks are a prefix
@@ -320,14 +367,20 @@ class FrameFit:
     def loglik(self, t: Tracks) -> float:
         """Sequence log-likelihood of ``t`` (every track)."""
         y, obs = _observed(t)
-        return float(track_loglik(self.logit(t), y, obs, t, self.noise).sum())
+        size = scale_size(t, self.size_ref, self.noise.cap) if self.noise.k != 0.0 else None
+        return float(track_loglik(self.logit(t), y, obs, t, self.noise, size=size).sum())
 
 
 def fit_tracks(
-    t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False
-) -> FrameFit:
+    t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False,
+    scale: float | None = None, free_size: bool = False,
+) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
-    term's geometry gains dt and df)."""
+    term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
+    height capped at ``scale`` px, or at the fitted ``size_max_px`` for 0; ``free_size``:
+    the three size terms' coefficients fitted in step 2 too, not only scaled with the
+    others: the least squares of step 1 see only the scores above CENSOR, which bends
+    the score's mean over distance)."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -343,22 +396,34 @@ def fit_tracks(
     assert best is not None
     _, beta, sigma0, size_max, x = best
     rest = x[:, 1:] @ beta[1:]
+    sized = x[:, 1:4]  # size, size^2, sin(view) * size: _LINEAR's 2nd to 4th
+    cap = (scale or size_max) if scale is not None else IMAGE_HEIGHT
+    size = scale_size(t, size_ref, cap) if scale is not None else None
 
     def unpack(p: np.ndarray) -> tuple[float, float, Noise]:
         # p: b0, kappa, ln sigma, d0, d1, ln up [, share, rho, lam (ar)] [, dt, df (edge)]
+        # [, k (scale)]
         up = math.exp(min(3.0, max(-5.0, p[5])))
         share = SHARE_MAX / (1.0 + math.exp(-p[6])) if ar else 0.0
         rho = RHO_MAX / (1.0 + math.exp(-p[7])) if ar else 0.0
         lam = p[8] if ar else 0.0
         at = 9 if ar else 6
         dt, df = (float(p[at]), float(p[at + 1])) if edge else (0.0, 0.0)
+        at += 2 if edge else 0
+        k = float(min(3.0, max(-3.0, p[at]))) if scale is not None else 0.0
         sigma = math.exp(min(3.0, max(-6.0, p[2])))
         return float(p[0]), float(p[1]), Noise(sigma, share, rho, float(p[3]), float(p[4]),
-                                               float(lam), up, dt, df)  # fmt: skip
+                                               float(lam), up, dt, df, k, cap)  # fmt: skip
+
+    at_free = len(start_of(ar, edge, scale))
+
+    def mean(p: np.ndarray, b0: float, kappa: float) -> np.ndarray:
+        m = b0 + kappa * rest
+        return m + sized @ p[at_free : at_free + 3] if free_size else m
 
     def nll(p: np.ndarray) -> float:
         b0, kappa, noise = unpack(p)
-        return -float(track_loglik(b0 + kappa * rest, y, obs, t, noise, geom).sum())
+        return -float(track_loglik(mean(p, b0, kappa), y, obs, t, noise, geom, size).sum())
 
     rate = float(np.clip(np.mean(obs), 0.02, 0.98))
     # start: no detection slope, a slightly narrower upper spread, an AR share of 0.7
@@ -369,10 +434,20 @@ def fit_tracks(
         d0, d1, dt, df = _probit_start(x @ beta, obs, geom)
         start[3:5] = [d0, d1]
         start += [dt, df]
+    start += [0.0] if scale is not None else []
+    start += [0.0, 0.0, 0.0] if free_size else []
     res = minimize(nll, np.asarray(start), method="L-BFGS-B",
                    options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
     b0, kappa, noise = unpack(res.x)
-    return FrameFit(np.r_[b0, kappa * beta[1:]], size_max, size_ref, noise)
+    coef = np.r_[b0, kappa * beta[1:]]
+    if free_size:
+        coef[1:4] += res.x[at_free : at_free + 3]
+    return FrameFit(coef, size_max, size_ref, noise)
+
+
+def start_of(ar: bool, edge: bool, scale: float | None) -> list[int]:
+    """Positions of step 2's parameters before the free size terms (their count)."""
+    return list(range(6 + (3 if ar else 0) + (2 if edge else 0) + (scale is not None)))
 
 
 def _probit_start(
@@ -415,19 +490,21 @@ def choose_model(
     *,
     folds: int,
     size_ref: float,
-    candidates: Sequence[tuple[str, float, bool, bool]] = CANDIDATES,
+    candidates: Sequence[tuple[Any, ...]] = CANDIDATES,
 ) -> tuple[str, dict[str, Any]]:
     """The candidate with the best held-out sequence log-likelihood (per held-out frame),
     over run-grouped folds: each fold's runs are left out of the fit and scored."""
     table: dict[str, Any] = {}
     parts = _folds(t.group, folds)
     all_groups = np.unique(t.group)
-    for name, ridge, ar, edge in candidates:
+    for cand in candidates:
+        name, (ridge, ar, edge, scale, free) = cand[0], _flags(cand)
         total, frames = 0.0, 0
         for held in parts:
             train = t.subset(np.setdiff1d(all_groups, held))
             test = t.subset(held)
-            fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
+            fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
+                             scale=scale, free_size=free)  # fmt: skip
             total += fit.loglik(test)
             frames += len(test.score)
         table[name] = {"heldout_loglik_per_frame": round(total / max(1, frames), 4),
@@ -463,6 +540,8 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         detect_ar=round(nz.lam, 4),
         detect_trunc_gain=round(nz.dt, 4),
         detect_fill_gain=round(nz.df, 4),
+        noise_size_gain=round(nz.k, 4),
+        noise_size_max_px=nz.cap,
         noise_up_ratio=round(nz.up, 4),
         rain_sigma=0.0,
         rain_miss=0.0,
@@ -474,14 +553,16 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
 
 def held_out_choice(
     t: Tracks, held: Tracks, *, size_ref: float,
-    candidates: Sequence[tuple[str, float, bool, bool]] = CANDIDATES,
+    candidates: Sequence[tuple[Any, ...]] = CANDIDATES,
 ) -> tuple[str, dict[str, Any], dict[str, FrameFit]]:  # fmt: skip
     """Each candidate fitted on ``t`` and scored by its sequence log-likelihood on the
     held-out tracks ``held`` (per frame): (the best, the table, the fits)."""
     table: dict[str, Any] = {}
     fits: dict[str, FrameFit] = {}
-    for name, ridge, ar, edge in candidates:
-        fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
+    for cand in candidates:
+        name, (ridge, ar, edge, scale, free) = cand[0], _flags(cand)
+        fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
+                                scale=scale, free_size=free)  # fmt: skip
         table[name] = {
             "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
             "heldout_frames": len(held.score),
@@ -501,8 +582,9 @@ def split_runs(data: KindFrames, part: str) -> KindFrames:
 
 
 def fit_kind(
-    data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None
-) -> tuple[PEMParams, dict[str, Any]]:
+    data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None,
+    candidates: Sequence[tuple[Any, ...]] = CANDIDATES,
+) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
     """Choose the model on held-out runs and fit it on every frame of the kind; the
     parameters and a summary (frames, tracks, the choice table, the fitted noise).
 
@@ -510,23 +592,27 @@ def fit_kind(
     ``data`` and chosen by their log-likelihood on ``held``'s even-index runs, and the
     chosen one is refitted on ``data`` and those runs (the odd ones are left for the
     check, :mod:`sitcov.calibration._frame_check`); else by ``folds`` run-grouped folds
-    of ``data`` and the chosen one refitted on all of it."""
+    of ``data`` and the chosen one refitted on all of it. ``candidates``: those of
+    :data:`CANDIDATES` to choose among."""
     t = tracks_of(data)
     size_ref = base.size_ref_px
     if held is not None:
         even = split_runs(held, "even")
-        chosen, table, _ = held_out_choice(t, tracks_of(even), size_ref=size_ref)
+        chosen, table, _ = held_out_choice(t, tracks_of(even), size_ref=size_ref,
+                                           candidates=candidates)  # fmt: skip
         # then the chosen model on every frame but the check's: the held-out runs are
         # recorded with the stack given no detections, so they hold the closest frames
         # (after the moment an AEB would fire) that the calibration runs stop before
         data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
         t = tracks_of(data)
-        _, ridge, ar, edge = next(c for c in CANDIDATES if c[0] == chosen)
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
+        ridge, ar, edge, scale, free = _flags(next(c for c in candidates if c[0] == chosen))
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
+                         free_size=free)  # fmt: skip
     else:
-        chosen, table = choose_model(t, folds=folds, size_ref=size_ref)
-        _, ridge, ar, edge = next(c for c in CANDIDATES if c[0] == chosen)
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge)
+        chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates)
+        ridge, ar, edge, scale, free = _flags(next(c for c in candidates if c[0] == chosen))
+        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
+                         free_size=free)  # fmt: skip
     params = to_params(fit, base, t, data.runs)
     nz = fit.noise
     lag1 = nz.share * nz.rho

@@ -17,8 +17,10 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + contrast_gain * contrast + detail_gain * detail                     body colour
         + chroma_gain * chroma + red_green_gain * red_green
         + yellow_blue_gain * yellow_blue                                      body hue
-    score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * r * n_t)
+    score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * s * r * n_t)
     r = noise_up_ratio if n_t > 0 else 1     (the scores spread less upwards)
+    s = (clamp(h, size_min_px, noise_size_max_px) / size_ref_px) ** noise_size_gain
+                                             (larger boxes, wider scores; 1 if the gain is 0)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
 actor's heading relative to the line of sight (+1 rear view, -1 front view), ``offset`` the
@@ -131,6 +133,20 @@ def fill_of(width_px: float, image_width: float) -> float:
     frac = FILL_MIN if frac < FILL_MIN else frac
     frac = 1.0 if frac > 1.0 else frac
     return math.log(frac / FILL_MIN)
+
+
+def noise_scale(
+    gain: float, height_px: float, size_min: float, size_cap: float, size_ref: float
+) -> float:
+    """The score noise's scale factor for a box ``height_px`` high: ``exp(gain * ln(h /
+    size_ref))`` with ``h`` the height clamped to [``size_min``, ``size_cap``] [px]
+    (``noise_size_gain``, ``size_min_px``, ``noise_size_max_px``, ``size_ref_px``;
+    exactly 1 when ``gain`` is 0: files without it draw as before)."""
+    if gain == 0.0:
+        return 1.0
+    h = size_min if size_min > height_px else height_px
+    h = size_cap if size_cap < h else h
+    return math.exp(gain * math.log(h / size_ref))
 
 
 def detect_offset(features: PEMFeatures, params: PEMParams, image_width: float = 800.0) -> float:
@@ -268,12 +284,15 @@ def pass_probability(
     reaches ``max(threshold, floor)``, and rain does not drop the frame; averaged over the
     noise's AR(1) part ``u`` (Gauss-Hermite, 40 nodes). 0 for a box lower than
     ``size_min_px``. The noise ``n = sqrt(ar) u + sqrt(1 - ar) e`` enters the logit as
-    ``sigma n`` below 0 and ``sigma noise_up_ratio n`` above (module docstring)."""
+    ``sigma n`` below 0 and ``sigma noise_up_ratio n`` above (module docstring), ``sigma``
+    times :func:`noise_scale` of the box's height."""
     if features.height_px < params.size_min_px:
         return 0.0
     nodes, weights = _hermite()
     theta = min(max(threshold, params.floor, 1e-12), 1.0 - 1e-12)
     sigma = params.noise_sigma + params.rain_sigma * features.rain_noise
+    sigma *= noise_scale(params.noise_size_gain, features.height_px, params.size_min_px,
+                         params.noise_size_max_px, params.size_ref_px)  # fmt: skip
     z = pem_logit(features, params)
     gap = z - math.log(theta / (1.0 - theta))
     keep = 1.0 - params.rain_miss * features.rain_noise
@@ -347,8 +366,9 @@ def _normal_cdf(x: float) -> float:
 #: camera (mount_x, mount_z, focal length, image width and height), the actor's box
 #: (length, width, height), the scene (fog extinction and start, illumination, rain
 #: noise), the body colour's features (contrast, detail, chroma, red_green,
-#: yellow_blue) and the detection term's geometry gains (detect_trunc_gain,
-#: detect_fill_gain). One array: each array argument costs a compiled call about 0.3 us.
+#: yellow_blue), the detection term's geometry gains (detect_trunc_gain,
+#: detect_fill_gain) and the score noise's size gain and cap (noise_size_gain,
+#: noise_size_max_px). One array: each array argument costs a compiled call about 0.3 us.
 _CAMERA = len(COEFFICIENTS)
 _BOX, _SCENE, _COLOR, _DETECT = _CAMERA + 5, _CAMERA + 8, _CAMERA + 12, _CAMERA + 17
 
@@ -357,9 +377,10 @@ def _pem_view(
     q: Any, ex: float, ey: float, eyaw: float, ax: float, ay: float, ayaw: float
 ) -> tuple:
     """One actor at (ax, ay, ayaw) seen from the ego at (ex, ey, eyaw): ``(seen, x0, y0,
-    x1, y1, z, d)``, the box clipped to the image [px], the noise-free logit and what the
-    box's geometry adds to the detection term (:func:`detect_offset`), or ``seen`` False
-    (zeros) when the box is not in the image or lower than ``size_min_px``.
+    x1, y1, z, d, s)``, the box clipped to the image [px], the noise-free logit, what the
+    box's geometry adds to the detection term (:func:`detect_offset`) and the score
+    noise's scale factor (:func:`noise_scale`), or ``seen`` False (zeros, ``s`` 1) when
+    the box is not in the image or lower than ``size_min_px``.
 
     The projection (:func:`~sitcov.perception._camera._project`), the features and
     :func:`_logit` in one call, compiled by numba when it is there (``sitcov/_jit.py``;
@@ -372,14 +393,15 @@ def _pem_view(
     )  # fmt: skip
     height = v1 - v0
     if not ok or not visible or height < q[_SIZE_MIN]:
-        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
     z = _logit(
         q, height, view, trunc, fog_transmittance(q[scene], q[scene + 1], dist),
         q[scene + 2], q[scene + 3], u1 - u0, _offset(q[cam + 3], u0, u1), facing,
         q[col], q[col + 1], q[col + 2], q[col + 3], q[col + 4],
     )  # fmt: skip
     d = -q[det] * trunc - q[det + 1] * fill_of(u1 - u0, q[cam + 3])
-    return True, x0, y0, x1, y1, z, d
+    s = noise_scale(q[det + 2], height, q[_SIZE_MIN], q[det + 3], q[_SIZE_REF])
+    return True, x0, y0, x1, y1, z, d, s
 
 
 _VIEW_FN: Any = None
@@ -394,9 +416,10 @@ def _view_kernel() -> Any:
         from sitcov._jit import compiled, typed_entry
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
-                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0])  # fmt: skip
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
+                      450.0])  # fmt: skip
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit,
-                   fill_of)  # fmt: skip
+                   fill_of, noise_scale)  # fmt: skip
         _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
         _VIEW_FN = typed_entry(_VIEW_FN) or _pem_view
     return _VIEW_FN
@@ -445,7 +468,7 @@ def _pem_frame(
     ``frame``: this frame's number.
     """
     c, track, q = state[:_F_N], state[_F_N : _F_N + 5], state[_F_N + 5 :]
-    seen, x0, y0, x1, y1, z, d = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
+    seen, x0, y0, x1, y1, z, d, s = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
     if not seen:
         return 0, at, 0.0, 0.0, 0.0, 0.0, 0.0
     if track[4] == 0.0:
@@ -472,6 +495,7 @@ def _pem_frame(
         n = math.sqrt(share) * track[0] + math.sqrt(1.0 - share) * track[1]
     rain = c[_F_RAIN_NOISE]
     sig = c[_F_SIGMA] + c[_F_RAIN_SIGMA] * rain
+    sig *= s  # the size's scale (1 without noise_size_gain: the same bits)
     if n > 0.0 and c[_F_UP] != 1.0:
         sig *= c[_F_UP]
     score = _sigmoid(z + sig * n)
@@ -523,12 +547,13 @@ def _frame_kernel() -> Any:
         from sitcov._jit import compiled, typed_entry
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
-                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0])  # fmt: skip
+                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
+                      450.0])  # fmt: skip
         c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
         c = np.append(c, [800.0, 450.0])
         state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
-        helpers += (fill_of, _pem_view, _sigmoid)
+        helpers += (fill_of, noise_scale, _pem_view, _sigmoid)
         example = (state, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
         _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
     return _FRAME_FN
@@ -781,6 +806,8 @@ class PEMSensor(Sensor):
             *self._colors(actor.color, conditions),
             params.detect_trunc_gain,
             params.detect_fill_gain,
+            params.noise_size_gain,
+            params.noise_size_max_px,
         ]
         if (_VIEW_FN or _view_kernel()) is not _pem_view:
             import numpy as np
@@ -982,13 +1009,14 @@ class PEMSensor(Sensor):
         rain = conditions.rain_noise
         out = []
         for key, ((q, p, label), pose) in enumerate(actors):
-            seen, x0, y0, x1, y1, z, d = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
+            seen, x0, y0, x1, y1, z, d, s = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
             if not seen:
                 continue
             n, m = self._noise(key, normals)
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
             sig = p.noise_sigma + p.rain_sigma * rain
+            sig *= s  # the size's scale (noise_size_gain; 1 without it)
             if n > 0.0 and p.noise_up_ratio != 1.0:
                 sig *= p.noise_up_ratio  # the scores' narrower upper spread
             score = _sigmoid(z + sig * n)

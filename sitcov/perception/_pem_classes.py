@@ -8,8 +8,10 @@ pem_logit`) gets its own coefficients per kind, stored in ``data/pem_classes.yam
       pedestrian: {label: person, params: {bias: ..., size_gain: ..., ...}}
       cyclist: {label: bicycle, params: {...}}
 
-Missing parameter names take the car PEM's values. The label is the class the detection
-carries. The file is the output of ``sitcov calibrate --classes pedestrian,cyclist``
+Missing parameter names take the car PEM's values, except those of :data:`OWN_TERMS`
+(terms newer than the files: a class entry without them has no such term, as before).
+The label is the class the detection carries. The file is the output of ``sitcov
+calibrate --classes pedestrian,cyclist``
 (:mod:`sitcov.calibration._calibrate_classes`), which fits on static frames
 (:mod:`sitcov.calibration._class_fit`) and on frames along recorded camera-mode runs; its
 command heads the file.
@@ -26,6 +28,9 @@ from sitcov.perception._pem_params import PEMParams, load_pem_params, read_yaml
 
 #: The shipped per-class file.
 PEM_CLASSES_FILE = Path(__file__).parent / "data" / "pem_classes.yaml"
+#: Parameters a class entry never takes from the car PEM: without them it keeps the
+#: default (no term), so a file written before them loads and draws as before.
+OWN_TERMS = ("noise_size_gain", "noise_size_max_px")
 #: Kinds scored by the car PEM (``data/pem.yaml``), reported as ``car``.
 VEHICLE_KINDS = ("car", "truck")
 
@@ -48,6 +53,8 @@ def _read(path: Path) -> dict[str, tuple[str, PEMParams]]:
     if not isinstance(classes, Mapping):
         raise ConfigError(file=str(path), field="classes", expected="a mapping kind -> entry")
     car = load_pem_params().to_dict()
+    default = PEMParams().to_dict()
+    car.update({name: default[name] for name in OWN_TERMS})
     out: dict[str, tuple[str, PEMParams]] = {}
     for kind, entry in classes.items():
         where = f"classes.{kind}"

@@ -73,6 +73,13 @@ class PEMParams:
             ``W`` (0 for boxes narrower than :data:`sitcov.perception._pem.FILL_MIN` of
             the image). The SSD gives no box to most road users that fill or overflow the
             image; 0 (the default, files written before these terms) changes nothing [-].
+        noise_size_gain: the logit noise's scale grows by ``(h / size_ref_px) **
+            noise_size_gain`` with the box height ``h`` clamped to [size_min_px,
+            noise_size_max_px]: the detector's scores on a large (close) box spread more
+            than on a small one. 0 (the default, files written before it) gives one scale
+            for every size [-].
+        noise_size_max_px: box heights above this count as this in the noise's scale
+            (the default 450 is the default camera's image height) [px].
         noise_up_ratio: the logit noise's scale above its median over the scale below
             (``noise_sigma``): the detector's scores spread less upwards than downwards
             (1 = a normal law) [-].
@@ -122,6 +129,8 @@ class PEMParams:
     yellow_blue_gain: float = 0.0
     detect_trunc_gain: float = 0.0
     detect_fill_gain: float = 0.0
+    noise_size_gain: float = 0.0
+    noise_size_max_px: float = 450.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -145,7 +154,7 @@ class PEMParams:
         return params
 
     def _check(self, file: str | None) -> None:
-        for name in ("size_ref_px", "size_min_px", "size_max_px"):
+        for name in ("size_ref_px", "size_min_px", "size_max_px", "noise_size_max_px"):
             if getattr(self, name) <= 0:
                 raise ConfigError(file=file, field=name, value=getattr(self, name), expected="> 0")
         if self.size_max_px < self.size_min_px:

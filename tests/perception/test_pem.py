@@ -705,3 +705,44 @@ def test_the_detection_term_drops_boxes_that_fill_or_leave_the_image():
         < pass_probability(f_near, plain.params, 0.3) - 0.5
     )
     assert pass_probability(f_far, edge.params, 0.3) == pass_probability(f_far, plain.params, 0.3)
+
+
+def test_the_score_noise_grows_with_the_box_height_as_noise_size_gain_says():
+    """``noise_size_gain``: the logit noise's scale is ``(h / size_ref_px) ** gain``, ``h``
+    capped at ``noise_size_max_px``. Sampled frames of a close (large) and a far (small)
+    car pass θ = 0.5 as often as ``pass_probability`` says; with a positive gain the close
+    car's scores spread more (more frames reach a threshold above its noise-free score)
+    and the cap stops the growth; a gain of 0 is the model without the term."""
+    from sitcov.perception._pem import noise_scale
+
+    assert noise_scale(0.0, 300.0, 10.0, 450.0, 25.0) == 1.0
+    assert noise_scale(0.5, 100.0, 10.0, 450.0, 25.0) == pytest.approx(2.0)
+    assert noise_scale(0.5, 400.0, 10.0, 100.0, 25.0) == pytest.approx(2.0)  # capped
+    base = {"bias": -0.6, "size_gain": 0.0, "size2_gain": 0.0, "side_size_gain": 0.0,
+            "noise_sigma": 0.3, "noise_tau": 0.0, "noise_frame_share": 0.0,
+            "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
+            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "floor": 0.05,
+            "detect_trunc_gain": 0.0, "detect_fill_gain": 0.0, "noise_size_gain": 0.0,
+            "size_ref_px": 25.0, "size_max_px": 450.0}  # fmt: skip
+    plain = PEMSensor(base)
+    grown = PEMSensor({**base, "noise_size_gain": 0.8})
+    near, far = car(6.0), car(40.0)
+    f_near, f_far = grown.features(EGO, near, CLEAR), grown.features(EGO, far, CLEAR)
+    assert f_near.height_px > 60.0 > f_far.height_px
+    rng = np.random.default_rng(11)
+    for actor, f in ((near, f_near), (far, f_far)):
+        for sensor in (plain, grown):
+            expected = pass_probability(f, sensor.params, 0.5)
+            hits = 0
+            for _ in range(N_FRAMES):
+                dets = sensor.detect(
+                    EGO, (actor,), CLEAR, np.random.default_rng(rng.integers(1 << 62))
+                )
+                hits += any(d.score >= 0.5 for d in dets)
+            assert hits / N_FRAMES == pytest.approx(expected, abs=TOLERANCE)
+    # a wider spread: more frames reach a threshold 0.3 logit above the noise-free score
+    above = 1.0 / (1.0 + math.exp(-(pem_logit(f_near, plain.params) + 0.3)))
+    p_plain, p_grown = (pass_probability(f_near, p, above) for p in (plain.params, grown.params))
+    assert p_grown > p_plain + 0.1
+    capped = replace(grown.params, noise_size_max_px=25.0)  # no growth above the reference
+    assert pass_probability(f_near, capped, 0.5) == pass_probability(f_near, plain.params, 0.5)

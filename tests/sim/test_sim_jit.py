@@ -342,7 +342,7 @@ def test_view_angle_equals_the_folded_math_remainder(monkeypatch) -> None:
 
 def _view_array(rnd: random.Random) -> list[float]:
     """A random array for ``_pem._pem_view``: coefficients, camera, box, scene, colour,
-    detection gains."""
+    detection gains, the score noise's size gain and cap."""
     coeffs = [rnd.uniform(-3.0, 3.0) for _ in _pem.COEFFICIENTS]
     size_min = rnd.choice([1.0, 6.0, 30.0])
     coeffs[_pem._SIZE_MIN], coeffs[_pem._SIZE_REF] = size_min, rnd.uniform(10.0, 40.0)
@@ -353,6 +353,8 @@ def _view_array(rnd: random.Random) -> list[float]:
     scene.append(rnd.choice([0.0, rnd.uniform(0.0, 1.0)]))
     color = [rnd.uniform(-1.0, 1.0) for _ in range(5)]
     detect = [rnd.choice([0.0, rnd.uniform(-3.0, 3.0)]) for _ in range(2)]
+    detect.append(rnd.choice([0.0, rnd.uniform(-1.0, 1.0)]))  # noise_size_gain
+    detect.append(rnd.choice([60.0, 450.0]))  # noise_size_max_px
     return coeffs + camera + [450.0] + box + scene + color + detect
 
 
