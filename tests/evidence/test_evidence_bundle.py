@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from functools import partial
 from importlib import resources
 from pathlib import Path
 
@@ -31,6 +32,20 @@ def _campaign(path: Path, runs: int, **config) -> Path:
     finally:
         store.close()
     return path
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _one_failure_picture():
+    """The evidence reports of this module draw one failing run, not the report's default
+    four: each picture is a re-simulation, a drawing and an animation (~2 CPU-s), and
+    nothing here is about their number; one still puts a picture and its GIF into every
+    report and into the manifest's hashed artefacts. (``build_evidence`` looks
+    ``sitcov.report.build_report`` up when it builds, so the patch reaches it.)"""
+    import sitcov.report
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sitcov.report, "build_report", partial(sitcov.report.build_report, pictures=1))
+        yield
 
 
 @pytest.fixture(scope="module")
