@@ -22,12 +22,27 @@ def sitcov(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     )
 
 
+def sitcov_here(capsys, *args: str) -> tuple[int, str, str]:
+    """``sitcov ARGS`` in this process: (exit code, stdout, stderr). For the usage errors,
+    which end before any work: a subprocess each only added its interpreter start and
+    imports (~0.5 CPU-s); an exception escaping ``main`` (a traceback) fails the test."""
+    from sitcov.cli import main
+
+    try:
+        main(list(args))
+        code = 0
+    except SystemExit as exc:
+        code = int(exc.code or 0)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
 @pytest.mark.parametrize("classes", ["car", "pedestrian,bogus", ""])
-def test_bad_classes_are_one_message(classes: str) -> None:
-    result = sitcov("calibrate", "--classes", classes, "--frames", "50")
-    assert result.returncode == 2
-    assert "--classes" in result.stderr
-    assert "Traceback" not in result.stderr + result.stdout
+def test_bad_classes_are_one_message(classes: str, capsys) -> None:
+    code, out, err = sitcov_here(capsys, "calibrate", "--classes", classes, "--frames", "50")
+    assert code == 2
+    assert "--classes" in err
+    assert "Traceback" not in err + out
 
 
 @pytest.mark.slow
@@ -46,7 +61,7 @@ def test_small_fit_writes_a_loadable_file(tmp_path: Path, ssd_model: Path) -> No
     assert label == "person" and params.noise_sigma > 0
 
 
-def test_bad_from_samples_is_one_message(tmp_path: Path) -> None:
+def test_bad_from_samples_is_one_message(tmp_path: Path, capsys) -> None:
     """Without --classes, a missing file, a bad row: each one line naming what is wrong."""
     good = tmp_path / "s.jsonl"
     good.write_text('{"kind": "pedestrian", "sweep": [30.0, 0.0, 0.0], "score": 0.4}\n')
@@ -60,6 +75,6 @@ def test_bad_from_samples_is_one_message(tmp_path: Path) -> None:
         (("--classes", "pedestrian", "--cv-folds", "3"), "--cv-folds"),
     )
     for args, needle in cases:
-        result = sitcov("calibrate", *args)
-        assert result.returncode == 2, (args, result.stderr)
-        assert needle in result.stderr and "Traceback" not in result.stderr + result.stdout
+        code, out, err = sitcov_here(capsys, "calibrate", *args)
+        assert code == 2, (args, err)
+        assert needle in err and "Traceback" not in err + out

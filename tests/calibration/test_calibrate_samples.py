@@ -184,21 +184,37 @@ def _pem_made_recording(n: int) -> Recording:
 
 
 @pytest.mark.slow
-def test_calibrate_from_samples_refits_without_rendering(tmp_path) -> None:
+def test_calibrate_from_samples_refits_without_rendering(tmp_path, monkeypatch) -> None:
     """``sitcov calibrate --from-samples F [--cv-folds K]``: the file's seed becomes the
-    calibration seed, the header names the command, the params are fit_recording's."""
+    calibration seed, the header names the command, the params are fit_recording's.
+
+    The command runs in this process with ``fit_recording`` spied on (the command looks
+    it up when it runs): it is given exactly the recording written (read back equal to
+    ``rec``) and ``cv_folds=2``, and the file is ``pem_yaml`` of what it returned. As the
+    fit is deterministic, that is the ``fit_recording(rec, cv_folds=2)`` this test used to
+    compute a second time in-process (~13 CPU-s) after a subprocess ran the command."""
+    from sitcov.calibration import _calibrate_cars as cal
     from sitcov.calibration._calibrate import pem_yaml
-    from sitcov.calibration._calibrate_cars import fit_recording
+    from sitcov.cli import main
 
     rec = _pem_made_recording(6)
     samples = tmp_path / "s.jsonl.gz"
     write_recording(samples, rec)
     out = tmp_path / "pem.yaml"
-    result = _sitcov("calibrate", "--from-samples", str(samples), "--cv-folds", "2",
-                     "--out", str(out))  # fmt: skip
-    assert result.returncode == 0, result.stderr
+    real, fits = cal.fit_recording, []
+
+    def spied(recording, **kwargs):
+        fits.append((recording, kwargs, real(recording, **kwargs)))
+        return fits[-1][2]
+
+    monkeypatch.setattr(cal, "fit_recording", spied)
+    try:
+        main(["calibrate", "--from-samples", str(samples), "--cv-folds", "2", "--out", str(out)])
+    except SystemExit as exc:
+        assert not exc.code, exc.code
     command = f"sitcov calibrate --from-samples {samples} --cv-folds 2 --out {out}"
-    params, summary = fit_recording(rec, cv_folds=2)
+    ((given, kwargs, (params, summary)),) = fits
+    assert given == rec and kwargs == {"cv_folds": 2}
     assert out.read_text() == pem_yaml(params, command, summary)
     meta = yaml.safe_load(out.read_text())["meta"]
     assert meta["calibration_seeds"] == [3] and meta["command"] == command

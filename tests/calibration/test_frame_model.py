@@ -103,14 +103,16 @@ def test_model_choice_follows_the_held_out_likelihood() -> None:
 def test_the_detection_terms_geometry_is_recovered_and_chosen_when_it_is_there() -> None:
     """A detector that gives fewer boxes the more of the image the road user fills: the
     ``ar1_edge`` fit recovers the fill gain and wins held out; without it, it buys
-    (next to) nothing held out."""
+    (next to) nothing held out. The recovered gain is read off the ``ar1_edge`` fit that
+    ``held_out_choice`` makes on ``t`` (the same ``fit_tracks`` call this test made
+    separately before, ~10 CPU-s)."""
     cands = (("ar1", 1.0, True, False), ("ar1_edge", 1.0, True, True))
     t = fm.tracks_of(_draw(8, runs=80, fill_miss=1.0))
-    fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, edge=True)
+    held = fm.tracks_of(_draw(9, runs=80, fill_miss=1.0))
+    chosen, table, fits = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
+    fit = fits["ar1_edge"]  # fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, edge=True)
     assert fit.noise.df == pytest.approx(1.0, abs=0.3)
     assert fit.noise.dt == pytest.approx(0.0, abs=0.5)  # nothing truncated: no signal
-    held = fm.tracks_of(_draw(9, runs=80, fill_miss=1.0))
-    chosen, table, _ = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
     assert chosen == "ar1_edge", table
     plain, plain_held = fm.tracks_of(_draw(8, runs=80)), fm.tracks_of(_draw(9, runs=80))
     _, table0, _ = fm.held_out_choice(plain, plain_held, size_ref=25.0, candidates=cands)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 
 import pytest
@@ -114,7 +115,23 @@ def test_cli_refuses_a_passing_run(db, capsys):
 
 
 @pytest.mark.slow
-def test_cli_explain_names_the_two_elements(db, capsys):
+def test_cli_explain_names_the_two_elements(db, capsys, monkeypatch):
+    """The analysis runs once (~5 CPU-s on 1500 runs), in the text command (its progress
+    bar on); the JSON command then prints that same result: ``sitcov.analysis.explain``
+    (looked up by the command when it runs) is replaced by a replay of it. Both output
+    paths of the command, one computation (deterministic: same runs, seed and bootstrap)."""
+    import sitcov.analysis
+
+    real, results = sitcov.analysis.explain, []
+
+    def recorded(*args, **kwargs):
+        results.append(real(*args, **kwargs))
+        return copy.deepcopy(results[-1])
+
+    monkeypatch.setattr(sitcov.analysis, "explain", recorded)
+    code, out, _ = cli(capsys, "explain", "--db", str(db), "--bootstrap", "19")
+    assert code == 0 and "findings (most important first" in out and "failure regions" in out
+    monkeypatch.setattr(sitcov.analysis, "explain", lambda *a, **k: copy.deepcopy(results[0]))
     # 1500 runs, ~48 failures: friction and intsit each carry the failing cell's runs
     # (p ~ 1e-8 and 1e-6 on this fixed seed); the seven irrelevant elements must not be
     # significant, and the interaction, with so few failures, need not be (docs/explain.md).
@@ -125,8 +142,7 @@ def test_cli_explain_names_the_two_elements(db, capsys):
     significant = {t["element"] for t in result["elements"] if t["significant"]}
     assert significant == {"friction", "intsit"}
     assert {f["element"] for f in result["findings"][:2]} == {"friction", "intsit"}
-    code, out, _ = cli(capsys, "explain", "--db", str(db), "--bootstrap", "19")
-    assert code == 0 and "findings (most important first" in out and "failure regions" in out
+    assert len(results) == 1  # the text command's analysis, computed once
 
 
 def test_cli_bad_stack_option_is_one_line(db, capsys):

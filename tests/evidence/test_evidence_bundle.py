@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from functools import partial
 from importlib import resources
 from pathlib import Path
 
@@ -31,6 +32,20 @@ def _campaign(path: Path, runs: int, **config) -> Path:
     finally:
         store.close()
     return path
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _one_failure_picture():
+    """The evidence reports of this module draw one failing run, not the report's default
+    four: each picture is a re-simulation, a drawing and an animation (~2 CPU-s), and
+    nothing here is about their number; one still puts a picture and its GIF into every
+    report and into the manifest's hashed artefacts. (``build_evidence`` looks
+    ``sitcov.report.build_report`` up when it builds, so the patch reaches it.)"""
+    import sitcov.report
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(sitcov.report, "build_report", partial(sitcov.report.build_report, pictures=1))
+        yield
 
 
 @pytest.fixture(scope="module")
@@ -98,6 +113,11 @@ def _manifest(out: Path) -> dict:
 
 
 def test_manifest_is_stable_and_follows_each_input(db, folder, tmp_path):
+    """Two builds with the report (every artefact hashed, the report's included) give the
+    same manifest; then each changed input moves only its own hash. Those three builds
+    leave the report out (``report=False``): the inputs do not depend on it and the two
+    artefacts compared there are not part of it, and the report's pictures are most of a
+    build's time (~8 CPU-s each)."""
     out, _, odd = folder
     again = tmp_path / "again"  # the report names its folder: build in one place
     build_evidence(db, again, odd=odd, criterion="rate<0.05@0.95")
@@ -107,7 +127,7 @@ def test_manifest_is_stable_and_follows_each_input(db, folder, tmp_path):
     assert _manifest(again) == first  # same inputs, same hashes (artefacts included)
 
     # another criterion: only that input (and the files that show it) changes
-    build_evidence(db, again, odd=odd, criterion="rate<0.01@0.95")
+    build_evidence(db, again, odd=odd, criterion="rate<0.01@0.95", report=False)
     changed = _manifest(again)
     moved = {k for k in first["inputs"] if first["inputs"][k] != changed["inputs"][k]}
     assert moved == {"criterion"}
@@ -117,7 +137,7 @@ def test_manifest_is_stable_and_follows_each_input(db, folder, tmp_path):
     # another ODD file content: only the ODD input moves
     other = tmp_path / "odd2.yaml"
     other.write_text(ODD.replace("7.6", "2.5"))
-    build_evidence(db, again, odd=other, criterion="rate<0.05@0.95")
+    build_evidence(db, again, odd=other, criterion="rate<0.05@0.95", report=False)
     moved = {k for k, v in _manifest(again)["inputs"].items() if first["inputs"][k] != v}
     assert moved == {"odd"}
 
@@ -125,7 +145,7 @@ def test_manifest_is_stable_and_follows_each_input(db, folder, tmp_path):
     bigger = tmp_path / "bigger.db"
     shutil.copy(db, bigger)
     _campaign(bigger, 81)
-    build_evidence(bigger, again, odd=odd, criterion="rate<0.05@0.95")
+    build_evidence(bigger, again, odd=odd, criterion="rate<0.05@0.95", report=False)
     moved = {k for k, v in _manifest(again)["inputs"].items() if first["inputs"][k] != v}
     assert moved == {"runs"}
 

@@ -44,18 +44,31 @@ def test_reference_stack_declares_its_minimum_box() -> None:
 
 
 def _frames_seen(gate: float, situations: int = 6) -> list[float]:
-    """True OV box widths [px] of every frame rendered, over a few random situations."""
+    """True OV box widths [px] of every frame rendered, over a few random situations.
+
+    The blind stack never looks at a frame's pixels, so the backend's renderer is replaced
+    by one that counts its calls and returns a black frame: the gating decides which frames
+    are asked for before any pixel is drawn, and rendering itself is the camera tests'
+    (test_detector_checks.py, test_renderer.py). Drawing the ~thousand ungated frames cost
+    most of this test's time."""
     backend = EmbeddedBackend(perception="camera", frame_gate=gate)
     widths: list[float] = []
+    rendered: list[int] = []
 
     def observe(camera: Any, pose: Any, actors: Any, conditions: Any) -> None:
         widths.append(max(p.width for a in actors if (p := project_box(camera, pose, a))))
 
+    def render(camera: Any, *_: Any) -> np.ndarray:
+        rendered.append(1)
+        return np.zeros((camera.height, camera.width, 3), dtype=np.uint8)
+
     backend.frame_observer = observe
+    backend._render_frame = render  # test hook: the renderer the backend loads lazily
     gen = make_generator("random", load_hyperspace())
     blind = ReferenceStack(detector=lambda image: ())  # never brakes: every frame is asked for
     for i in range(situations):
         backend.run(gen.ask(np.random.default_rng(i)), blind, i)
+    assert len(rendered) == len(widths)  # the observer sees exactly the frames drawn
     return widths
 
 

@@ -77,19 +77,31 @@ def test_backend_gates_a_pedestrian_on_its_declared_height() -> None:
 
 
 def _rendered_heights(gate: float, kind: str, situations: int = 4) -> list[float]:
-    """True box heights [px] of the actor of ``kind`` in every frame rendered."""
+    """True box heights [px] of the actor of ``kind`` in every frame rendered.
+
+    The blind stack never looks at a frame's pixels, so the backend's renderer is replaced
+    by one that counts its calls and returns a black frame (as in test_camera_gate.py):
+    which frames are drawn is decided before any pixel is, and drawing them was most of
+    this test's time."""
     backend = EmbeddedBackend(perception="camera", frame_gate=gate)
     heights: list[float] = []
+    rendered: list[int] = []
 
     def observe(camera: Any, pose: Any, actors: Any, conditions: Any) -> None:
         boxes = [project_box(camera, pose, a) for a in actors if a.kind == kind]
         heights.append(max((b.height for b in boxes if b is not None), default=0.0))
 
+    def render(camera: Any, *_: Any) -> np.ndarray:
+        rendered.append(1)
+        return np.zeros((camera.height, camera.width, 3), dtype=np.uint8)
+
     backend.frame_observer = observe
+    backend._render_frame = render  # test hook: the renderer the backend loads lazily
     gen = make_generator("random", class_hyperspace(kind))
     blind = ReferenceStack(detector=lambda image: ())  # never brakes: every frame is asked for
     for i in range(situations):
         backend.run(gen.ask(np.random.default_rng(i)), blind, i)
+    assert len(rendered) == len(heights)  # the observer sees exactly the frames drawn
     return heights
 
 
