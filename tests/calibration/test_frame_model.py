@@ -219,12 +219,18 @@ def test_the_fitted_parameters_pass_the_check_on_held_out_runs(car_fit) -> None:
 
 
 def test_frames_file_round_trips_and_bad_lines_name_the_line(tmp_path: Path) -> None:
-    data = _draw(7, runs=3, length=5)
+    data = _draw(7, runs=3, length=5, side_gain=0.0)  # a side recorded per frame
     data.sweep.append((PEMFeatures(30.0, 0.2, 0.0), 0.41, 12.5))
     path = tmp_path / "f.jsonl.gz"
     write_frames(path, {"car": data})
     back = read_frames(path)["car"]
     assert back.runs == data.runs and back.sweep == data.sweep
+    assert any(f.features.side != 0.0 for r in back.runs for f in r.frames)
+    # a row written before ``side`` existed (14 features) reads with side 0
+    old = tmp_path / "old.jsonl"
+    old.write_text('{"kind": "car", "sweep": [30.0, 0.2, 0.0, 1.0, 1.0, 0.0, 60.0, 0.1, 1.0, '
+                   '0.5, 0.2, 0.3, 0.1, 0.0], "score": 0.4, "distance": 12.0}\n')  # fmt: skip
+    assert read_frames(old)["car"].sweep[0][0].side == 0.0
     bad = tmp_path / "bad.jsonl"
     bad.write_text('{"kind": "car", "run": {"index": 0}}\n')
     with pytest.raises(ConfigError, match="line 1"):
