@@ -54,3 +54,37 @@ def test_rates_per_side_and_band_are_the_checks_on_those_frames(side_check, tmp_
     det = np.mean([s >= 0.5 for _, s in near])
     pem = np.mean([pass_probability(params, feats, 0.5) for feats, _ in near])
     assert f"θ 0.5: detector {det:.2f} PEM {pem:.2f}" in line
+
+
+@pytest.fixture(scope="module")
+def side_fit() -> ModuleType:
+    spec = importlib.util.spec_from_file_location(
+        "pem_side_fit", ROOT / "benchmarks/pem_side_fit.py"
+    )
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_side_fit_pairs_each_candidate_with_its_side_version(side_fit) -> None:
+    from sitcov.calibration import _frame_model as fm
+
+    cands = side_fit.candidates(["ar1_edge_scale", "ar1_edge_scale_image_size_side"])
+    names = [c[0] for c in cands]
+    assert names == ["ar1_edge_scale", "ar1_edge_scale_side", "ar1_edge_scale_image_size_side"]
+    assert [fm._flags(c)[5] for c in cands] == [False, True, True]
+    assert fm._flags(cands[1])[:5] == fm._flags(cands[0])[:5]
+
+
+def test_side_fit_rates_are_the_side_checks(side_fit, side_check, tmp_path) -> None:
+    runs = read_frames(ROOT / "docs/data/pem-frames-seed2.jsonl.gz")["car"].runs[:6]
+    path = tmp_path / "frames.jsonl.gz"
+    write_frames(path, {"car": KindFrames(runs=runs)})
+    rates = side_fit.side_rates(read_frames(path)["car"], load_pem_params())
+    for line in side_check.side_table(str(path), "car"):
+        key = " ".join(line.split()[:3])
+        if key in rates:
+            n, det, pem = rates[key]
+            assert f"n={n:5d}" in line and f"θ 0.5: detector {det:.2f} PEM {pem:.2f}" in line
+    assert rates

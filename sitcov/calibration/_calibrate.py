@@ -199,8 +199,9 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
 
 
 #: The coefficients the probit fit estimates: the logit's (``COEFFICIENTS``) but the size
-#: normalisation and clamps in pixels, which the fit keeps as given.
-_LINEAR = tuple(name for name in COEFFICIENTS if not name.endswith("_px"))
+#: normalisation and clamps in pixels, which the fit keeps as given, and the side's gain,
+#: a candidate term of the frame model only (:mod:`sitcov.calibration._frame_model`).
+_LINEAR = tuple(name for name in COEFFICIENTS if not name.endswith("_px") and name != "side_gain")
 #: Ridge penalty on the probit coefficients (not the intercept).
 _RIDGE = 1.0
 

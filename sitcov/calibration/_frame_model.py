@@ -48,8 +48,9 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
 Model choice (:func:`choose_model`, :func:`held_out_choice`): independent frames
 (``s = 0``), the AR(1) model, the AR(1) model with the detection term's geometry (dt,
 df; without it they are 0), or that with the noise's size gain k (the height capped at
-the score's ``size_max_px`` or at the image height), by the log-likelihood of held-out
-tracks.
+the score's ``size_max_px`` or at the image height), with the size terms free, and that
+with the side's term (``side_gain``: the road user seen from its left or its right), by
+the log-likelihood of held-out tracks.
 """
 
 from __future__ import annotations
@@ -88,7 +89,11 @@ IMAGE_HEIGHT = 450.0
 MIN_PX_PERCENTILE = 0.5
 #: Model candidates: (name, ridge penalty, AR(1) term, detection geometry terms[, the score
 #: noise's size gain with its height cap: 0 = the score's own ``size_max_px``, else that
-#: many px[, the size terms free in step 2]]); a 4-tuple has no size gain.
+#: many px[, the size terms free in step 2[, the side's term ``side_gain * side``]]]); a
+#: 4-tuple has no size gain. The side term (the one feature that tells a road user seen
+#: from its left from one seen from its right, :class:`~sitcov.perception.PEMFeatures`)
+#: needs frames recorded since it exists: on older files ``side`` is 0 and the candidate
+#: ties with the one without it (the first of equals is chosen).
 CANDIDATES = (
     ("independent", 1.0, False, False),
     ("ar1", 1.0, True, False),
@@ -97,15 +102,17 @@ CANDIDATES = (
     ("ar1_edge_scale_image", 1.0, True, True, IMAGE_HEIGHT),
     ("ar1_edge_scale_size", 1.0, True, True, 0.0, True),
     ("ar1_edge_scale_image_size", 1.0, True, True, IMAGE_HEIGHT, True),
+    ("ar1_edge_scale_image_size_side", 1.0, True, True, IMAGE_HEIGHT, True, True),
 )
 
 
-def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None, bool]:
-    """(ridge, ar, edge, scale cap or None, size terms free) of a :data:`CANDIDATES` entry
-    (4 to 6 values)."""
+def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None, bool, bool]:
+    """(ridge, ar, edge, scale cap or None, size terms free, side term) of a
+    :data:`CANDIDATES` entry (4 to 7 values)."""
     cap = float(candidate[4]) if len(candidate) > 4 and candidate[4] is not None else None
     free = bool(candidate[5]) if len(candidate) > 5 else False
-    return float(candidate[1]), bool(candidate[2]), bool(candidate[3]), cap, free
+    side = bool(candidate[6]) if len(candidate) > 6 else False
+    return float(candidate[1]), bool(candidate[2]), bool(candidate[3]), cap, free, side
 
 
 def _logit(p: np.ndarray | float) -> Any:
@@ -192,6 +199,12 @@ def _ridge_ls(x: np.ndarray, y: np.ndarray, ridge: float) -> tuple[np.ndarray, f
 
 def _design_for(t: Tracks, size_max: float, ref: float) -> np.ndarray:
     return _design(t.feats, 1.0, size_max, ref)
+
+
+def sides(t: Tracks) -> np.ndarray:
+    """The frames' ``side`` (the sine of the road user's heading relative to the line of
+    sight; 0 in frames recorded before it was stored)."""
+    return np.asarray([f.side for f in t.feats], dtype=float)
 
 
 def geometry(t: Tracks) -> np.ndarray:
@@ -353,16 +366,19 @@ def track_loglik(
 @dataclass(frozen=True)
 class FrameFit:
     """A fitted frame model: the logit's coefficients (``_LINEAR`` order), the size clamp
-    and reference [px], and the noise and detection terms."""
+    and reference [px], the noise and detection terms, and the side's gain (0 without
+    the side term)."""
 
     beta: np.ndarray
     size_max: float
     size_ref: float
     noise: Noise
+    side_gain: float = 0.0
 
     def logit(self, t: Tracks) -> np.ndarray:
         """The PEM logit ``m`` of every frame of ``t``."""
-        return _design_for(t, self.size_max, self.size_ref) @ self.beta
+        m = _design_for(t, self.size_max, self.size_ref) @ self.beta
+        return m + self.side_gain * sides(t) if self.side_gain != 0.0 else m
 
     def loglik(self, t: Tracks) -> float:
         """Sequence log-likelihood of ``t`` (every track)."""
@@ -373,28 +389,36 @@ class FrameFit:
 
 def fit_tracks(
     t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False,
-    scale: float | None = None, free_size: bool = False,
+    scale: float | None = None, free_size: bool = False, side: bool = False,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
     height capped at ``scale`` px, or at the fitted ``size_max_px`` for 0; ``free_size``:
     the three size terms' coefficients fitted in step 2 too, not only scaled with the
     others: the least squares of step 1 see only the scores above CENSOR, which bends
-    the score's mean over distance)."""
+    the score's mean over distance; ``side``: with the term ``side_gain * side``, started
+    from step 1's least squares and fitted by likelihood in step 2)."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
     geom = geometry(t) if edge else None
     if int(np.sum(t.score >= FLOOR)) < 10:
         raise SitcovError(f"only {int(np.sum(t.score >= FLOOR))} frames detected at >= {FLOOR}")
+    side_col = sides(t) if side else None
+    if side_col is not None and not side_col.any():
+        side_col = None  # frames recorded before ``side``: exactly the model without it
     best: tuple[float, np.ndarray, float, float, np.ndarray] | None = None
     for size_max in SIZE_MAX_GRID:
         x = _design_for(t, size_max, size_ref)
-        beta, sigma0, value = _ridge_ls(x[obs], y[obs], ridge)
+        xs = x if side_col is None else np.column_stack([x, side_col])
+        beta, sigma0, value = _ridge_ls(xs[obs], y[obs], ridge)
         if best is None or value < best[0]:
             best = (value, beta, sigma0, size_max, x)
     assert best is not None
     _, beta, sigma0, size_max, x = best
+    side0 = 0.0
+    if side_col is not None:  # the side's start value; the others as without it
+        side0, beta = float(beta[-1]), beta[:-1]
     rest = x[:, 1:] @ beta[1:]
     sized = x[:, 1:4]  # size, size^2, sin(view) * size: _LINEAR's 2nd to 4th
     cap = (scale or size_max) if scale is not None else IMAGE_HEIGHT
@@ -416,10 +440,12 @@ def fit_tracks(
                                                float(lam), up, dt, df, k, cap)  # fmt: skip
 
     at_free = len(start_of(ar, edge, scale))
+    at_side = at_free + (3 if free_size else 0)
 
     def mean(p: np.ndarray, b0: float, kappa: float) -> np.ndarray:
         m = b0 + kappa * rest
-        return m + sized @ p[at_free : at_free + 3] if free_size else m
+        m = m + sized @ p[at_free : at_free + 3] if free_size else m
+        return m + p[at_side] * side_col if side_col is not None else m
 
     def nll(p: np.ndarray) -> float:
         b0, kappa, noise = unpack(p)
@@ -436,13 +462,15 @@ def fit_tracks(
         start += [dt, df]
     start += [0.0] if scale is not None else []
     start += [0.0, 0.0, 0.0] if free_size else []
+    start += [side0] if side_col is not None else []
     res = minimize(nll, np.asarray(start), method="L-BFGS-B",
                    options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
     b0, kappa, noise = unpack(res.x)
     coef = np.r_[b0, kappa * beta[1:]]
     if free_size:
         coef[1:4] += res.x[at_free : at_free + 3]
-    return FrameFit(coef, size_max, size_ref, noise)
+    gain = float(res.x[at_side]) if side_col is not None else 0.0
+    return FrameFit(coef, size_max, size_ref, noise, gain)
 
 
 def start_of(ar: bool, edge: bool, scale: float | None) -> list[int]:
@@ -498,13 +526,13 @@ def choose_model(
     parts = _folds(t.group, folds)
     all_groups = np.unique(t.group)
     for cand in candidates:
-        name, (ridge, ar, edge, scale, free) = cand[0], _flags(cand)
+        name, (ridge, ar, edge, scale, free, side) = cand[0], _flags(cand)
         total, frames = 0.0, 0
         for held in parts:
             train = t.subset(np.setdiff1d(all_groups, held))
             test = t.subset(held)
             fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
-                             scale=scale, free_size=free)  # fmt: skip
+                             scale=scale, free_size=free, side=side)  # fmt: skip
             total += fit.loglik(test)
             frames += len(test.score)
         table[name] = {"heldout_loglik_per_frame": round(total / max(1, frames), 4),
@@ -543,6 +571,7 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         noise_size_gain=round(nz.k, 4),
         noise_size_max_px=nz.cap,
         noise_up_ratio=round(nz.up, 4),
+        side_gain=round(fit.side_gain, 4),
         rain_sigma=0.0,
         rain_miss=0.0,
         rain_jitter=0.0,
@@ -560,9 +589,9 @@ def held_out_choice(
     table: dict[str, Any] = {}
     fits: dict[str, FrameFit] = {}
     for cand in candidates:
-        name, (ridge, ar, edge, scale, free) = cand[0], _flags(cand)
+        name, (ridge, ar, edge, scale, free, side) = cand[0], _flags(cand)
         fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
-                                scale=scale, free_size=free)  # fmt: skip
+                                scale=scale, free_size=free, side=side)  # fmt: skip
         table[name] = {
             "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
             "heldout_frames": len(held.score),
@@ -605,14 +634,14 @@ def fit_kind(
         # (after the moment an AEB would fire) that the calibration runs stop before
         data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
         t = tracks_of(data)
-        ridge, ar, edge, scale, free = _flags(next(c for c in candidates if c[0] == chosen))
+        ridge, ar, edge, scale, free, side = _flags(next(c for c in candidates if c[0] == chosen))
         fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
-                         free_size=free)  # fmt: skip
+                         free_size=free, side=side)  # fmt: skip
     else:
         chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates)
-        ridge, ar, edge, scale, free = _flags(next(c for c in candidates if c[0] == chosen))
+        ridge, ar, edge, scale, free, side = _flags(next(c for c in candidates if c[0] == chosen))
         fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
-                         free_size=free)  # fmt: skip
+                         free_size=free, side=side)  # fmt: skip
     params = to_params(fit, base, t, data.runs)
     nz = fit.noise
     lag1 = nz.share * nz.rho

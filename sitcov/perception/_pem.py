@@ -17,13 +17,17 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + contrast_gain * contrast + detail_gain * detail                     body colour
         + chroma_gain * chroma + red_green_gain * red_green
         + yellow_blue_gain * yellow_blue                                      body hue
+        + side_gain * side                                                    left/right
     score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * s * r * n_t)
     r = noise_up_ratio if n_t > 0 else 1     (the scores spread less upwards)
     s = (clamp(h, size_min_px, noise_size_max_px) / size_ref_px) ** noise_size_gain
                                              (larger boxes, wider scores; 1 if the gain is 0)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
-actor's heading relative to the line of sight (+1 rear view, -1 front view), ``offset`` the
+actor's heading relative to the line of sight (+1 rear view, -1 front view), ``side`` its
+sine (+1 seen from the actor's left, moving right to left in the image, -1 from its right:
+the only feature that is not left/right symmetric; 0 in frames recorded before it),
+``offset`` the
 distance of the box centre from the image centre as a fraction of half the image width
 (clamped to [0, 1]), ``contrast`` the luminance contrast of the body colour against the
 road and sky under the scene's light and ``detail`` its contrast against the car's own
@@ -102,6 +106,10 @@ class PEMFeatures(NamedTuple):
             light, in [0, 1] [-] (default: the dark red of earlier versions, clear noon).
         detail: the body's contrast against the car's dark parts, in [-1, 1] [-].
         chroma, red_green, yellow_blue: the body colour's CIELAB C*, a*, b* over 100 [-].
+        side: sine of the actor's heading relative to the line of sight (+1 seen from its
+            left side, moving right to left in the image; -1 from its right side, moving
+            left to right; a road user crossing from the ego's left has ``side`` < 0) [-]
+            (default 0: frames recorded before it, which carry no side).
     """
 
     height_px: float
@@ -118,6 +126,7 @@ class PEMFeatures(NamedTuple):
     chroma: float = DEFAULT_CHROMA
     red_green: float = DEFAULT_RED_GREEN
     yellow_blue: float = DEFAULT_YELLOW_BLUE
+    side: float = 0.0
 
 
 _TINY = 1e-9  # floor inside logarithms [-]
@@ -182,6 +191,7 @@ COEFFICIENTS = (
     "chroma_gain",
     "red_green_gain",
     "yellow_blue_gain",
+    "side_gain",
 )
 (
     _BIAS,
@@ -206,6 +216,7 @@ COEFFICIENTS = (
     _CHROMA,
     _RED_GREEN,
     _YELLOW_BLUE,
+    _SIDE_GAIN,
 ) = range(len(COEFFICIENTS))
 
 
@@ -235,6 +246,7 @@ def _logit(
     chroma: float = DEFAULT_CHROMA,
     red_green: float = DEFAULT_RED_GREEN,
     yellow_blue: float = DEFAULT_YELLOW_BLUE,
+    side_sin: float = 0.0,
 ) -> float:
     """The logit for coefficients ``c`` (:data:`COEFFICIENTS`' order, a sequence or float
     array: the compiled score :func:`_pem_view` calls this very code). ``min``/``max``
@@ -267,6 +279,7 @@ def _logit(
         + c[_CHROMA] * chroma
         + c[_RED_GREEN] * red_green
         + c[_YELLOW_BLUE] * yellow_blue
+        + c[_SIDE_GAIN] * side_sin
     )
 
 
@@ -357,6 +370,18 @@ def _offset(image_width: float, u0: float, u1: float) -> float:
     return 1.0 if off > 1.0 else off
 
 
+def _heading_sine(
+    ex: float, ey: float, eyaw: float, mount_x: float, ax: float, ay: float, ayaw: float
+) -> float:
+    """:class:`PEMFeatures`' ``side``: the sine of the actor's heading ``ayaw`` relative to
+    the line of sight from the camera (``mount_x`` [m] ahead of the ego at (ex, ey, eyaw))
+    to the actor at (ax, ay): the same arithmetic as the projection's ``facing``, its
+    cosine (:func:`~sitcov.perception._camera._project`) [-]."""
+    cam_x = ex + mount_x * math.cos(eyaw)
+    cam_y = ey + mount_x * math.sin(eyaw)
+    return math.sin(ayaw - math.atan2(ay - cam_y, ax - cam_x))
+
+
 def _normal_cdf(x: float) -> float:
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
 
@@ -394,10 +419,12 @@ def _pem_view(
     height = v1 - v0
     if not ok or not visible or height < q[_SIZE_MIN]:
         return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+    # the side's sine only when its gain is not 0 (0 times any side adds nothing)
+    side = _heading_sine(ex, ey, eyaw, q[cam], ax, ay, ayaw) if q[_SIDE_GAIN] != 0.0 else 0.0
     z = _logit(
         q, height, view, trunc, fog_transmittance(q[scene], q[scene + 1], dist),
         q[scene + 2], q[scene + 3], u1 - u0, _offset(q[cam + 3], u0, u1), facing,
-        q[col], q[col + 1], q[col + 2], q[col + 3], q[col + 4],
+        q[col], q[col + 1], q[col + 2], q[col + 3], q[col + 4], side,
     )  # fmt: skip
     d = -q[det] * trunc - q[det + 1] * fill_of(u1 - u0, q[cam + 3])
     s = noise_scale(q[det + 2], height, q[_SIZE_MIN], q[det + 3], q[_SIZE_REF])
@@ -419,7 +446,7 @@ def _view_kernel() -> Any:
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
                       450.0])  # fmt: skip
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit,
-                   fill_of, noise_scale)  # fmt: skip
+                   fill_of, noise_scale, _heading_sine)  # fmt: skip
         _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
         _VIEW_FN = typed_entry(_VIEW_FN) or _pem_view
     return _VIEW_FN
@@ -553,7 +580,7 @@ def _frame_kernel() -> Any:
         c = np.append(c, [800.0, 450.0])
         state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
-        helpers += (fill_of, noise_scale, _pem_view, _sigmoid)
+        helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid)
         example = (state, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
         _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
     return _FRAME_FN
@@ -687,6 +714,8 @@ class PEMSensor(Sensor):
         if proj is None or not proj[6]:
             return None
         raw = proj[1]
+        ap = actor.pose
+        side = _heading_sine(ego.x, ego.y, ego.yaw, self.camera.mount_x, ap.x, ap.y, ap.yaw)
         return PEMFeatures(
             raw[3] - raw[1],
             proj[5],
@@ -698,6 +727,7 @@ class PEMSensor(Sensor):
             _offset(self.camera.width, raw[0], raw[2]),
             proj[7],
             *self._colors(actor.color, conditions),
+            side,
         )
 
     def _colors(self, color: Any, conditions: Conditions) -> tuple[float, ...]:

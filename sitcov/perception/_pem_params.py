@@ -90,6 +90,10 @@ class PEMParams:
         chroma_gain: logit per unit of the body's CIELAB chroma C*/100 (saturation) [-].
         red_green_gain: logit per unit of the body's CIELAB a*/100 (red +, green -) [-].
         yellow_blue_gain: logit per unit of the body's CIELAB b*/100 (yellow +, blue -) [-].
+        side_gain: logit per unit of ``side``, the sine of the road user's heading
+            relative to the line of sight (+1 seen from its left, moving right to left in
+            the image; -1 from its right, moving left to right): the one term that tells
+            left from right. 0 (the default, files written before it) changes nothing [-].
     """
 
     bias: float = 0.5
@@ -131,6 +135,7 @@ class PEMParams:
     detect_fill_gain: float = 0.0
     noise_size_gain: float = 0.0
     noise_size_max_px: float = 450.0
+    side_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

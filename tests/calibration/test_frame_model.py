@@ -20,7 +20,7 @@ from sitcov.perception._pem import PEMFeatures, PEMParams
 def _draw(
     seed: int, *, runs: int = 150, length: int = 40, sigma: float = 0.8, share: float = 0.75,
     rho: float = 0.9, bias: float = -0.6, gain: float = 0.6, stop_at: float | None = None,
-    fill_miss: float = 0.0, spread: float = 0.0,
+    fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -28,7 +28,10 @@ def _draw(
     first score >= it (the reference AEB's stopping). ``fill_miss``: the detector outputs
     the box with probability ``Phi(2 - fill_miss * ln(clamp(w / 800, 0.05, 1) / 0.05))``
     (fewer boxes the more of the 800 px image the road user fills). ``spread``: the noise
-    (AR and frame parts) scaled by ``(h / 25) ** spread`` (larger boxes, wider scores)."""
+    (AR and frame parts) scaled by ``(h / 25) ** spread`` (larger boxes, wider scores).
+    ``side_gain``: each run's road user seen from its left or right (``side`` = +-sin of
+    the view angle, recorded) and ``side_gain * side`` added to the logit; None: no side
+    recorded (0, as in files written before it)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -37,6 +40,7 @@ def _draw(
     for r in range(runs):
         h0 = rng.uniform(12.0, 30.0)
         view = rng.uniform(0.0, math.pi / 2)
+        side = 0.0 if side_gain is None else float(rng.choice([-1.0, 1.0])) * math.sin(view)
         a = rng.standard_normal()
         frames = []
         for k in range(length):
@@ -44,14 +48,14 @@ def _draw(
                 a = rho * a + math.sqrt(1 - rho * rho) * rng.standard_normal()
             h = h0 * 1.05**k
             widen = (h / 25.0) ** spread
-            z = bias + gain * math.log(min(h, 60.0) / 25.0)
+            z = bias + gain * math.log(min(h, 60.0) / 25.0) + (side_gain or 0.0) * side
             z += widen * (s_a * a + s_e * rng.standard_normal())
             score = 1.0 / (1.0 + math.exp(-z))
             rec = score if score >= 0.05 else 0.0
             fill = math.log(min(max(2.5 * h / 800.0, 0.05), 1.0) / 0.05)
             if fill_miss and rng.uniform() >= norm.cdf(2.0 - fill_miss * fill):
                 rec = 0.0  # no box at all
-            feats = PEMFeatures(h, view, 0.0, width_px=2.5 * h, facing=1.0)
+            feats = PEMFeatures(h, view, 0.0, width_px=2.5 * h, facing=1.0, side=side)
             frames.append(RunFrame(feats, rec, None, 2.5 * h, k, 0, 1.45 * 336 / h))
             if stop_at is not None and score >= stop_at:
                 break
@@ -145,6 +149,39 @@ def test_the_noises_size_gain_is_recovered_and_chosen_when_it_is_there() -> None
     assert gain < 0.01
 
 
+def test_the_side_term_is_recovered_and_chosen_when_it_is_there() -> None:
+    """A detector that scores road users seen from their left higher (``0.5 * side``): the
+    side candidate recovers the gain and wins held out; where the scores do not depend on
+    the side its gain comes out near 0 and buys (next to) nothing; on frames recorded
+    before ``side`` existed (0 everywhere) it is exactly the model without it."""
+    cands = (("ar1", 1.0, True, False), ("ar1_side", 1.0, True, False, None, False, True))
+    t, held = (
+        fm.tracks_of(_draw(13, runs=80, side_gain=0.5)),
+        fm.tracks_of(_draw(14, runs=80, side_gain=0.5)),
+    )
+    chosen, table, fits = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
+    assert chosen == "ar1_side", table
+    assert fits[chosen].side_gain == pytest.approx(0.5, abs=0.12)
+    assert fits["ar1"].side_gain == 0.0
+    params = fm.to_params(fits[chosen], PEMParams(size_ref_px=25.0), t, [])
+    assert params.side_gain == round(fits[chosen].side_gain, 4)
+    plain, plain_held = (
+        fm.tracks_of(_draw(13, runs=80, side_gain=0.0)),
+        fm.tracks_of(_draw(14, runs=80, side_gain=0.0)),
+    )
+    _, table0, fits0 = fm.held_out_choice(plain, plain_held, size_ref=25.0, candidates=cands)
+    assert abs(fits0["ar1_side"].side_gain) < 0.12
+    gain = (
+        table0["ar1_side"]["heldout_loglik_per_frame"] - table0["ar1"]["heldout_loglik_per_frame"]
+    )
+    assert gain < 0.01
+    old = fm.tracks_of(_draw(13, runs=30))
+    with_side = fm.fit_tracks(old, ridge=1.0, ar=True, size_ref=25.0, side=True)
+    without = fm.fit_tracks(old, ridge=1.0, ar=True, size_ref=25.0)
+    assert with_side.side_gain == 0.0
+    assert with_side.loglik(old) == without.loglik(old)
+
+
 def test_the_size_terms_fitted_by_likelihood_undo_the_censored_least_squares() -> None:
     """Step 1's least squares see only the scores above CENSOR, which flattens the size
     term (the low scores of small boxes are cut away); ``free_size`` refits the three size
@@ -184,12 +221,18 @@ def test_the_fitted_parameters_pass_the_check_on_held_out_runs(car_fit) -> None:
 
 
 def test_frames_file_round_trips_and_bad_lines_name_the_line(tmp_path: Path) -> None:
-    data = _draw(7, runs=3, length=5)
+    data = _draw(7, runs=3, length=5, side_gain=0.0)  # a side recorded per frame
     data.sweep.append((PEMFeatures(30.0, 0.2, 0.0), 0.41, 12.5))
     path = tmp_path / "f.jsonl.gz"
     write_frames(path, {"car": data})
     back = read_frames(path)["car"]
     assert back.runs == data.runs and back.sweep == data.sweep
+    assert any(f.features.side != 0.0 for r in back.runs for f in r.frames)
+    # a row written before ``side`` existed (14 features) reads with side 0
+    old = tmp_path / "old.jsonl"
+    old.write_text('{"kind": "car", "sweep": [30.0, 0.2, 0.0, 1.0, 1.0, 0.0, 60.0, 0.1, 1.0, '
+                   '0.5, 0.2, 0.3, 0.1, 0.0], "score": 0.4, "distance": 12.0}\n')  # fmt: skip
+    assert read_frames(old)["car"].sweep[0][0].side == 0.0
     bad = tmp_path / "bad.jsonl"
     bad.write_text('{"kind": "car", "run": {"index": 0}}\n')
     with pytest.raises(ConfigError, match="line 1"):

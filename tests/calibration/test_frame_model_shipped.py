@@ -41,7 +41,10 @@ def test_shipped_file_is_the_frame_model_with_its_provenance(path: Path) -> None
         assert summary["frames"] > 1000
     # no number edited by hand: the params are what the loader reads back
     if path == PEM_PARAMS_FILE:
-        assert data["params"] == load_pem_params().to_dict()
+        loaded = load_pem_params().to_dict()
+        assert data["params"] == {k: v for k, v in loaded.items() if k in data["params"]}
+        # a term added since the fit (``side_gain``, docs/pem.md) is 0 until the refit
+        assert all(loaded[k] == 0.0 for k in set(loaded) - set(data["params"]))
     else:
         loaded = load_class_params()
         for kind, entry in data["classes"].items():

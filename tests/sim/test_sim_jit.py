@@ -341,12 +341,13 @@ def test_view_angle_equals_the_folded_math_remainder(monkeypatch) -> None:
 
 
 def _view_array(rnd: random.Random) -> list[float]:
-    """A random array for ``_pem._pem_view``: coefficients, camera, box, scene, colour,
-    detection gains, the score noise's size gain and cap."""
+    """A random array for ``_pem._pem_view``: coefficients (the side's gain 0 in half of
+    them), camera, box, scene, colour, detection gains, the score noise's size gain and cap."""
     coeffs = [rnd.uniform(-3.0, 3.0) for _ in _pem.COEFFICIENTS]
     size_min = rnd.choice([1.0, 6.0, 30.0])
     coeffs[_pem._SIZE_MIN], coeffs[_pem._SIZE_REF] = size_min, rnd.uniform(10.0, 40.0)
     coeffs[_pem._SIZE_MAX] = size_min + rnd.choice([5.0, 250.0])
+    coeffs[_pem._SIDE_GAIN] = rnd.choice([0.0, coeffs[_pem._SIDE_GAIN]])  # the side: off or on
     camera = [rnd.choice([0.0, 2.5]), rnd.choice([1.0, 1.6]), rnd.uniform(200.0, 900.0), 800.0]
     box = [rnd.uniform(0.3, 6.0), rnd.uniform(0.3, 2.5), rnd.uniform(0.5, 3.5)]
     scene = [rnd.choice([0.0, 0.02, 5.0]), rnd.choice([0.0, 20.0]), rnd.uniform(1e-12, 1.0)]
