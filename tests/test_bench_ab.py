@@ -3,22 +3,18 @@ same batches, the order alternates, and a real worker answers CPU times."""
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 from types import ModuleType
 
 import pytest
+from benchmark_modules import load_benchmark
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
 def bench_ab() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("bench_ab", ROOT / "benchmarks/bench_ab.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("bench_ab")
 
 
 class FakeTree:

@@ -3,11 +3,11 @@ on its own map, F4 changes nothing where no pedestrian exists, the blind-ego che
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 from types import ModuleType
 
 import pytest
+from benchmark_modules import load_benchmark
 
 from sitcov.hyperspace import load_hyperspace
 
@@ -17,13 +17,7 @@ DERIVED = ROOT / "sitcov/hyperspace/data/derived"
 
 @pytest.fixture(scope="module")
 def bench() -> ModuleType:
-    spec = importlib.util.spec_from_file_location(
-        "bench_faults", ROOT / "benchmarks/bench_faults.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("bench_faults")
 
 
 def test_a_derived_hyperspace_runs_on_its_map(bench) -> None:

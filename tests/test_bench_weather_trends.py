@@ -3,24 +3,15 @@ the sign test, pooling of disjoint measurements, and a real (PEM) run of every a
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
 from types import ModuleType
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
+from benchmark_modules import load_benchmark
 
 
 @pytest.fixture(scope="module")
 def bench() -> ModuleType:
-    spec = importlib.util.spec_from_file_location(
-        "bench_weather_trends", ROOT / "benchmarks/bench_weather_trends.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("bench_weather_trends")
 
 
 def test_sign_test_is_the_exact_two_sided_binomial(bench) -> None:

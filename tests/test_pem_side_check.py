@@ -4,12 +4,12 @@ check's (detector share of frames at θ, the PEM's mean probability)."""
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 import pytest
+from benchmark_modules import load_benchmark
 
 from sitcov.calibration._frame_check import pass_probability
 from sitcov.calibration._frames import KindFrames, read_frames, write_frames
@@ -21,13 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @pytest.fixture(scope="module")
 def side_check() -> ModuleType:
-    spec = importlib.util.spec_from_file_location(
-        "pem_side_check", ROOT / "benchmarks/pem_side_check.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("pem_side_check")
 
 
 def _side(run) -> str:
@@ -58,13 +52,7 @@ def test_rates_per_side_and_band_are_the_checks_on_those_frames(side_check, tmp_
 
 @pytest.fixture(scope="module")
 def side_fit() -> ModuleType:
-    spec = importlib.util.spec_from_file_location(
-        "pem_side_fit", ROOT / "benchmarks/pem_side_fit.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("pem_side_fit")
 
 
 def test_side_fit_pairs_each_candidate_with_its_side_version(side_fit) -> None:

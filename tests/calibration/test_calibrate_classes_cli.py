@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from cli_helpers import run_cli
 
 from sitcov.perception._pem_classes import load_class_params
 
@@ -22,24 +23,9 @@ def sitcov(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
     )
 
 
-def sitcov_here(capsys, *args: str) -> tuple[int, str, str]:
-    """``sitcov ARGS`` in this process: (exit code, stdout, stderr). For the usage errors,
-    which end before any work: a subprocess each only added its interpreter start and
-    imports (~0.5 CPU-s); an exception escaping ``main`` (a traceback) fails the test."""
-    from sitcov.cli import main
-
-    try:
-        main(list(args))
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
 @pytest.mark.parametrize("classes", ["car", "pedestrian,bogus", ""])
 def test_bad_classes_are_one_message(classes: str, capsys) -> None:
-    code, out, err = sitcov_here(capsys, "calibrate", "--classes", classes, "--frames", "50")
+    code, out, err = run_cli(capsys, "calibrate", "--classes", classes, "--frames", "50")
     assert code == 2
     assert "--classes" in err
     assert "Traceback" not in err + out
@@ -75,6 +61,6 @@ def test_bad_from_samples_is_one_message(tmp_path: Path, capsys) -> None:
         (("--classes", "pedestrian", "--cv-folds", "3"), "--cv-folds"),
     )
     for args, needle in cases:
-        code, out, err = sitcov_here(capsys, "calibrate", *args)
+        code, out, err = run_cli(capsys, "calibrate", *args)
         assert code == 2, (args, err)
         assert needle in err and "Traceback" not in err + out

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from campaign_fakes import BACKEND, GENERATOR, STACK
+from cli_helpers import run_cli  # noqa: F401  (the campaign tests import it from here)
 
 from sitcov.campaign import CampaignConfig
 
@@ -45,16 +46,3 @@ def subprocess_env() -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(p for p in (str(HERE), env.get("PYTHONPATH")) if p)
     return env
-
-
-def run_cli(capsys: Any, *args: str) -> tuple[int, str, str]:
-    """Run the CLI in-process: (exit code, stdout, stderr)."""
-    from sitcov.cli import main
-
-    try:
-        main(list(args))
-        code = 0
-    except SystemExit as exc:
-        code = int(exc.code or 0)
-    out, err = capsys.readouterr()
-    return code, out, err

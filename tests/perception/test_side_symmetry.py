@@ -3,28 +3,19 @@ seen shading, and the mirrored frames' boxes, on a handful of frames of the real
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 from types import ModuleType
 
 import numpy as np
 import pytest
+from benchmark_modules import load_benchmark
 
 from sitcov.perception import Detection, _vehicle
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture(scope="module")
 def bench() -> ModuleType:
-    spec = importlib.util.spec_from_file_location(
-        "bench_side_symmetry", ROOT / "benchmarks/bench_side_symmetry.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("bench_side_symmetry")
 
 
 def test_the_mirrored_sun_negates_only_the_lateral_part(bench) -> None:

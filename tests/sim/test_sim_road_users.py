@@ -7,26 +7,18 @@ slow; a 60-scene sample of the T-junction runs always."""
 
 from __future__ import annotations
 
-import importlib.util
 import statistics
-from pathlib import Path
 from types import ModuleType
 
 import pytest
+from benchmark_modules import load_benchmark
 
-ROOT = Path(__file__).resolve().parents[2]
 MAPS = ("t-junction", "crossroads", "skewed-cross", "roundabout", "merge")
 
 
 @pytest.fixture(scope="module")
 def bench() -> ModuleType:
-    spec = importlib.util.spec_from_file_location(
-        "bench_road_users", ROOT / "benchmarks/bench_road_users.py"
-    )
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_benchmark("bench_road_users")
 
 
 def _check_blind(result: dict, runs: int) -> None:
