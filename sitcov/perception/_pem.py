@@ -910,6 +910,43 @@ class PEMSensor(Sensor):
         track = old[3][_F_N : _F_N + 5] if old is not None else np.zeros(5)
         return q, p, constants, np.concatenate((held[1], track, q))
 
+    def _compiled_frame(
+        self,
+        actors: Sequence[tuple[Any, Any]],
+        conditions: Conditions,
+        constants: dict[int, Any],
+        tracks: dict[int, Any],
+        normals: Any,
+        frame_fn: Any,
+        ex: float,
+        ey: float,
+        eyaw: float,
+    ) -> tuple[Detection, ...]:
+        """This frame (``self._frame``, already counted) of a run set up for the compiled
+        kernel: each actor in one :func:`_pem_frame` call, with the same draws and values
+        as :meth:`detect_prepared`'s Python loop (normals drawn ahead in blocks).
+        ``constants``: the run's ``id(class parameters) -> ...``; ``tracks``: the kernel's
+        state (constants, noise track, view array) per position, made anew (keeping the
+        position's track) when another actor or run comes there."""
+        frame = float(self._frame)
+        out = []
+        for key, ((q, p, label), pose) in enumerate(actors):
+            held = tracks.get(key)
+            if held is None or held[0] is not q or held[1] is not p or held[2] is not constants:
+                held = self._frame_state(held, q, p, conditions, constants)
+                tracks[key] = held
+            at, buf = normals._at, normals._array  # normals.ahead, written out
+            if buf is None or at + FRAME_NORMALS > len(buf):
+                buf, at = normals.ahead(FRAME_NORMALS)
+            code, at, x0, y0, x1, y1, score = frame_fn(
+                held[3], buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
+            )
+            if code:
+                normals._at = at  # normals.advance(at)
+                if code == 2:
+                    out.append(Detection((x0, y0, x1, y1), score, label))
+        return tuple(out)
+
     def frame_detector(
         self, conditions: Conditions, rng: np.random.Generator | NormalStream
     ) -> Callable[[float, float, float, Sequence[tuple[Any, Any]]], tuple[Detection, ...]]:
@@ -943,32 +980,11 @@ class PEMSensor(Sensor):
                 run[0] = (fs, frame_fn, normals, self._ftracks) if ready else None
                 return out
             fs, frame_fn, normals, tracks = held
-            # detect_prepared's compiled loop, written out (the same steps)
-            self._frame = frame = self._frame + 1
-            frame = float(frame)
-            constants = fs[5]
-            out = []
-            for key, ((q, p, label), pose) in enumerate(actors):
-                state = tracks.get(key)
-                if (
-                    state is None
-                    or state[0] is not q
-                    or state[1] is not p
-                    or state[2] is not constants
-                ):
-                    state = self._frame_state(state, q, p, conditions, constants)
-                    tracks[key] = state
-                at, buf = normals._at, normals._array
-                if buf is None or at + FRAME_NORMALS > len(buf):
-                    buf, at = normals.ahead(FRAME_NORMALS)
-                code, at, x0, y0, x1, y1, score = frame_fn(
-                    state[3], buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
-                )
-                if code:
-                    normals._at = at
-                    if code == 2:
-                        out.append(Detection((x0, y0, x1, y1), score, label))
-            return tuple(out)
+            # detect_prepared's compiled loop (the same steps)
+            self._frame += 1
+            return self._compiled_frame(
+                actors, conditions, fs[5], tracks, normals, frame_fn, ex, ey, eyaw
+            )
 
         return detect
 
@@ -1007,33 +1023,9 @@ class PEMSensor(Sensor):
                 fs = self._fstate = (conditions, camera, self.params, self.frame_dt, ready, {})
             if fs[4]:  # each actor in one _pem_frame call (the same draws and values as
                 # the Python loop below; normals drawn ahead in blocks)
-                constants, tracks = fs[5], self._ftracks  # id(class parameters) -> ...
-                frame = float(self._frame)
-                out = []
-                for key, ((q, p, label), pose) in enumerate(actors):
-                    # the kernel's state (constants, noise track, view array) per position,
-                    # made anew (keeping the position's track) when another actor or run
-                    # comes there
-                    held = tracks.get(key)
-                    if (
-                        held is None
-                        or held[0] is not q
-                        or held[1] is not p
-                        or held[2] is not constants
-                    ):
-                        held = self._frame_state(held, q, p, conditions, constants)
-                        tracks[key] = held
-                    at, buf = normals._at, normals._array  # normals.ahead, written out
-                    if buf is None or at + FRAME_NORMALS > len(buf):
-                        buf, at = normals.ahead(FRAME_NORMALS)
-                    code, at, x0, y0, x1, y1, score = frame_fn(
-                        held[3], buf, at, frame, ex, ey, eyaw, pose.x, pose.y, pose.yaw
-                    )
-                    if code:
-                        normals._at = at  # normals.advance(at)
-                        if code == 2:
-                            out.append(Detection((x0, y0, x1, y1), score, label))
-                return tuple(out)
+                return self._compiled_frame(
+                    actors, conditions, fs[5], self._ftracks, normals, frame_fn, ex, ey, eyaw
+                )
         w, h = float(camera.width), float(camera.height)
         view = _VIEW_FN or _view_kernel()
         rain = conditions.rain_noise
