@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 from campaign_fakes import BACKEND, GENERATOR, STACK
-from cli_helpers import run_cli  # noqa: F401  (the campaign tests import it from here)
 
 from sitcov.campaign import CampaignConfig
 

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 import pytest
-from campaign_helpers import run_cli as sitcov
+from cli_helpers import run_cli as sitcov
 from test_failure_kinds import old_db  # noqa: F401 - the fixture
 
 from sitcov.campaign import CampaignConfig, open_store

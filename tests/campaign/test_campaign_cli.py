@@ -10,7 +10,7 @@ import xml.etree.ElementTree as ET
 
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK
-from campaign_helpers import run_cli as sitcov
+from cli_helpers import run_cli as sitcov
 from needs import need_module
 
 FAKE = ["--generator", GENERATOR, "--backend", BACKEND, "--av", STACK, "--executor", "serial"]

@@ -7,7 +7,7 @@ import sqlite3
 
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK
-from campaign_helpers import run_cli as sitcov
+from cli_helpers import run_cli as sitcov
 
 from sitcov.campaign._executors import TRACEBACK_CHARS, error_message
 

@@ -12,7 +12,7 @@ import shlex
 
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK
-from campaign_helpers import run_cli as sitcov
+from cli_helpers import run_cli as sitcov
 from needs import need_module
 from test_breakdown_map import derived_db  # noqa: F401 - the fixture
 from test_failure_kinds import judged_db  # noqa: F401 - the fixture

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from campaign_fakes import BACKEND, GENERATOR, STACK, fake_outcome
 from campaign_helpers import fake_config
-from campaign_helpers import run_cli as sitcov
+from cli_helpers import run_cli as sitcov
 from judge_fakes import DEPARTING, departing_outcome
 
 from sitcov._seeding import ask_rng, run_seed

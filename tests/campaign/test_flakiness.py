@@ -59,7 +59,7 @@ def test_cli_runs_needed_and_flakiness(tmp_path, capsys):
     import json
 
     from campaign_fakes import BACKEND, STACK
-    from campaign_helpers import run_cli
+    from cli_helpers import run_cli
 
     code, out, _ = run_cli(capsys, "runs-needed", "--margin", "0.05")
     assert code == 0 and out.startswith("381 runs per bin")

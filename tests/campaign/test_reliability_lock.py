@@ -12,7 +12,8 @@ import textwrap
 import time
 
 import pytest
-from campaign_helpers import db_rows, fake_config, run_cli, subprocess_env
+from campaign_helpers import db_rows, fake_config, subprocess_env
+from cli_helpers import run_cli
 from needs import not_on_this_machine
 from reliability_helpers import (
     LIVE,

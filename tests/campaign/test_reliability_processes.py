@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from campaign_fakes import fake_outcome
-from campaign_helpers import db_rows, fake_config, run_cli
+from campaign_helpers import db_rows, fake_config
+from cli_helpers import run_cli
 from needs import not_on_this_machine
 from reliability_fakes import hogs
 from reliability_helpers import (

@@ -12,7 +12,8 @@ import time
 
 import numpy as np
 import pytest
-from campaign_helpers import db_rows, fake_config, run_cli
+from campaign_helpers import db_rows, fake_config
+from cli_helpers import run_cli
 from needs import missing, not_on_this_machine
 from reliability_helpers import one_error_line, remount, tmpfs, write_config
 

@@ -8,7 +8,7 @@ import json
 import pytest
 from campaign_fakes import STACK
 from campaign_helpers import fake_config
-from campaign_helpers import run_cli as cli
+from cli_helpers import run_cli as cli
 from shrink_fakes import BACKEND
 
 from sitcov.campaign import open_store, run_campaign

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from campaign_helpers import run_cli as sitcov
+from cli_helpers import run_cli as sitcov
 from needs import need_module
 
 from sitcov.av import make_stack
