@@ -751,7 +751,13 @@ def experiment_agreement_cmd(
     summary_out: Optional[Path] = typer.Option(  # noqa: UP045
         None, "--summary", help="Summary JSON (default: the rows file with .summary.json)."
     ),
-    pairs: str = typer.Option("all", "--pairs", help="all, or a comma-separated subset."),
+    pairs: str = typer.Option(
+        "all",
+        "--pairs",
+        help="all (pem-camera, camera-camera, pem-pem, pem-camera-shared-seed), or a "
+        "comma-separated list of pairs, also camera-camera-shared-world and "
+        "pem-pem-shared-world (the world of run seed A, the perception of B).",
+    ),
     pem: Optional[Path] = typer.Option(None, "--pem", help="PEM file (default: shipped)."),  # noqa: UP045
     model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
     workers: int = typer.Option(1, "--workers", min=1, help="Processes for the runs."),

@@ -22,8 +22,24 @@ A *pair* compares the verdicts (``failed``) of two sides on the same situations:
 
 The first three are the like-for-like comparisons: each side of each pair sees the same
 situation and a run seed of its own, so "the PEM agrees with the camera as often as the
-camera agrees with itself" can be checked by comparing their agreements directly. The run
-seed drives wind direction and gusts, rain streaks and the PEM's noise.
+camera agrees with itself" can be checked by comparing their agreements directly.
+
+Where a side's own run-to-run disagreement comes from, two more pairs split (named
+explicitly; ``all`` is the four above). A third stream ``AB`` runs the *world* of run seed
+A with the *perception* of run seed B (``EmbeddedBackend.run(..., perception_seed=)``):
+
+- ``camera-camera-shared-world``: camera at A vs camera at AB;
+- ``pem-pem-shared-world``: PEM at A vs PEM at AB.
+
+What the run seed drives (embedded backend, ``carla`` physics profile): the world's draws
+are the wind's direction and gusts (no force in this profile, the rain's slant comes from
+the wind's strength, not its direction), each road user's body colour (drawn by the
+palette's shares unless the situation declares ``ov_color``) and a pedestrian's or
+cyclist's cruising speed; the perception's draws are the PEM's noise and, in camera mode,
+where the rain streaks lie in each frame (the renderer and the detector draw nothing else).
+The stack is given run seed A on both sides. The disagreement camera-camera-shared-world
+leaves is the perception's part of the ceiling; what camera-camera adds to it, the world's
+(roughly: the two parts need not add up exactly).
 
 Stacks. Every side runs one AV stack (``--stack``, repeatable; default the reference
 stack): the reference AEB, or any stack :func:`sitcov.av.make_stack` can name (e.g. the
@@ -56,13 +72,22 @@ from sitcov.sim import WORLD_MODEL_VERSION
 
 #: Seed-sequence stream of the second run seed (0 and 1 are ask and run, sitcov._seeding).
 _SECOND_RUN_STREAM = 2
-#: Pair name -> (side A, side B); a side is (perception, run-seed stream).
+#: Pair name -> (side A, side B); a side is (perception, run-seed stream). What ``all``
+#: means: the protocol's four pairs.
 PAIRS: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
     "pem-camera": (("camera", "A"), ("pem", "B")),
     "camera-camera": (("camera", "A"), ("camera", "B")),
     "pem-pem": (("pem", "A"), ("pem", "B")),
     "pem-camera-shared-seed": (("camera", "A"), ("pem", "A")),
 }
+#: The pairs that split a side's run-to-run disagreement into world and perception (stream
+#: ``AB``: the world of run seed A, the perception of run seed B); named explicitly.
+SPLIT_PAIRS: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
+    "camera-camera-shared-world": (("camera", "A"), ("camera", "AB")),
+    "pem-pem-shared-world": (("pem", "A"), ("pem", "AB")),
+}
+#: Every pair :func:`parse_pairs` accepts.
+ALL_PAIRS = {**PAIRS, **SPLIT_PAIRS}
 #: Columns of the rows file, one row per simulated run.
 ROW_FIELDS = (
     "seed",
@@ -96,14 +121,20 @@ def second_run_seed(seed: int, index: int) -> int:
 
 
 def stream_seed(stream: str, seed: int, index: int) -> int:
-    """The run seed of ``stream`` (``A`` = the campaign's ``run_seed``, ``B`` = the second)."""
+    """The run seed of ``stream`` (``A`` = the campaign's ``run_seed``, ``B`` = the second,
+    ``AB`` = A's: its world is A's; the ``run_seed`` its rows record)."""
     from sitcov._seeding import run_seed
 
-    if stream == "A":
+    if stream in ("A", "AB"):
         return run_seed(seed, index)
     if stream == "B":
         return second_run_seed(seed, index)
-    raise ConfigError(field="stream", value=stream, expected="A | B")
+    raise ConfigError(field="stream", value=stream, expected="A | B | AB")
+
+
+def perception_seed(stream: str, seed: int, index: int) -> int:
+    """The run seed whose perception draws ``stream`` uses (``AB``: B's; else its own)."""
+    return stream_seed("B" if stream == "AB" else stream, seed, index)
 
 
 @dataclass(frozen=True)
@@ -118,11 +149,12 @@ class Job:
 
 
 def parse_pairs(text: str) -> list[str]:
-    """Comma-separated pair names (``all`` = every pair), checked against :data:`PAIRS`."""
+    """Comma-separated pair names (``all`` = the four of :data:`PAIRS`), checked against
+    :data:`ALL_PAIRS`."""
     names = list(PAIRS) if text.strip() == "all" else [p.strip() for p in text.split(",")]
-    bad = [p for p in names if p not in PAIRS]
+    bad = [p for p in names if p not in ALL_PAIRS]
     if bad or not names:
-        expected = "all or a comma-separated subset of " + ", ".join(PAIRS)
+        expected = "all or a comma-separated subset of " + ", ".join(ALL_PAIRS)
         raise ConfigError(field="--pairs", value=text, expected=expected)
     return list(dict.fromkeys(names))
 
@@ -146,7 +178,7 @@ def plan_jobs(
 ) -> list[Job]:  # fmt: skip
     """Every simulation the pairs need, each once per stack; camera runs first (they are
     the slow ones)."""
-    sides = sorted({side for name in pairs for side in PAIRS[name]})
+    sides = sorted({side for name in pairs for side in ALL_PAIRS[name]})
     jobs = [
         Job(seed, index, perception, stream, stack)
         for stack in stacks
@@ -304,8 +336,12 @@ class SideRunner:
         backend, stack = self._side(job.perception, job.stack)
         situation = self.generator.ask(ask_rng(job.seed, job.index))
         seed = stream_seed(job.stream, job.seed, job.index)
+        sense = perception_seed(job.stream, job.seed, job.index)
         cpu, wall = time.process_time(), time.perf_counter()
-        outcome = backend.run(situation, stack, seed)
+        if sense == seed:
+            outcome = backend.run(situation, stack, seed)
+        else:
+            outcome = backend.run(situation, stack, seed, perception_seed=sense)
         cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
         return {
             **asdict(job),
@@ -479,7 +515,7 @@ def compare(rows: Sequence[Mapping[str, Any]], pair: str) -> dict[str, Any]:
     interval, each side's failures, failure rate and interval, the two kinds of
     disagreement and the situations left out because a side errored or timed out.
     """
-    (pa, sa), (pb, sb) = PAIRS[pair]
+    (pa, sa), (pb, sb) = ALL_PAIRS[pair]
     by_key = {(r["seed"], r["index"], r["perception"], r["stream"]): r for r in rows}
     keys = sorted({(r["seed"], r["index"]) for r in rows})
     n = agree = fail_a = fail_b = a_only = b_only = left_out = 0
@@ -669,7 +705,7 @@ def bin_differences(
     Only situations judged on both sides count; ``min_n`` is the smallest bin's size, which
     says how much of the difference sampling noise alone explains.
     """
-    (pa, sa), (pb, sb) = PAIRS[pair]
+    (pa, sa), (pb, sb) = ALL_PAIRS[pair]
     by_key = {(r["seed"], r["index"], r["perception"], r["stream"]): r for r in rows}
     counts: dict[str, dict[str, list[int]]] = {}  # element -> bin -> [n, fails a, fails b]
     for (seed, index), sit_bins in bins.items():
@@ -848,8 +884,11 @@ CONSTRUCTION = (
     "fault, embedded backend; run seed A = run_seed(s, i) (as sitcov run --generator random "
     "--seed s), run seed B = SeedSequence([2, s, i]) (a separate stream); pairs: pem-camera = "
     "camera@A vs pem@B, camera-camera = camera@A vs camera@B, pem-pem = pem@A vs pem@B, "
-    "pem-camera-shared-seed = camera@A vs pem@A; verdict = failed; runs that error or time "
-    "out are left out of their pairs; intervals are Wilson 95 %"
+    "pem-camera-shared-seed = camera@A vs pem@A; split pairs (named explicitly): stream AB = "
+    "the world of run seed A with the perception draws of run seed B, "
+    "camera-camera-shared-world = camera@A vs camera@AB, pem-pem-shared-world = pem@A vs "
+    "pem@AB; verdict = failed; runs that error or time out are left out of their pairs; "
+    "intervals are Wilson 95 %"
 )
 
 

@@ -332,9 +332,23 @@ class EmbeddedBackend(Backend):
     # --- the run ------------------------------------------------------------------------------
 
     def run(
-        self, situation: Situation, av_stack: AVStack, seed: int, *, record: bool = False
+        self,
+        situation: Situation,
+        av_stack: AVStack,
+        seed: int,
+        *,
+        record: bool = False,
+        perception_seed: int | None = None,
     ) -> Outcome:
-        """Simulate ``situation`` with ``av_stack`` driving the ego (deterministic per seed)."""
+        """Simulate ``situation`` with ``av_stack`` driving the ego (deterministic per seed).
+
+        ``perception_seed``: run the world of run seed ``seed`` (wind, the road users'
+        colours and drawn speeds, the seed the stack is given) with the perception of run
+        seed ``perception_seed`` (the PEM's noise, the camera frames' rain streaks, the
+        object lists' noise: :func:`perception_rng`). None or ``seed`` itself: the plain
+        run, bit for bit. The agreement experiment's shared-world pairs use it to split
+        run-to-run disagreement into a world part and a perception part.
+        """
         seed = int(seed)
         rng = np.random.default_rng(seed)
         values = situation.values
@@ -354,14 +368,20 @@ class EmbeddedBackend(Backend):
             0.5 * AIR_DENSITY * SIDE_FORCE_COEFF * SIDE_AREA / self.vehicle.mass,
             self.dt,
         )
-        driver = self._driver(situation, av_stack, ego, cond, rng, seed)
+        sense_rng, sense_seed = rng, seed  # the sensor continues the run's generator
+        if perception_seed is not None and int(perception_seed) != seed:
+            sense_seed = int(perception_seed)
+            sense_rng = perception_rng(sense_seed, n_max)
+        driver = self._driver(situation, av_stack, ego, cond, sense_rng, seed, sense_seed)
         world = World(ego, actors, driver, wind, cond.mu, self.dt)
         monitors = self._monitors(world)
         reason = world.end_reason = run_loop(world, monitors, n_max, record)
         return self._outcome(plan, world, monitors, cond, wind_direction, reason, record)
 
-    def _driver(self, situation, av_stack, ego, cond, rng, seed) -> EgoDriver:
-        """Reset the stack and the sensor for a run; the ego's controller."""
+    def _driver(self, situation, av_stack, ego, cond, rng, seed, sense_seed=None) -> EgoDriver:
+        """Reset the stack and the sensor for a run; the ego's controller. ``rng`` and
+        ``sense_seed`` (default ``seed``) feed the perception; the stack gets ``seed``."""
+        sense_seed = seed if sense_seed is None else sense_seed
         route = ego.route
         camera = av_stack.camera
         av_stack.reset(
@@ -387,7 +407,7 @@ class EmbeddedBackend(Backend):
             sensor,
             cond,
             rng,
-            seed,
+            sense_seed,
             round(self.perception_delay / self.dt),
             round(self.brake_delay / self.dt),
             gate_px,
@@ -493,6 +513,17 @@ class EmbeddedBackend(Backend):
             },
             actors={a.name: a.rows for a in world.actors},
         )
+
+
+def perception_rng(seed: int, n_max: int) -> np.random.Generator:
+    """The generator the sensor of run ``seed`` draws from: ``default_rng(seed)`` after the
+    world's draws of :meth:`EmbeddedBackend.run` (the wind direction, then ``n_max + 1``
+    gust normals), so a run given ``perception_seed=seed`` sees the same perception noise
+    as the plain run of ``seed`` would in the same frames."""
+    rng = np.random.default_rng(int(seed))
+    rng.uniform(-math.pi, math.pi)
+    rng.standard_normal(n_max + 1)
+    return rng
 
 
 def _object_noise(value: Any) -> Any:
