@@ -353,16 +353,14 @@ class EmbeddedBackend(Backend):
         rng = np.random.default_rng(seed)
         values = situation.values
         plan = parse_scene(values)
-        wind_direction = float(rng.uniform(-math.pi, math.pi))
+        n_max = int(math.ceil(self.sim_timeout / self.dt - 1e-9))
+        wind_direction, gusts = world_draws(rng, n_max)
         cond = conditions_from_values(values, wind_direction=wind_direction, profile=self.physics)
         ego, actors = build_actors(self.map, plan, values, seed, self.adversary)
-        n_max = int(math.ceil(self.sim_timeout / self.dt - 1e-9))
-        # wind: OU gusts on the mean speed, drawn up front so the stream order is fixed
-        # (carla profile: no wind force, the noise is drawn all the same: same streams)
         wind = Wind(
             cond.wind_speed if self.wind and self.physics == "physical" else 0.0,
             wind_direction,
-            rng.standard_normal(n_max + 1).tolist(),
+            gusts,
             GUST_INTENSITY,
             GUST_TIME,
             0.5 * AIR_DENSITY * SIDE_FORCE_COEFF * SIDE_AREA / self.vehicle.mass,
@@ -515,14 +513,20 @@ class EmbeddedBackend(Backend):
         )
 
 
+def world_draws(rng: np.random.Generator, n_max: int) -> tuple[float, list[float]]:
+    """The world's draws from a run's generator, in this order: the wind's direction
+    [rad] and the ``n_max + 1`` unit normals of its OU gusts (drawn up front so the
+    stream's order is fixed; in the ``carla`` profile the wind has no force, the normals
+    are drawn all the same). The sensor's draws follow them."""
+    return float(rng.uniform(-math.pi, math.pi)), rng.standard_normal(n_max + 1).tolist()
+
+
 def perception_rng(seed: int, n_max: int) -> np.random.Generator:
-    """The generator the sensor of run ``seed`` draws from: ``default_rng(seed)`` after the
-    world's draws of :meth:`EmbeddedBackend.run` (the wind direction, then ``n_max + 1``
-    gust normals), so a run given ``perception_seed=seed`` sees the same perception noise
-    as the plain run of ``seed`` would in the same frames."""
+    """The generator the sensor of run ``seed`` draws from: ``default_rng(seed)`` after
+    :func:`world_draws`, so a run given ``perception_seed=seed`` sees the same
+    perception noise as the plain run of ``seed`` would in the same frames."""
     rng = np.random.default_rng(int(seed))
-    rng.uniform(-math.pi, math.pi)
-    rng.standard_normal(n_max + 1)
+    world_draws(rng, n_max)
     return rng
 
 

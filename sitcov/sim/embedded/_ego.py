@@ -41,8 +41,10 @@ class EgoDriver:
         stack: the AV stack under test (already ``reset``).
         sensor: the PEM-mode sensor, or None in camera mode.
         conditions: the run's conditions (sensors read them).
-        rng: the run's generator (sensor noise draws).
-        seed: the run's seed (camera frames get their own generators).
+        rng: the run's generator (sensor noise draws); another run seed's with the
+            backend's ``perception_seed``.
+        seed: the seed of the perception's draws (camera frames and object lists get their
+            own generators from it): the run's, or the backend's ``perception_seed``.
         delay_p, delay_b: perception and brake delays in control periods.
         gate_px: camera mode: the true box width below which no frame is rendered.
         kind: what the stack observes: ``detections`` (the sensor), ``image``,
