@@ -550,14 +550,42 @@ def compare(rows: Sequence[Mapping[str, Any]], pair: str) -> dict[str, Any]:
     }
 
 
+def ceiling_split(rows: Sequence[Mapping[str, Any]], perception: str) -> dict[str, int]:
+    """Which draws decide a mode's run-to-run flips: situations judged at A, B and AB.
+
+    ``flips``: A and B disagree (the ceiling's flips); ``shared_world_flips``: A and AB
+    disagree (the perception's draws alone); of the ``flips``, ``world`` keep A's verdict
+    at AB (the world's draws decide them) and ``perception`` take B's (A's world with B's
+    perception gives B's verdict). ``world + perception == flips``.
+    """
+    by_key = {(r["seed"], r["index"], r["stream"]): r for r in rows
+              if r["perception"] == perception and r["status"] in _JUDGED}  # fmt: skip
+    out = dict(n=0, flips=0, shared_world_flips=0, world=0, perception=0)
+    for seed, index in sorted({(k[0], k[1]) for k in by_key}):
+        sides = [by_key.get((seed, index, s)) for s in ("A", "B", "AB")]
+        if any(r is None for r in sides):
+            continue
+        a, b, ab = (bool(r["failed"]) for r in sides)  # type: ignore[index]
+        out["n"] += 1
+        out["shared_world_flips"] += a != ab
+        if a != b:
+            out["flips"] += 1
+            out["world" if ab == a else "perception"] += 1
+    return out
+
+
 def summarise(
     rows: Sequence[Mapping[str, Any]], pairs: Sequence[str], seeds: Sequence[int]
 ) -> dict[str, Any]:
-    """Per pair: pooled over ``seeds`` and per seed; per perception: cost of a run."""
+    """Per pair: pooled over ``seeds`` and per seed; per perception: cost of a run and,
+    with its shared-world pair and its pair across run seeds, :func:`ceiling_split`."""
     result: dict[str, Any] = {"pairs": {}, "cost": {}}
     for pair in pairs:
         per_seed = {str(s): compare([r for r in rows if r["seed"] == s], pair) for s in seeds}
         result["pairs"][pair] = {"pooled": compare(rows, pair), "per_seed": per_seed}
+    for perception in ("camera", "pem"):
+        if {f"{perception}-{perception}", f"{perception}-{perception}-shared-world"} <= set(pairs):
+            result.setdefault("ceiling_split", {})[perception] = ceiling_split(rows, perception)
     for perception in ("camera", "pem"):
         mine = [r for r in rows if r["perception"] == perception]
         if mine:
@@ -998,6 +1026,13 @@ def _block_lines(summary: Mapping[str, Any]) -> list[str]:
             lines.append(
                 f"{pair}: largest per-bin failure-rate difference (smallest bin {low} runs): {text}"
             )
+    for perception, split in summary.get("ceiling_split", {}).items():
+        lines.append(
+            f"{perception}: of {split['flips']} flips across run seeds (n={split['n']}), "
+            f"{split['world']} keep A's verdict with B's perception (the world's draws decide "
+            f"them), {split['perception']} take B's; {split['shared_world_flips']} flips with "
+            "the world shared"
+        )
     for perception, cost in summary["cost"].items():
         lines.append(
             f"{perception} run: {cost['cpu_s_per_run']:.3f} CPU-s, {cost['wall_s_per_run']:.3f} s "

@@ -79,6 +79,45 @@ def test_shared_world_pair_disagrees_only_through_perception(tmp_path: Path) -> 
     row = summary["pairs"]["camera-camera"]["pooled"]
     assert abs((1 - row["agreement"]) - expected) < 0.05, row
     assert "camera-camera-shared-world" in "\n".join(ag.table_lines(summary))
+    # which draws decide the flips: world (A's verdict kept at AB) with probability
+    # P(Fa = Fb) P(Wa != Wb) = 0.745 * 0.48 = 0.358, perception 0.255 * 0.52 = 0.133
+    split = summary["ceiling_split"]["camera"]
+    assert split["world"] + split["perception"] == split["flips"] == 2000 - row["agree"]
+    shared = summary["pairs"]["camera-camera-shared-world"]["pooled"]
+    assert split["shared_world_flips"] == 2000 - shared["agree"] and split["n"] == 2000
+    assert (
+        abs(split["world"] / 2000 - 0.358) < 0.04 and abs(split["perception"] / 2000 - 0.133) < 0.03
+    )
+    assert "ceiling_split" not in ag.summarise(ag.read_rows(tmp_path / "rows.csv"), pairs[1:], [2])
+    assert "the world's draws decide them" in "\n".join(ag.table_lines(summary))
+
+
+#: docs/pem.md, "Where the ceiling comes from": (flips, shared-world flips, world,
+#: perception) per stack and mode, as the rows files give them.
+PUBLISHED = {
+    "agreement-ceiling-seed8-50.csv": {
+        ("reference", "camera"): (7, 3, 4, 3), ("reference", "pem"): (10, 6, 4, 6),
+        ("examples.aeb_stacks:ThreeFrames", "camera"): (13, 1, 12, 1),
+        ("examples.aeb_stacks:ThreeFrames", "pem"): (11, 8, 4, 7),
+    },
+    "agreement-ceiling-seed8-50-more.csv": {
+        ("examples.aeb_stacks:Threshold07", "camera"): (11, 5, 8, 3),
+        ("examples.aeb_stacks:Threshold07", "pem"): (9, 6, 4, 5),
+        ("examples.aeb_stacks:RightBlind", "camera"): (1, 1, 0, 1),
+        ("examples.aeb_stacks:RightBlind", "pem"): (6, 5, 1, 5),
+    },
+}  # fmt: skip
+
+
+def test_published_ceiling_split_is_what_the_rows_files_hold() -> None:
+    data = Path(__file__).resolve().parents[2] / "docs" / "data"
+    for name, expected in PUBLISHED.items():
+        rows = ag.read_rows(data / name)
+        for (stack, mode), (flips, shared, world, perception) in expected.items():
+            split = ag.ceiling_split([r for r in rows if r["stack"] == stack], mode)
+            want = {"n": 50, "flips": flips, "shared_world_flips": shared, "world": world,
+                    "perception": perception}  # fmt: skip
+            assert split == want, (name, stack, mode)
 
 
 def _with_colour(situation, colour: str):
