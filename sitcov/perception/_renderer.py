@@ -141,6 +141,13 @@ def _weather(conditions: Conditions | None) -> dict[str, float]:
     }
 
 
+def frame_draws(conditions: Conditions | None) -> bool:
+    """Whether :func:`render_frame` draws from its ``rng`` in these conditions (rain
+    streaks). If not, a frame is a function of the camera, the ego's pose, the road
+    users' views, the conditions and the map alone: the same inputs give the same pixels."""
+    return _weather(conditions)["rain"] > 0
+
+
 def _sky_colors(w: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     cloud = w["cloud"]
     zen = SKY_ZENITH * (1 - cloud) + OVERCAST * 0.85 * cloud
@@ -508,8 +515,11 @@ def actors_in_view(
     actors: Sequence[ActorView],
     min_px: float = MIN_VISIBLE_PX,
     min_sizes: Mapping[str, tuple[float, float]] | None = None,
+    window: tuple[float, float] | None = None,
+    spread: float = 0.5,
 ) -> bool:
-    """Whether any actor's box is big enough in the image to matter to the stack.
+    """Whether any actor's box is big enough in the image, and near enough to where the
+    stack looks, to matter to the stack.
 
     Camera-mode backends use this to skip rendering and detection of frames that can hold
     no relevant road user (the stack then gets an empty detection list), which roughly
@@ -524,6 +534,13 @@ def actors_in_view(
             missing here counts at :data:`MIN_VISIBLE_PX` (any visible pedestrian or
             cyclist is rendered, so a car-width gate never hides a person). An entry for
             ``car`` overrides ``min_px``.
+        window: the open interval (lo, hi) [px] of box centres the stack acts on (its
+            ``centre_window`` times the image width); None = anywhere. An actor counts
+            only if a detection of it could have its centre inside: its clipped true box,
+            widened by ``spread`` times its width on each side, overlaps the window.
+        spread: how far outside an actor's true box a detection's centre may lie, as a
+            fraction of the box width (the backend passes ``(1 / frame_gate - 1) / 2``:
+            0.5 for a detection up to twice as wide as the true box).
     """
     sizes = min_sizes or {}
     for actor in actors:
@@ -533,8 +550,13 @@ def actors_in_view(
         label = KIND_CLASS.get(actor.kind, "car")
         default = min_px if actor.kind in VEHICLE_KINDS else MIN_VISIBLE_PX
         min_w, min_h = sizes.get(label, (default, 0.0))
-        if proj.width >= max(min_w, MIN_VISIBLE_PX) and proj.height >= min_h:
-            return True
+        width = proj.width
+        if width >= max(min_w, MIN_VISIBLE_PX) and proj.height >= min_h:
+            if window is None:
+                return True
+            x0, x1 = proj.box[0] - spread * width, proj.box[2] + spread * width
+            if x0 < window[1] and x1 > window[0]:
+                return True
     return False
 
 

@@ -215,6 +215,7 @@ class EmbeddedBackend(Backend):
         self._render_frame: Any = None
         self._geometry: dict[str, Any] | None = None
         self._min_sizes: dict[str, tuple[float, float]] = {}  # per class, this run's gate
+        self._window: tuple[float, float] | None = None  # this run's centre window [px]
         self.object_noise = _object_noise(object_noise)
         #: Camera mode, stacks that want detections: ``image -> detections`` (default: the
         #: SSD detector at its output floor, made at first use).
@@ -317,12 +318,41 @@ class EmbeddedBackend(Backend):
             for label, (w, h) in sizes.items()
         }
 
+    def _gate_window(self, stack: AVStack, camera: CameraSpec) -> tuple[float, float] | None:
+        """The stack's ``centre_window`` in pixels (None: it looks at the whole width, or
+        frames are not skipped)."""
+        if not self.skip_empty_frames:
+            return None
+        lo, hi = (float(v) for v in getattr(stack, "centre_window", (0.0, 1.0)))
+        if lo <= 0.0 and hi >= 1.0:
+            return None
+        return lo * camera.width, hi * camera.width
+
+    def _gate_spread(self) -> float:
+        """How far outside an actor's true box a detection's centre may lie, as a fraction
+        of the box width: a detection up to ``1 / frame_gate`` times as wide as the true
+        box, overlapping it (``frame_gate`` 0: anywhere)."""
+        return math.inf if self.frame_gate <= 0.0 else 0.5 * (1.0 / self.frame_gate - 1.0)
+
     def _needs_frame(self, camera, pose, actors, min_px: float) -> bool:
         if min_px <= 0.0:
             return True
         from sitcov.perception._renderer import actors_in_view
 
-        return actors_in_view(camera, pose, actors, min_px, self._min_sizes)
+        window = self._window
+        if window is None:
+            return actors_in_view(camera, pose, actors, min_px, self._min_sizes)
+        return actors_in_view(
+            camera, pose, actors, min_px, self._min_sizes, window, self._gate_spread()
+        )
+
+    def _frames_repeat(self, conditions: Any) -> bool:
+        """Whether a camera frame is fully determined by the poses and views it shows in
+        these conditions (the renderer draws nothing at random: no rain), so a frame
+        whose inputs equal the previous frame's is that frame again, to the bit."""
+        from sitcov.perception._renderer import frame_draws
+
+        return not frame_draws(conditions)
 
     def _map_ref(self) -> str:
         """The map's name if it is built in (portable across machines), else its file."""
@@ -381,6 +411,7 @@ class EmbeddedBackend(Backend):
             sensor.reset(frame_dt=self.sensor_every * self.dt)  # per-run noise state (PEM)
         gate_px = self._gate_px(av_stack, camera) if kind in ("image", "camera-detections") else 0.0
         self._min_sizes = self._gate_sizes(av_stack, camera)
+        self._window = self._gate_window(av_stack, camera)
         return EgoDriver(
             self,
             av_stack,

@@ -73,6 +73,10 @@ class EgoDriver:
         self.latched = False  # the AEB latched: no more frames or detections
         self.kind = kind
         self.camera_mode = kind in ("image", "camera-detections")
+        # camera mode: (pose, actor views, image or detections) of the last rendered frame
+        # while frames repeat (see _perceive), and whether they do in this run's weather
+        self._last_frame: tuple[Any, Any, Any] | None = None
+        self._frames_repeat: bool | None = None
         self.objects_rng = (
             np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(OBJECTS_KEY,)))
             if kind == "objects" and backend.object_noise is not None
@@ -146,11 +150,26 @@ class EgoDriver:
             return (), None  # camera mode, no road user in view (see _needs_frame)
         if backend.frame_observer is not None:
             backend.frame_observer(self.camera, pose, actors, self.cond)
+        last = self._last_frame
+        if last is not None and last[0] == pose and last[1] == actors:
+            # nothing moved since the last rendered frame and the renderer draws nothing
+            # at random: the same pixels, so the same detections (a stopped ego holding
+            # for a stopped road user renders and detects nothing new)
+            if self.kind == "camera-detections":
+                return last[2], None
+            return None, last[2].copy()
         # one generator per frame: which frames are rendered changes no other draw
         frame_rng = np.random.default_rng([self.seed, k])
         image = backend._frame(self.camera, pose, actors, self.cond, frame_rng)
+        if self._frames_repeat is None:
+            self._frames_repeat = backend._frames_repeat(self.cond)
         if self.kind == "camera-detections":
-            return backend._detect(image), None
+            detections = backend._detect(image)
+            if self._frames_repeat:
+                self._last_frame = (pose, actors, detections)
+            return detections, None
+        if self._frames_repeat:  # kept unchanged: the stack may write into its copy
+            self._last_frame = (pose, actors, image.copy())
         return None, image
 
     def command(self, world: Any, k: int, t: float) -> tuple[float, float, float]:
