@@ -182,16 +182,7 @@ def render_frame(
     """
     w = _weather(conditions)
     zen, hor = _sky_colors(w)
-    # Sky and ground at half resolution (they are smooth), upscaled; vehicles at full.
-    small = replace(camera, width=max(2, camera.width // 2), height=max(2, camera.height // 2))
-    img = _background(small, ego_pose, w, zen, hor, ground_texture(road_geometry))
-    gain, offset = _light(img, w)
-    expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
-    tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
-    gain, offset = gain * expo * tint, offset * expo * tint
-    pil = Image.fromarray(_expose(img, gain, offset)).resize(
-        (camera.width, camera.height), Image.BILINEAR
-    )
+    pil, gain, offset = _exposed_background(camera, ego_pose, w, zen, hor, road_geometry)
     # --- road users, far to near ---
     colors = list(body_colors) if body_colors is not None else []
     order = sorted(
@@ -224,6 +215,45 @@ def render_frame(
     if w["rain"] > 0:
         pil = _rain(pil, w, rng)
     return np.asarray(pil, dtype=np.uint8)
+
+
+#: The last frame's exposed background, ``(key, texture, image, gain, offset)``: a camera
+#: that has not moved (a stopped ego) sees the same ground and sky, so a run's frames
+#: while it stands reuse it (a copy: road users are drawn into it).
+_LAST_BACKGROUND: list[Any] = [None]
+
+
+def _exposed_background(
+    camera: CameraSpec,
+    ego_pose: Pose,
+    w: dict[str, float],
+    zen: np.ndarray,
+    hor: np.ndarray,
+    road_geometry: Mapping[str, Any] | None,
+) -> tuple[Image.Image, np.ndarray, np.ndarray]:
+    """Sky and ground lit, exposed and upscaled to the camera (a new image the caller may
+    draw into), and the light map's gain and offset the road users are lit with.
+
+    The exposure is metered on the background alone, so it is a function of the camera,
+    the ego's pose, the weather and the map: the same inputs as the last frame's give the
+    last frame's result (reused, the same bits)."""
+    tex = ground_texture(road_geometry)
+    key = (camera, ego_pose.x, ego_pose.y, ego_pose.yaw, tuple(w.items()))
+    last = _LAST_BACKGROUND[0]
+    if last is not None and last[1] is tex and last[0] == key:
+        return last[2].copy(), last[3], last[4]
+    # Sky and ground at half resolution (they are smooth), upscaled; vehicles at full.
+    small = replace(camera, width=max(2, camera.width // 2), height=max(2, camera.height // 2))
+    img = _background(small, ego_pose, w, zen, hor, tex)
+    gain, offset = _light(img, w)
+    expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
+    tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
+    gain, offset = gain * expo * tint, offset * expo * tint
+    pil = Image.fromarray(_expose(img, gain, offset)).resize(
+        (camera.width, camera.height), Image.BILINEAR
+    )
+    _LAST_BACKGROUND[0] = (key, tex, pil, gain, offset)
+    return pil.copy(), gain, offset
 
 
 def _expose(img: np.ndarray, gain: np.ndarray, offset: np.ndarray) -> np.ndarray:
