@@ -213,3 +213,24 @@ def test_detector_gives_the_same_detections_for_the_same_pixels(ssd_detector, mo
     ssd_detector(changed)
     assert len(calls) == 2
     assert inner(img) == first  # the network itself is deterministic
+
+
+def test_the_verdict_check_reruns_the_stored_rows_it_names() -> None:
+    """``benchmarks/bench_camera_gate_verdicts.py`` picks, per stack, the first situations
+    of one stream of the stored camera rows, with the run seeds the experiment used."""
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    sys.path.insert(0, str(root / "tests"))
+    try:
+        from benchmark_modules import load_benchmark
+    finally:
+        sys.path.remove(str(root / "tests"))
+    from sitcov.campaign._agreement import read_rows, stream_seed
+
+    bench = load_benchmark("bench_camera_gate_verdicts")
+    rows = bench.select(read_rows(root / bench.ROWS), 3, "A", None)
+    assert len(rows) == 12 and {r["stream"] for r in rows} == {"A"}
+    assert len({r["stack"] for r in rows}) == 4
+    assert all(r["index"] < 3 and r["run_seed"] == stream_seed("A", 8, r["index"]) for r in rows)
