@@ -4,11 +4,12 @@ Usage (from the repository root, so ``examples`` imports)::
 
     PYTHONPATH=. python benchmarks/bench_camera_gate_verdicts.py \\
         [--rows docs/data/agreement-stacks-seed8-100-camera.csv] [--situations 25] \\
-        [--stream A] [--stacks NAME,...] [--out rows.json] [--compare other.json]
+        [--skip 0] [--stream A] [--stacks NAME,...] [--out rows.json] [--compare other.json]
 
 Takes the rows file of ``sitcov experiment agreement`` (camera rows: the four example
 stacks x 100 situations of seed 8 x run-seed streams A and B, world model 4), and
-re-simulates the first ``--situations`` situations of each stack on one stream, as the
+re-simulates ``--situations`` situations of each stack on one stream (the first ones
+after skipping ``--skip``), as the
 experiment built them (``sitcov.campaign._agreement``: the random generator's
 ``ask_rng(seed, index)`` situation, the stream's run seed, the stack by its name, the SSD
 detector). For each run it prints whether the verdict (``failed``), the status and the AEB
@@ -35,14 +36,24 @@ from typing import Any
 ROWS = Path("docs/data/agreement-stacks-seed8-100-camera.csv")
 
 
-def select(rows: list[dict[str, Any]], situations: int, stream: str, stacks: list[str] | None):
-    """The stored camera rows to re-simulate: per stack, its first situations on a stream."""
+def select(
+    rows: list[dict[str, Any]],
+    situations: int,
+    stream: str,
+    stacks: list[str] | None,
+    skip: int = 0,
+) -> list[dict[str, Any]]:
+    """The stored camera rows to re-simulate: per stack, ``situations`` situations on a
+    stream, the first ones after skipping ``skip``."""
     out = []
     seen: Counter[str] = Counter()
     for row in sorted(rows, key=lambda r: (r["stack"], r["seed"], r["index"])):
         if row["perception"] != "camera" or row["stream"] != stream:
             continue
         if stacks and row["stack"] not in stacks:
+            continue
+        seen[row["stack"], "all"] += 1
+        if seen[row["stack"], "all"] <= skip:
             continue
         if seen[row["stack"]] < situations:
             seen[row["stack"]] += 1
@@ -112,13 +123,14 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", type=Path, default=ROWS)
     parser.add_argument("--situations", type=int, default=25)
+    parser.add_argument("--skip", type=int, default=0)
     parser.add_argument("--stream", default="A", choices=("A", "B"))
     parser.add_argument("--stacks", default=None, help="comma-separated stack names")
     parser.add_argument("--out", type=Path, default=None)
     parser.add_argument("--compare", type=Path, default=None)
     args = parser.parse_args()
     stacks = args.stacks.split(",") if args.stacks else None
-    rows = select(read_rows(args.rows), args.situations, args.stream, stacks)
+    rows = select(read_rows(args.rows), args.situations, args.stream, stacks, args.skip)
     results = simulate(rows)
     other = json.loads(args.compare.read_text()) if args.compare else None
     bad = 0

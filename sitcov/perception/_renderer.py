@@ -570,7 +570,8 @@ def actors_in_view(
             widened by ``spread`` times its width on each side, overlaps the window.
         spread: how far outside an actor's true box a detection's centre may lie, as a
             fraction of the box width (the backend passes ``(1 / frame_gate - 1) / 2``:
-            0.5 for a detection up to twice as wide as the true box).
+            a detection up to ``1 / frame_gate`` times as wide as the true box that
+            covers its centre).
     """
     sizes = min_sizes or {}
     for actor in actors:

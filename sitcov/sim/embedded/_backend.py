@@ -341,7 +341,7 @@ class EmbeddedBackend(Backend):
     def _gate_spread(self) -> float:
         """How far outside an actor's true box a detection's centre may lie, as a fraction
         of the box width: a detection up to ``1 / frame_gate`` times as wide as the true
-        box, overlapping it (``frame_gate`` 0: anywhere)."""
+        box that covers the true box's centre (``frame_gate`` 0: anywhere)."""
         return math.inf if self.frame_gate <= 0.0 else 0.5 * (1.0 / self.frame_gate - 1.0)
 
     def _needs_frame(self, camera, pose, actors, min_px: float) -> bool:
