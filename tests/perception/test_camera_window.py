@@ -234,3 +234,37 @@ def test_the_verdict_check_reruns_the_stored_rows_it_names() -> None:
     assert len(rows) == 12 and {r["stream"] for r in rows} == {"A"}
     assert len({r["stack"] for r in rows}) == 4
     assert all(r["index"] < 3 and r["run_seed"] == stream_seed("A", 8, r["index"]) for r in rows)
+
+
+def test_the_default_gate_covers_the_detectors_box_error(ssd_detector, tjunction_geometry):
+    """The margin ``frame_gate`` stands for, checked on the real detector: over cars seen
+    from the rear, the side and at an angle, 6-20 m ahead and off to either side, every
+    detection that passes the score test and overlaps the car's true box is at most
+    ``1 / FRAME_GATE`` times as wide (a car is gated on its width), and centred inside
+    the true box."""
+    from sitcov.perception import render_frame
+    from sitcov.perception._nms import iou
+    from sitcov.sim.embedded._backend import FRAME_GATE
+
+    geometry, ego = tjunction_geometry
+    c, s = math.cos(ego.yaw), math.sin(ego.yaw)
+    checked, worst = 0, 0.0
+    for fwd in (6.0, 9.0, 13.0, 20.0):
+        for left in (-3.0, 0.0, 3.0):
+            for yaw in (0.0, 0.8, 1.57):
+                x = ego.x + (CAMERA.mount_x + fwd) * c - left * s
+                y = ego.y + (CAMERA.mount_x + fwd) * s + left * c
+                car = ActorView(Pose(x, y, ego.yaw + yaw), 4.5, 1.9, 1.5)
+                img = render_frame(CAMERA, ego, (car,), None, geometry, np.random.default_rng(0))
+                true = project_box(CAMERA, ego, car).box
+                w = true[2] - true[0]
+                for d in ssd_detector(img):
+                    if d.label != "car" or d.score < 0.5:
+                        continue
+                    if iou(np.array(true), np.array([d.box]))[0] <= 0.3:
+                        continue
+                    checked += 1
+                    worst = max(worst, (d.box[2] - d.box[0]) / w)
+                    assert true[0] <= 0.5 * (d.box[0] + d.box[2]) <= true[2], (fwd, left, yaw)
+    assert checked >= 10
+    assert worst <= 1.0 / FRAME_GATE, worst
