@@ -69,10 +69,20 @@ class RightBlind(ReferenceStack):
     where those decisive boxes are: 88/103 vs 40/105. (PEM runs of situations 0-299 of
     seed 8: ``python benchmarks/bench_blind_side.py --seed 8 --situations 300``;
     docs/pem.md, "Agreement across stacks".)
+
+    It declares what it looks at (``centre_window``: its centering interval cut at
+    ``blind_from``), so camera mode does not render frames in which no road user comes
+    near the left part of its image (docs/camera.md, frame skipping).
     """
 
     name: ClassVar[str] = "right-blind"
     blind_from: ClassVar[float] = 0.4
+
+    def __init__(self, fault: str | None = None, params: Mapping[str, Any] | None = None) -> None:
+        super().__init__(fault=fault, params=params)
+        # declared for camera mode's frame gate: what it drops never reaches its AEB
+        lo, hi = self.centre_window
+        self.centre_window = (lo, min(hi, self.blind_from))
 
     def _perceive(self, detections: Sequence[Detection] | None, image: Any) -> bool:
         if detections is None:

@@ -137,6 +137,13 @@ class AVStack(abc.ABC):
     #: A camera-mode backend may skip frames in which no actor of a listed class comes near
     #: its size (unlisted vehicles: ``min_box_width``; unlisted others: any visible box).
     min_box_sizes: Mapping[str, tuple[float, float]] = MappingProxyType({})
+    #: The horizontal region the stack looks at: the open interval (lo, hi), as fractions
+    #: of the image width, outside which it ignores every detection's box centre (the
+    #: reference AEB's ``centering``); (0, 1) = anywhere. A camera-mode backend may skip
+    #: frames in which no actor's true box comes near that interval (docs/camera.md,
+    #: frame gating); a stack that declares it promises detections centred outside it
+    #: never change its control.
+    centre_window: tuple[float, float] = (0.0, 1.0)
 
     @abc.abstractmethod
     def reset(self, info: RunInfo) -> None:

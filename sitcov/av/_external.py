@@ -377,6 +377,7 @@ class ExternalProcessStack(AVStack):
             self.peer = proto.parse_hello(self._receive(self.start_timeout, "hello"), who=self.who)
             self.min_box_width = self.peer.get("min_box_width", 0.0)
             self.min_box_sizes = self.peer.get("min_box_sizes", {})
+            self.centre_window = self.peer.get("centre_window", (0.0, 1.0))
         except StackError:
             self._kill()
             raise

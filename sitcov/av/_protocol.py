@@ -73,7 +73,8 @@ def hello(*, step_timeout: float, grey_box: bool, version: str) -> dict[str, Any
 
 def parse_hello(message: dict[str, Any], *, who: str) -> dict[str, Any]:
     """Validate the stack's hello; returns ``{"name", "wants", "image_transport"}`` and,
-    if the stack declared them, ``"min_box_width"`` and ``"min_box_sizes"`` (per class)."""
+    if the stack declared them, ``"min_box_width"``, ``"min_box_sizes"`` (per class) and
+    ``"centre_window"``."""
     expect(message, "hello", who=who)
     version = message.get("protocol")
     if version != PROTOCOL_VERSION:
@@ -102,7 +103,20 @@ def parse_hello(message: dict[str, Any], *, who: str) -> dict[str, Any]:
         peer["min_box_width"] = float(width)
     if "min_box_sizes" in message:
         peer["min_box_sizes"] = _min_box_sizes(message["min_box_sizes"], who)
+    if "centre_window" in message:
+        peer["centre_window"] = _centre_window(message["centre_window"], who)
     return peer
+
+
+def _centre_window(value: Any, who: str) -> tuple[float, float]:
+    """The hello's ``centre_window``: [lo, hi], fractions of the image width, lo < hi."""
+    ok = isinstance(value, list) and len(value) == 2 and all(_fraction(v) for v in value)
+    if ok and value[0] < value[1]:
+        return float(value[0]), float(value[1])
+    raise StackError(
+        f"{who}: hello field 'centre_window' must be [lo, hi] with 0 <= lo < hi <= 1 "
+        f"(fractions of the image width), got {value!r}"
+    )
 
 
 def _min_box_sizes(sizes: Any, who: str) -> dict[str, tuple[float, float]]:

@@ -82,6 +82,8 @@ class ReferenceStack(AVStack):
         self.min_box_sizes = (
             aeb_min_box_sizes(self._distance, self._classes, self.camera) if self.aeb else {}
         )
+        # the centering test: a detection centred outside it never fires the AEB
+        self.centre_window = (float(self._centering[0]), float(self._centering[1]))
         self._route: tuple[tuple[float, float], ...] = ()
         self._dt = 0.05
         self._reset_state()

@@ -105,6 +105,9 @@ def _clocked_stack(detector: Any) -> Any:
 
 #: Camera frame period of the recorded runs [s] (the embedded backend's 10 Hz).
 FRAME_PERIOD = 0.1
+#: The frame gate of the recorded runs (``EmbeddedBackend``'s ``frame_gate`` when the
+#: stored frame files were recorded; camera campaigns now skip more frames by default).
+RECORD_FRAME_GATE = 0.5
 
 
 class _Recorder:
@@ -122,10 +125,13 @@ class _Recorder:
         from sitcov.sim.embedded import EmbeddedBackend
 
         self.detector = SSDDetector(model, min_score=RECORD_MIN_SCORE)
-        self.backend = EmbeddedBackend(perception="camera")
+        # the frames recorded since the PEM's calibration: every frame with a box at least
+        # half the stack's smallest, across the whole image (the campaign's gate skips more)
+        self.backend = EmbeddedBackend(perception="camera", frame_gate=RECORD_FRAME_GATE)
         self.backend.frame_observer = self._observe
         self.observe = bool(observe)
         self.stack = _clocked_stack(self._detect)
+        self.stack.centre_window = (0.0, 1.0)
         self.generator = make_generator("random", load_hyperspace())
         self.sensor = PEMSensor()
         self._truth: tuple[Any, ...] = ()

@@ -141,6 +141,13 @@ def _weather(conditions: Conditions | None) -> dict[str, float]:
     }
 
 
+def frame_draws(conditions: Conditions | None) -> bool:
+    """Whether :func:`render_frame` draws from its ``rng`` in these conditions (rain
+    streaks). If not, a frame is a function of the camera, the ego's pose, the road
+    users' views, the conditions and the map alone: the same inputs give the same pixels."""
+    return _weather(conditions)["rain"] > 0
+
+
 def _sky_colors(w: dict[str, float]) -> tuple[np.ndarray, np.ndarray]:
     cloud = w["cloud"]
     zen = SKY_ZENITH * (1 - cloud) + OVERCAST * 0.85 * cloud
@@ -175,16 +182,7 @@ def render_frame(
     """
     w = _weather(conditions)
     zen, hor = _sky_colors(w)
-    # Sky and ground at half resolution (they are smooth), upscaled; vehicles at full.
-    small = replace(camera, width=max(2, camera.width // 2), height=max(2, camera.height // 2))
-    img = _background(small, ego_pose, w, zen, hor, ground_texture(road_geometry))
-    gain, offset = _light(img, w)
-    expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
-    tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
-    gain, offset = gain * expo * tint, offset * expo * tint
-    pil = Image.fromarray(_expose(img, gain, offset)).resize(
-        (camera.width, camera.height), Image.BILINEAR
-    )
+    pil, gain, offset = _exposed_background(camera, ego_pose, w, zen, hor, road_geometry)
     # --- road users, far to near ---
     colors = list(body_colors) if body_colors is not None else []
     order = sorted(
@@ -217,6 +215,45 @@ def render_frame(
     if w["rain"] > 0:
         pil = _rain(pil, w, rng)
     return np.asarray(pil, dtype=np.uint8)
+
+
+#: The last frame's exposed background, ``(key, texture, image, gain, offset)``: a camera
+#: that has not moved (a stopped ego) sees the same ground and sky, so a run's frames
+#: while it stands reuse it (a copy: road users are drawn into it).
+_LAST_BACKGROUND: list[Any] = [None]
+
+
+def _exposed_background(
+    camera: CameraSpec,
+    ego_pose: Pose,
+    w: dict[str, float],
+    zen: np.ndarray,
+    hor: np.ndarray,
+    road_geometry: Mapping[str, Any] | None,
+) -> tuple[Image.Image, np.ndarray, np.ndarray]:
+    """Sky and ground lit, exposed and upscaled to the camera (a new image the caller may
+    draw into), and the light map's gain and offset the road users are lit with.
+
+    The exposure is metered on the background alone, so it is a function of the camera,
+    the ego's pose, the weather and the map: the same inputs as the last frame's give the
+    last frame's result (reused, the same bits)."""
+    tex = ground_texture(road_geometry)
+    key = (camera, ego_pose.x, ego_pose.y, ego_pose.yaw, tuple(w.items()))
+    last = _LAST_BACKGROUND[0]
+    if last is not None and last[1] is tex and last[0] == key:
+        return last[2].copy(), last[3], last[4]
+    # Sky and ground at half resolution (they are smooth), upscaled; vehicles at full.
+    small = replace(camera, width=max(2, camera.width // 2), height=max(2, camera.height // 2))
+    img = _background(small, ego_pose, w, zen, hor, tex)
+    gain, offset = _light(img, w)
+    expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
+    tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
+    gain, offset = gain * expo * tint, offset * expo * tint
+    pil = Image.fromarray(_expose(img, gain, offset)).resize(
+        (camera.width, camera.height), Image.BILINEAR
+    )
+    _LAST_BACKGROUND[0] = (key, tex, pil, gain, offset)
+    return pil.copy(), gain, offset
 
 
 def _expose(img: np.ndarray, gain: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -508,8 +545,11 @@ def actors_in_view(
     actors: Sequence[ActorView],
     min_px: float = MIN_VISIBLE_PX,
     min_sizes: Mapping[str, tuple[float, float]] | None = None,
+    window: tuple[float, float] | None = None,
+    spread: float = 0.5,
 ) -> bool:
-    """Whether any actor's box is big enough in the image to matter to the stack.
+    """Whether any actor's box is big enough in the image, and near enough to where the
+    stack looks, to matter to the stack.
 
     Camera-mode backends use this to skip rendering and detection of frames that can hold
     no relevant road user (the stack then gets an empty detection list), which roughly
@@ -524,6 +564,14 @@ def actors_in_view(
             missing here counts at :data:`MIN_VISIBLE_PX` (any visible pedestrian or
             cyclist is rendered, so a car-width gate never hides a person). An entry for
             ``car`` overrides ``min_px``.
+        window: the open interval (lo, hi) [px] of box centres the stack acts on (its
+            ``centre_window`` times the image width); None = anywhere. An actor counts
+            only if a detection of it could have its centre inside: its clipped true box,
+            widened by ``spread`` times its width on each side, overlaps the window.
+        spread: how far outside an actor's true box a detection's centre may lie, as a
+            fraction of the box width (the backend passes ``(1 / frame_gate - 1) / 2``:
+            a detection up to ``1 / frame_gate`` times as wide as the true box that
+            covers its centre).
     """
     sizes = min_sizes or {}
     for actor in actors:
@@ -533,8 +581,13 @@ def actors_in_view(
         label = KIND_CLASS.get(actor.kind, "car")
         default = min_px if actor.kind in VEHICLE_KINDS else MIN_VISIBLE_PX
         min_w, min_h = sizes.get(label, (default, 0.0))
-        if proj.width >= max(min_w, MIN_VISIBLE_PX) and proj.height >= min_h:
-            return True
+        width = proj.width
+        if width >= max(min_w, MIN_VISIBLE_PX) and proj.height >= min_h:
+            if window is None:
+                return True
+            x0, x1 = proj.box[0] - spread * width, proj.box[2] + spread * width
+            if x0 < window[1] and x1 > window[0]:
+                return True
     return False
 
 

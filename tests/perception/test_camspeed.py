@@ -47,6 +47,28 @@ def test_cached_weather_layers_do_not_leak_between_weathers(tjunction_geometry) 
     assert np.abs(wet_first.astype(int) - clear_fresh.astype(int)).mean() > 5.0
 
 
+def test_a_camera_that_has_not_moved_reuses_its_background(tjunction_geometry) -> None:
+    """A stopped ego's frames reuse the last exposed background: the same pixels as a
+    fresh render, whatever the road users do, and the kept background stays clean."""
+    geometry, ego = tjunction_geometry
+    cond = conditions_from_values(WET_FOG)
+    moved = _scene(Pose(ego.x, ego.y + 0.7, ego.yaw))
+
+    def frame(actors, pose=ego) -> np.ndarray:
+        return render_frame(CAM, pose, actors, cond, geometry, np.random.default_rng(5))
+
+    R._LAST_BACKGROUND[0] = None
+    first, second, empty = frame(_scene(ego)), frame(moved), frame(())
+    assert R._LAST_BACKGROUND[0] is not None
+    for actors, reused in ((_scene(ego), first), (moved, second), ((), empty)):
+        R._LAST_BACKGROUND[0] = None
+        assert np.array_equal(frame(actors), reused)
+    other = Pose(ego.x + 0.5, ego.y, ego.yaw)
+    assert not np.array_equal(frame((), other), empty)  # the ego moved: a new background
+    R._LAST_BACKGROUND[0] = None
+    assert np.array_equal(frame((), other), frame((), other))
+
+
 def test_background_layers_match_the_per_frame_formulas(tjunction_geometry) -> None:
     """Fog and haze from the cached layers equal Beer-Lambert computed on the frame."""
     geometry, ego = tjunction_geometry

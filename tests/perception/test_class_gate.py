@@ -99,6 +99,7 @@ def _rendered_heights(gate: float, kind: str, situations: int = 4) -> list[float
     backend._render_frame = render  # test hook: the renderer the backend loads lazily
     gen = make_generator("random", class_hyperspace(kind))
     blind = ReferenceStack(detector=lambda image: ())  # never brakes: every frame is asked for
+    blind.centre_window = (0.0, 1.0)  # the size gate alone (the window: test_camera_window.py)
     for i in range(situations):
         backend.run(gen.ask(np.random.default_rng(i)), blind, i)
     assert len(rendered) == len(heights)  # the observer sees exactly the frames drawn

@@ -4,8 +4,9 @@
 sensor rate it makes the observation the stack wants (``EmbeddedBackend.observation_kind``):
 detections from the sensor (PEM mode: ``Sensor.detect`` with an ``ActorView`` per actor,
 ``kind`` set, or for the built-in PEM the same through ``PEMSensor.detect_prepared``), a
-rendered frame (camera mode), the real detector's detections on that frame (camera mode,
-a stack that wants detections) or an object list (either mode), delays frames by
+rendered frame (camera mode; one that repeats the last rendered frame is handed again, not
+rendered), the real detector's detections on that frame (camera mode, a stack that wants
+detections) or an object list (either mode), delays frames by
 the perception delay, asks the stack for a ``Control``, notes when its AEB fired (if it
 latched, perception stops from then on: the stack ignores it; an AEB that releases keeps
 receiving frames), and delays the brake command by the
@@ -75,6 +76,10 @@ class EgoDriver:
         self.latched = False  # the AEB latched: no more frames or detections
         self.kind = kind
         self.camera_mode = kind in ("image", "camera-detections")
+        # camera mode: (pose, actor views, image or detections) of the last rendered frame
+        # while frames repeat (see _perceive), and whether they do in this run's weather
+        self._last_frame: tuple[Any, Any, Any] | None = None
+        self._repeats: bool | None = None
         self.objects_rng = (
             np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(OBJECTS_KEY,)))
             if kind == "objects" and backend.object_noise is not None
@@ -148,11 +153,26 @@ class EgoDriver:
             return (), None  # camera mode, no road user in view (see _needs_frame)
         if backend.frame_observer is not None:
             backend.frame_observer(self.camera, pose, actors, self.cond)
+        last = self._last_frame
+        if last is not None and last[0] == pose and last[1] == actors:
+            # nothing moved since the last rendered frame and the renderer draws nothing
+            # at random: the same pixels, so the same detections (a stopped ego holding
+            # for a stopped road user renders and detects nothing new)
+            if self.kind == "camera-detections":
+                return last[2], None
+            return None, last[2].copy()
         # one generator per frame: which frames are rendered changes no other draw
         frame_rng = np.random.default_rng([self.seed, k])
         image = backend._frame(self.camera, pose, actors, self.cond, frame_rng)
+        if self._repeats is None:
+            self._repeats = backend._frames_repeat(self.cond)
         if self.kind == "camera-detections":
-            return backend._detect(image), None
+            detections = backend._detect(image)
+            if self._repeats:
+                self._last_frame = (pose, actors, detections)
+            return detections, None
+        if self._repeats:  # kept unchanged: the stack may write into its copy
+            self._last_frame = (pose, actors, image.copy())
         return None, image
 
     def command(self, world: Any, k: int, t: float) -> tuple[float, float, float]:
