@@ -199,9 +199,14 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
 
 
 #: The coefficients the probit fit estimates: the logit's (``COEFFICIENTS``) but the size
-#: normalisation and clamps in pixels, which the fit keeps as given, and the side's gain,
-#: a candidate term of the frame model only (:mod:`sitcov.calibration._frame_model`).
-_LINEAR = tuple(name for name in COEFFICIENTS if not name.endswith("_px") and name != "side_gain")
+#: normalisation and clamps in pixels, which the fit keeps as given, and the side's and
+#: the cubic size term's gains, candidate terms of the frame model only
+#: (:mod:`sitcov.calibration._frame_model`).
+_LINEAR = tuple(
+    name
+    for name in COEFFICIENTS
+    if not name.endswith("_px") and name not in ("side_gain", "size3_gain")
+)
 #: Ridge penalty on the probit coefficients (not the intercept).
 _RIDGE = 1.0
 

@@ -50,7 +50,11 @@ Model choice (:func:`choose_model`, :func:`held_out_choice`): independent frames
 df; without it they are 0), or that with the noise's size gain k (the height capped at
 the score's ``size_max_px`` or at the image height), with the size terms free, and that
 with the side's term (``side_gain``: the road user seen from its left or its right), by
-the log-likelihood of held-out tracks.
+the log-likelihood of held-out tracks. :data:`EXTRA_SETS` are further terms (the side by
+distance band or offset, the lane, close-range terms, a cubic size term) that
+``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; none is a
+candidate of ``sitcov calibrate`` (the PEM has no parameter for them, and none was chosen
+with an effect: docs/pem.md, "Terms tried for the per-cell check").
 """
 
 from __future__ import annotations
@@ -93,7 +97,9 @@ MIN_PX_PERCENTILE = 0.5
 #: 4-tuple has no size gain. The side term (the one feature that tells a road user seen
 #: from its left from one seen from its right, :class:`~sitcov.perception.PEMFeatures`)
 #: needs frames recorded since it exists: on older files ``side`` is 0 and the candidate
-#: ties with the one without it (the first of equals is chosen).
+#: ties with the one without it (the first of equals is chosen). An 8th value names extra
+#: terms (:data:`EXTRA_TERMS`; of them only ``size3``, the cube of the log size, has a PEM
+#: parameter, ``size3_gain``): :data:`CLASS_CANDIDATES`.
 CANDIDATES = (
     ("independent", 1.0, False, False),
     ("ar1", 1.0, True, False),
@@ -104,6 +110,54 @@ CANDIDATES = (
     ("ar1_edge_scale_image_size", 1.0, True, True, IMAGE_HEIGHT, True),
     ("ar1_edge_scale_image_size_side", 1.0, True, True, IMAGE_HEIGHT, True, True),
 )
+#: Candidates tried for pedestrians and cyclists besides :data:`CANDIDATES`: the models
+#: the two classes chose before it with the cube of the log size (``size3_gain``), a size
+#: term of their own (docs/pem.md, "Terms tried for the per-cell check"). Not for cars:
+#: there the term wins held out (-0.297 vs -0.337 per frame) but the check's car cells
+#: drop from 9 to 5 of 15, so it is measured (``benchmarks/pem_cell_candidates.py``),
+#: not a candidate.
+CLASS_CANDIDATES = (
+    ("ar1_edge_size3", 1.0, True, True, None, False, False, ("size3",)),
+    ("ar1_edge_scale_image_size3", 1.0, True, True, IMAGE_HEIGHT, False, False, ("size3",)),
+)
+
+
+def candidates_for(kind: str) -> tuple[tuple[Any, ...], ...]:
+    """The model choice's candidates for ``kind``: :data:`CANDIDATES`, and for
+    pedestrians and cyclists :data:`CLASS_CANDIDATES` too."""
+    return CANDIDATES if kind == "car" else CANDIDATES + CLASS_CANDIDATES
+
+
+#: Extra term sets (not chosen among by default: ``sitcov calibrate`` uses
+#: :data:`CANDIDATES`; ``benchmarks/pem_cell_candidates.py`` measures them on each class's
+#: chosen model, :func:`extended`): terms that could carry the per-cell gaps of the
+#: held-out check and the left/right asymmetry (docs/pem.md, "Terms tried for the
+#: per-cell check"). Each is (name, extra logit terms of :data:`EXTRA_TERMS`, whether the
+#: score noise's scale gets a close-range factor ``exp(kn)``, ``Noise.kn``).
+EXTRA_SETS: tuple[tuple[str, tuple[str, ...], bool], ...] = (
+    ("side", ("side",), False),
+    ("side_band", ("side_near", "side_mid", "side_far"), False),
+    ("side_offset", ("side", "side_offset"), False),
+    ("lane", ("lane", "lane_near"), False),
+    ("approach", ("from_left", "from_right"), False),
+    ("edge_near", ("offset_near", "trunc_near"), False),
+    ("near", ("near",), False),
+    ("near_noise", ("near",), True),
+    ("size3", ("size3",), False),
+)
+
+
+def extended(candidate: Sequence[Any], name: str, extras: Sequence[str], near: bool) -> tuple:
+    """``candidate`` (:data:`CANDIDATES`) with extra logit terms and the close-range noise
+    factor, named ``<candidate>+<name>``."""
+    full = [*candidate[:7], *(None, False, False)[min(3, len(candidate) - 4) :]]
+    return (f"{candidate[0]}+{name}", *full[1:7], tuple(extras), near)
+
+
+def _extras(candidate: Sequence[Any]) -> tuple[tuple[str, ...], bool]:
+    """(extra logit terms, close-range noise scale) of a candidate (:data:`EXTRA_CANDIDATES`)."""
+    names = tuple(candidate[7]) if len(candidate) > 7 else ()
+    return names, bool(candidate[8]) if len(candidate) > 8 else False
 
 
 def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None, bool, bool]:
@@ -129,6 +183,9 @@ class Tracks:
         gap: frames since the track's previous frame (0 for its first).
         group: the run (or sweep frame) a frame belongs to, for run-grouped folds.
         distance: camera to the road user [m] (-1 when not recorded).
+        approach: where the run's road user comes from, seen by the ego (+1 left, -1
+            right, 0 ahead, a sweep frame or unknown; :func:`approach_of`): the lane it
+            drives in (from the left the near lane, from the right the far one).
     """
 
     feats: tuple[PEMFeatures, ...]
@@ -137,6 +194,7 @@ class Tracks:
     gap: np.ndarray
     group: np.ndarray
     distance: np.ndarray
+    approach: np.ndarray | None = None
 
     def subset(self, groups: np.ndarray) -> Tracks:
         """The frames of the given groups."""
@@ -145,7 +203,17 @@ class Tracks:
         return Tracks(
             tuple(self.feats[i] for i in idx), self.score[keep], self.track[keep],
             self.gap[keep], self.group[keep], self.distance[keep],
+            None if self.approach is None else self.approach[keep],
         )  # fmt: skip
+
+
+def approach_of(situation: dict[str, Any]) -> float:
+    """+1 if the run's road user comes from the ego's left, -1 from its right, 0 otherwise
+    (:func:`sitcov.campaign._agreement.approach_side` of the recorded situation)."""
+    from sitcov.campaign._agreement import approach_side
+
+    side = approach_side(situation.get("bins", {}), situation.get("values", {}))
+    return {"left": 1.0, "right": -1.0}.get(side, 0.0)
 
 
 def tracks_of(data: KindFrames) -> Tracks:
@@ -155,16 +223,17 @@ def tracks_of(data: KindFrames) -> Tracks:
     as consecutive (the gated camera frames of one road user are, until its AEB fires).
     """
     feats: list[PEMFeatures] = []
-    score, track, gap, group, dist = [], [], [], [], []
+    score, track, gap, group, dist, appr = [], [], [], [], [], []
     n_track = 0
     for i, (f, s, d) in enumerate(data.sweep):
         if f.height_px < 1.0:
             continue
         feats.append(f)
         score.append(s), track.append(n_track), gap.append(0), group.append(-1 - i)
-        dist.append(d)
+        dist.append(d), appr.append(0.0)
         n_track += 1
     for r, run in enumerate(data.runs):
+        side = approach_of(run.situation or {})
         by_actor: dict[int, list[Any]] = {}
         for k, fr in enumerate(run.frames):
             if fr.features.height_px >= 1.0:
@@ -175,11 +244,12 @@ def tracks_of(data: KindFrames) -> Tracks:
                 feats.append(fr.features)
                 score.append(fr.score), track.append(n_track), group.append(r)
                 gap.append(0 if prev is None else max(1, number - prev))
-                dist.append(fr.distance)
+                dist.append(fr.distance), appr.append(side)
                 prev = number
             n_track += 1
     return Tracks(tuple(feats), np.asarray(score, dtype=float), np.asarray(track),
-                  np.asarray(gap), np.asarray(group), np.asarray(dist, dtype=float))  # fmt: skip
+                  np.asarray(gap), np.asarray(group), np.asarray(dist, dtype=float),
+                  np.asarray(appr, dtype=float))  # fmt: skip
 
 
 # --- step 1: the detected frames' scores, as independent (ridge least squares) ------------
@@ -205,6 +275,59 @@ def sides(t: Tracks) -> np.ndarray:
     """The frames' ``side`` (the sine of the road user's heading relative to the line of
     sight; 0 in frames recorded before it was stored)."""
     return np.asarray([f.side for f in t.feats], dtype=float)
+
+
+#: Close range [m]: the check's first distance band (:mod:`sitcov.calibration._frame_check`).
+NEAR_M = 10.0
+#: Extra logit terms (:func:`extra_columns`): ``side`` the side's sine, split by the check's
+#: distance bands (``side_near`` < 10 m, ``side_mid`` 10-20 m, ``side_far`` >= 20 m) or
+#: times the box's offset from the image centre (``side_offset``); ``lane`` the run's
+#: approach (+1 left: the near lane, -1 right: the far lane; :attr:`Tracks.approach`) and
+#: that at close range (``lane_near``), or one level each for the left and the right
+#: (``from_left``, ``from_right``: ahead is the reference); ``near`` an intercept below
+#: :data:`NEAR_M`, ``offset_near``/``trunc_near`` the offset and the truncation there
+#: (their gain at close range apart from the one at every range); ``size3`` the cube of
+#: the log apparent size.
+EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
+               "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
+               "size3")  # fmt: skip
+
+
+def near_of(t: Tracks) -> np.ndarray:
+    """1 for a frame closer than :data:`NEAR_M` (a recorded distance), else 0."""
+    return ((t.distance >= 0.0) & (t.distance < NEAR_M)).astype(float)
+
+
+def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
+    """The extra terms ``names`` (:data:`EXTRA_TERMS`) per frame (rows), ``x`` the frames'
+    design (:func:`sitcov.calibration._calibrate._design`: its 2nd column is the log size,
+    its 14th minus the offset)."""
+    if not names:
+        return np.zeros((len(t.score), 0))
+    side, d = sides(t), t.distance
+    appr = t.approach if t.approach is not None else np.zeros(len(d))
+    near = near_of(t)
+    cols = {
+        "side": lambda: side,
+        "side_near": lambda: side * near,
+        "side_mid": lambda: side * ((d >= NEAR_M) & (d < 2 * NEAR_M)),
+        "side_far": lambda: side * (d >= 2 * NEAR_M),
+        "side_offset": lambda: side * -x[:, 13],
+        "lane": lambda: appr,
+        "lane_near": lambda: appr * near,
+        "from_left": lambda: appr == 1.0,
+        "from_right": lambda: appr == -1.0,
+        "near": lambda: near,
+        "offset_near": lambda: -x[:, 13] * near,
+        "trunc_near": lambda: -x[:, 8] * near,
+        "size3": lambda: x[:, 1] ** 3,
+    }
+    for name in names:
+        if name not in cols:
+            raise SitcovError(f"unknown extra term {name!r}; expected one of {EXTRA_TERMS}")
+    return np.column_stack([np.asarray(cols[n](), dtype=float) for n in names]).reshape(
+        len(d), len(names)
+    )
 
 
 def geometry(t: Tracks) -> np.ndarray:
@@ -273,15 +396,22 @@ class Noise:
     df: float = 0.0
     k: float = 0.0
     cap: float = 450.0
+    kn: float = 0.0
 
 
-def _scale(noise: Noise, size: np.ndarray | None) -> np.ndarray | float:
-    """The score noise's scale below the median per frame: ``sigma * exp(k * size)``,
-    ``size`` the frames' log box height (:func:`scale_size`); ``sigma`` alone when ``k``
-    is 0 or no size is given."""
-    if noise.k == 0.0 or size is None:
-        return noise.sigma
-    return noise.sigma * np.exp(noise.k * size)
+def _scale(
+    noise: Noise, size: np.ndarray | None, near: np.ndarray | None = None
+) -> np.ndarray | float:
+    """The score noise's scale below the median per frame: ``sigma * exp(k * size + kn *
+    near)``, ``size`` the frames' log box height (:func:`scale_size`), ``near`` 1 at close
+    range (:func:`near_of`); ``sigma`` alone when ``k`` and ``kn`` are 0 or their arrays
+    not given."""
+    sig: np.ndarray | float = noise.sigma
+    if noise.k != 0.0 and size is not None:
+        sig = sig * np.exp(noise.k * size)
+    if noise.kn != 0.0 and near is not None:
+        sig = sig * np.exp(noise.kn * near)
+    return sig
 
 
 def _ginv(v: np.ndarray, noise: Noise, sigma: np.ndarray | float | None = None) -> np.ndarray:
@@ -294,10 +424,12 @@ def _ginv(v: np.ndarray, noise: Noise, sigma: np.ndarray | float | None = None) 
 def frame_logliks(
     m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise,
     geom: np.ndarray | None = None, size: np.ndarray | None = None,
+    near: np.ndarray | None = None,
 ) -> np.ndarray:  # fmt: skip
     """Log-likelihood of each frame (rows) given the AR state at each grid node (columns);
     ``geom`` the frames' :func:`geometry` (needed when ``dt`` or ``df`` is not 0), ``size``
-    their log apparent size (needed when ``k`` is not 0, :func:`_scale`)."""
+    their log apparent size (needed when ``k`` is not 0, :func:`_scale`), ``near`` their
+    close-range flag (needed when ``kn`` is not 0)."""
     from scipy.special import log_ndtr
 
     c = float(_logit(CENSOR))
@@ -308,7 +440,7 @@ def frame_logliks(
     det = lin[:, None] + noise.lam * u[None, :]
     log_det, log_miss = log_ndtr(det), log_ndtr(-det)
     v = y - m
-    sig = _scale(noise, size)
+    sig = _scale(noise, size, near)
     n = _ginv(v, noise, sig)
     slope = np.where(v < 0.0, sig, sig * noise.up)
     r = (n[:, None] - ra * u[None, :]) / re
@@ -322,6 +454,7 @@ def frame_logliks(
 def track_loglik(
     m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, noise: Noise,
     geom: np.ndarray | None = None, size: np.ndarray | None = None,
+    near: np.ndarray | None = None,
 ) -> np.ndarray:  # fmt: skip
     """Log-likelihood of each track (array over tracks, in track order): the forward
     filter over the AR state's grid; ``m`` the PEM logit per frame, ``y``/``obs`` the
@@ -332,7 +465,9 @@ def track_loglik(
     u, prior = _grid(noise)
     if geom is None and (noise.dt != 0.0 or noise.df != 0.0):
         geom = geometry(t)
-    log_e = frame_logliks(m, y, obs, u, noise, geom, size)
+    if near is None and noise.kn != 0.0:
+        near = near_of(t)
+    log_e = frame_logliks(m, y, obs, u, noise, geom, size, near)
     starts = np.flatnonzero(np.r_[True, t.track[1:] != t.track[:-1]])
     lengths = np.diff(np.r_[starts, len(t.track)])
     order = np.argsort(-lengths, kind="stable")  # longest first: active tracks are a prefix
@@ -374,11 +509,21 @@ class FrameFit:
     size_ref: float
     noise: Noise
     side_gain: float = 0.0
+    extras: tuple[str, ...] = ()
+    gains: tuple[float, ...] = ()
 
     def logit(self, t: Tracks) -> np.ndarray:
         """The PEM logit ``m`` of every frame of ``t``."""
-        m = _design_for(t, self.size_max, self.size_ref) @ self.beta
+        x = _design_for(t, self.size_max, self.size_ref)
+        m = x @ self.beta + self.extra(t, x)
         return m + self.side_gain * sides(t) if self.side_gain != 0.0 else m
+
+    def extra(self, t: Tracks, x: np.ndarray | None = None) -> np.ndarray | float:
+        """The extra terms' part of the logit per frame (0 without extra terms)."""
+        if not self.extras:
+            return 0.0
+        x = _design_for(t, self.size_max, self.size_ref) if x is None else x
+        return extra_columns(t, x, self.extras) @ np.asarray(self.gains)
 
     def loglik(self, t: Tracks) -> float:
         """Sequence log-likelihood of ``t`` (every track)."""
@@ -390,6 +535,7 @@ class FrameFit:
 def fit_tracks(
     t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False,
     scale: float | None = None, free_size: bool = False, side: bool = False,
+    extras: Sequence[str] = (), near_noise: bool = False,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
@@ -397,7 +543,9 @@ def fit_tracks(
     the three size terms' coefficients fitted in step 2 too, not only scaled with the
     others: the least squares of step 1 see only the scores above CENSOR, which bends
     the score's mean over distance; ``side``: with the term ``side_gain * side``, started
-    from step 1's least squares and fitted by likelihood in step 2)."""
+    from step 1's least squares and fitted by likelihood in step 2; ``extras``: the extra
+    terms of :data:`EXTRA_TERMS`, the same way; ``near_noise``: the score noise's scale
+    times ``exp(kn)`` at close range, :data:`NEAR_M`)."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -407,18 +555,22 @@ def fit_tracks(
     side_col = sides(t) if side else None
     if side_col is not None and not side_col.any():
         side_col = None  # frames recorded before ``side``: exactly the model without it
-    best: tuple[float, np.ndarray, float, float, np.ndarray] | None = None
+    best: tuple[float, np.ndarray, float, float, np.ndarray, np.ndarray] | None = None
     for size_max in SIZE_MAX_GRID:
         x = _design_for(t, size_max, size_ref)
-        xs = x if side_col is None else np.column_stack([x, side_col])
+        ex = extra_columns(t, x, extras)
+        ex = ex if side_col is None else np.column_stack([side_col, ex])
+        xs = np.column_stack([x, ex]) if ex.shape[1] else x
         beta, sigma0, value = _ridge_ls(xs[obs], y[obs], ridge)
         if best is None or value < best[0]:
-            best = (value, beta, sigma0, size_max, x)
+            best = (value, beta, sigma0, size_max, x, ex)
     assert best is not None
-    _, beta, sigma0, size_max, x = best
-    side0 = 0.0
-    if side_col is not None:  # the side's start value; the others as without it
-        side0, beta = float(beta[-1]), beta[:-1]
+    _, beta, sigma0, size_max, x, ex = best
+    n_ex = ex.shape[1]
+    ex0: list[float] = []
+    if n_ex:  # the extra terms' start values; the others as without them
+        ex0, beta = [float(b) for b in beta[-n_ex:]], beta[:-n_ex]
+    near = near_of(t) if near_noise else None
     rest = x[:, 1:] @ beta[1:]
     sized = x[:, 1:4]  # size, size^2, sin(view) * size: _LINEAR's 2nd to 4th
     cap = (scale or size_max) if scale is not None else IMAGE_HEIGHT
@@ -441,15 +593,20 @@ def fit_tracks(
 
     at_free = len(start_of(ar, edge, scale))
     at_side = at_free + (3 if free_size else 0)
+    at_kn = at_side + n_ex
 
     def mean(p: np.ndarray, b0: float, kappa: float) -> np.ndarray:
         m = b0 + kappa * rest
         m = m + sized @ p[at_free : at_free + 3] if free_size else m
-        return m + p[at_side] * side_col if side_col is not None else m
+        return m + ex @ p[at_side:at_kn] if n_ex else m
+
+    def with_kn(p: np.ndarray, noise: Noise) -> Noise:
+        return replace(noise, kn=float(min(3.0, max(-3.0, p[at_kn])))) if near_noise else noise
 
     def nll(p: np.ndarray) -> float:
         b0, kappa, noise = unpack(p)
-        return -float(track_loglik(mean(p, b0, kappa), y, obs, t, noise, geom, size).sum())
+        m = mean(p, b0, kappa)
+        return -float(track_loglik(m, y, obs, t, with_kn(p, noise), geom, size, near).sum())
 
     rate = float(np.clip(np.mean(obs), 0.02, 0.98))
     # start: no detection slope, a slightly narrower upper spread, an AR share of 0.7
@@ -462,15 +619,27 @@ def fit_tracks(
         start += [dt, df]
     start += [0.0] if scale is not None else []
     start += [0.0, 0.0, 0.0] if free_size else []
-    start += [side0] if side_col is not None else []
+    start += ex0
+    start += [0.0] if near_noise else []
     res = minimize(nll, np.asarray(start), method="L-BFGS-B",
                    options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
     b0, kappa, noise = unpack(res.x)
+    noise = with_kn(res.x, noise)
     coef = np.r_[b0, kappa * beta[1:]]
     if free_size:
         coef[1:4] += res.x[at_free : at_free + 3]
-    gain = float(res.x[at_side]) if side_col is not None else 0.0
-    return FrameFit(coef, size_max, size_ref, noise, gain)
+    gains = [float(g) for g in res.x[at_side:at_kn]]
+    gain = gains.pop(0) if side_col is not None else 0.0
+    return FrameFit(coef, size_max, size_ref, noise, gain, tuple(extras), tuple(gains))
+
+
+def fit_candidate(t: Tracks, candidate: Sequence[Any], size_ref: float) -> FrameFit:
+    """:func:`fit_tracks` of ``t`` as the candidate (:data:`CANDIDATES`,
+    :data:`EXTRA_CANDIDATES`) says."""
+    ridge, ar, edge, scale, free, side = _flags(candidate)
+    extras, near_noise = _extras(candidate)
+    return fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
+                      free_size=free, side=side, extras=extras, near_noise=near_noise)  # fmt: skip
 
 
 def start_of(ar: bool, edge: bool, scale: float | None) -> list[int]:
@@ -527,12 +696,14 @@ def choose_model(
     all_groups = np.unique(t.group)
     for cand in candidates:
         name, (ridge, ar, edge, scale, free, side) = cand[0], _flags(cand)
+        extras, near_noise = _extras(cand)
         total, frames = 0.0, 0
         for held in parts:
             train = t.subset(np.setdiff1d(all_groups, held))
             test = t.subset(held)
             fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
-                             scale=scale, free_size=free, side=side)  # fmt: skip
+                             scale=scale, free_size=free, side=side, extras=extras,
+                             near_noise=near_noise)  # fmt: skip
             total += fit.loglik(test)
             frames += len(test.score)
         table[name] = {"heldout_loglik_per_frame": round(total / max(1, frames), 4),
@@ -545,8 +716,18 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
     """The fit as PEM parameters (other fields from ``base``; jitter from the runs'
     matched boxes; ``size_min_px`` the :data:`MIN_PX_PERCENTILE` percentile of the box
     heights reported: below it the sensor reports nothing, above it the fitted logit,
-    fitted down to 1 px, decides)."""
+    fitted down to 1 px, decides). Of the extra terms (:data:`EXTRA_TERMS`) only
+    ``size3`` has a PEM parameter (``size3_gain``): a fit with another is refused (one
+    clear error)."""
+    other = [n for n in fit.extras if n != "size3"]
+    if other or fit.noise.kn != 0.0:
+        raise SitcovError(
+            f"the PEM has no parameter for the extra terms {other}"
+            + (" or the close-range noise factor" if fit.noise.kn != 0.0 else "")
+            + " (sitcov/calibration/_frame_model.py EXTRA_SETS: measured, not shipped)"
+        )
     values = {name: round(float(v), 4) for name, v in zip(_LINEAR, fit.beta, strict=True)}
+    gains = dict(zip(fit.extras, fit.gains, strict=True))
     heights = np.asarray([f.height_px for f in t.feats])
     seen = heights[t.score >= FLOOR]
     size_min = float(np.percentile(seen, MIN_PX_PERCENTILE)) if seen.size else base.size_min_px
@@ -572,6 +753,7 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         noise_size_max_px=nz.cap,
         noise_up_ratio=round(nz.up, 4),
         side_gain=round(fit.side_gain, 4),
+        size3_gain=round(gains.get("size3", 0.0), 4),
         rain_sigma=0.0,
         rain_miss=0.0,
         rain_jitter=0.0,
@@ -590,8 +772,10 @@ def held_out_choice(
     fits: dict[str, FrameFit] = {}
     for cand in candidates:
         name, (ridge, ar, edge, scale, free, side) = cand[0], _flags(cand)
+        extras, near_noise = _extras(cand)
         fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
-                                scale=scale, free_size=free, side=side)  # fmt: skip
+                                scale=scale, free_size=free, side=side, extras=extras,
+                                near_noise=near_noise)  # fmt: skip
         table[name] = {
             "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
             "heldout_frames": len(held.score),
@@ -634,14 +818,10 @@ def fit_kind(
         # (after the moment an AEB would fire) that the calibration runs stop before
         data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
         t = tracks_of(data)
-        ridge, ar, edge, scale, free, side = _flags(next(c for c in candidates if c[0] == chosen))
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
-                         free_size=free, side=side)  # fmt: skip
+        fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref)
     else:
         chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates)
-        ridge, ar, edge, scale, free, side = _flags(next(c for c in candidates if c[0] == chosen))
-        fit = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
-                         free_size=free, side=side)  # fmt: skip
+        fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref)
     params = to_params(fit, base, t, data.runs)
     nz = fit.noise
     lag1 = nz.share * nz.rho
@@ -665,10 +845,10 @@ def fit_kind(
 
 
 def _fit_job(
-    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None],
+    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...]],
 ) -> tuple[PEMParams, dict[str, Any]]:
-    kind, data, base, folds, held = job
-    return fit_kind(data, base, folds=folds, held=held)
+    kind, data, base, folds, held, candidates = job
+    return fit_kind(data, base, folds=folds, held=held, candidates=candidates)
 
 
 def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
@@ -699,7 +879,7 @@ def fit_files(
     classes = load_class_params()
     jobs = [
         (kind, data, load_pem_params() if kind == "car" else classes[kind][1], folds,
-         other.get(kind) if held else None)
+         other.get(kind) if held else None, candidates_for(kind))
         for kind, data in merged.items()
     ]  # fmt: skip
     if workers <= 1 or len(jobs) <= 1:

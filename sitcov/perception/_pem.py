@@ -6,6 +6,7 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
     L = ln(clamp(h, size_min_px, size_max_px) / size_ref_px)                   apparent size
     z = bias
         + size_gain * L + size2_gain * L^2 + side_size_gain * sin(view) * L    size
+        + size3_gain * L^3                                                    (its bend)
         - view_gain  * sin(view_angle) + view2_gain * sin(2 * view_angle)      side, oblique
         + facing_gain * facing + facing2_gain * (2 * facing^2 - 1)             rear/front
         - trunc_gain * truncation                                             image edge
@@ -192,6 +193,7 @@ COEFFICIENTS = (
     "red_green_gain",
     "yellow_blue_gain",
     "side_gain",
+    "size3_gain",
 )
 (
     _BIAS,
@@ -217,6 +219,7 @@ COEFFICIENTS = (
     _RED_GREEN,
     _YELLOW_BLUE,
     _SIDE_GAIN,
+    _SIZE3,
 ) = range(len(COEFFICIENTS))
 
 
@@ -280,6 +283,7 @@ def _logit(
         + c[_RED_GREEN] * red_green
         + c[_YELLOW_BLUE] * yellow_blue
         + c[_SIDE_GAIN] * side_sin
+        + c[_SIZE3] * size * size * size
     )
 
 

@@ -94,6 +94,8 @@ class PEMParams:
             relative to the line of sight (+1 seen from its left, moving right to left in
             the image; -1 from its right, moving left to right): the one term that tells
             left from right. 0 (the default, files written before it) changes nothing [-].
+        size3_gain: logit per cubed e-fold of box height (the size term's bend beyond
+            ``size2_gain``; 0, the default of files written before it, changes nothing) [-].
     """
 
     bias: float = 0.5
@@ -136,6 +138,7 @@ class PEMParams:
     noise_size_gain: float = 0.0
     noise_size_max_px: float = 450.0
     side_gain: float = 0.0
+    size3_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

@@ -13,7 +13,7 @@ from sitcov.calibration import _frame_check as fc
 from sitcov.calibration import _frame_model as fm
 from sitcov.calibration._camera_runs import CameraRun, RunFrame
 from sitcov.calibration._frames import KindFrames, read_frames, write_frames
-from sitcov.errors import ConfigError
+from sitcov.errors import ConfigError, SitcovError
 from sitcov.perception._pem import PEMFeatures, PEMParams
 
 
@@ -21,6 +21,7 @@ def _draw(
     seed: int, *, runs: int = 150, length: int = 40, sigma: float = 0.8, share: float = 0.75,
     rho: float = 0.9, bias: float = -0.6, gain: float = 0.6, stop_at: float | None = None,
     fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
+    near_gain: float = 0.0,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -31,7 +32,8 @@ def _draw(
     (AR and frame parts) scaled by ``(h / 25) ** spread`` (larger boxes, wider scores).
     ``side_gain``: each run's road user seen from its left or right (``side`` = +-sin of
     the view angle, recorded) and ``side_gain * side`` added to the logit; None: no side
-    recorded (0, as in files written before it)."""
+    recorded (0, as in files written before it). ``near_gain``: added to the logit closer
+    than 10 m (the recorded distance ``1.45 * 336 / h``)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -49,6 +51,7 @@ def _draw(
             h = h0 * 1.05**k
             widen = (h / 25.0) ** spread
             z = bias + gain * math.log(min(h, 60.0) / 25.0) + (side_gain or 0.0) * side
+            z += near_gain * (1.45 * 336 / h < 10.0)
             z += widen * (s_a * a + s_e * rng.standard_normal())
             score = 1.0 / (1.0 + math.exp(-z))
             rec = score if score >= 0.05 else 0.0
@@ -180,6 +183,52 @@ def test_the_side_term_is_recovered_and_chosen_when_it_is_there() -> None:
     without = fm.fit_tracks(old, ridge=1.0, ar=True, size_ref=25.0)
     assert with_side.side_gain == 0.0
     assert with_side.loglik(old) == without.loglik(old)
+
+
+def test_an_extra_term_is_recovered_and_chosen_only_when_it_is_there() -> None:
+    """A close-range intercept (the ``near`` extra term, :data:`fm.EXTRA_SETS`): drawn
+    with one, the extended candidate recovers it and wins held out; drawn without, its
+    gain stays small and it buys (next to) nothing. ``to_params`` refuses a fit with an
+    extra term (the PEM has no parameter for it)."""
+    base = ("ar1", 1.0, True, False)
+    cands = (base, fm.extended(base, "near", ("near",), False))
+    assert cands[1][0] == "ar1+near" and fm._extras(cands[1]) == (("near",), False)
+    t, held = (fm.tracks_of(_draw(s, runs=60, near_gain=-0.6)) for s in (21, 22))
+    chosen, table, fits = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
+    assert chosen == "ar1+near", table
+    assert fits[chosen].gains[0] == pytest.approx(-0.6, abs=0.15)
+    logit = fits[chosen].logit(t)
+    assert logit - fits["ar1"].logit(t) != pytest.approx(0.0)
+    with pytest.raises(SitcovError, match="extra terms"):
+        fm.to_params(fits[chosen], PEMParams(size_ref_px=25.0), t, [])
+    t0, held0 = (fm.tracks_of(_draw(s, runs=60)) for s in (21, 22))
+    _, table0, fits0 = fm.held_out_choice(t0, held0, size_ref=25.0, candidates=cands)
+    assert abs(fits0["ar1+near"].gains[0]) < 0.15
+    gain = (
+        table0["ar1+near"]["heldout_loglik_per_frame"] - table0["ar1"]["heldout_loglik_per_frame"]
+    )
+    assert gain < 0.01
+
+
+def test_the_cubic_size_term_is_the_pems_size3_gain() -> None:
+    """A fit with the ``size3`` extra term writes it as ``size3_gain``, and the PEM's logit
+    of every frame is then the fit's (boxes within the size range: below ``size_min_px``
+    the PEM reports nothing, and the fit clamps at 1 px)."""
+    from sitcov.calibration._calibrate import _LINEAR
+    from sitcov.perception._pem import pem_logit
+
+    t = fm.tracks_of(_draw(23, runs=5, length=10))
+    beta = np.random.default_rng(0).uniform(-0.5, 0.5, len(_LINEAR))
+    fit = fm.FrameFit(beta, 150.0, 25.0, fm.Noise(0.3, 0.5, 0.8), 0.0, ("size3",), (-0.4,))
+    params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, [])
+    assert params.size3_gain == -0.4
+    exact = fm.FrameFit(np.asarray([getattr(params, n) for n in _LINEAR]), 150.0, 25.0,
+                        fit.noise, 0.0, ("size3",), (params.size3_gain,))  # fmt: skip
+    inside = [i for i, f in enumerate(t.feats) if f.height_px >= params.size_min_px]
+    assert len(inside) > 20
+    logits = exact.logit(t)
+    for i in inside:
+        assert pem_logit(t.feats[i], params) == pytest.approx(logits[i], abs=1e-9)
 
 
 def test_the_size_terms_fitted_by_likelihood_undo_the_censored_least_squares() -> None:

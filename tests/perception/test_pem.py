@@ -563,6 +563,7 @@ def documented_logit(f: PEMFeatures, p: PEMParams) -> float:
         + p.red_green_gain * f.red_green
         + p.yellow_blue_gain * f.yellow_blue
         + p.side_gain * f.side
+        + p.size3_gain * size * size * size
     )
 
 
@@ -572,7 +573,7 @@ def test_pem_logit_is_the_documented_formula_bit_for_bit(name):
     bits, clamped features included: boxes below and above the size range, extreme
     shapes, no width, full fog and darkness."""
     p = replace(PARAM_SETS[name], contrast_gain=0.4, chroma_gain=-0.3, yellow_blue_gain=0.2)
-    p = replace(p, side_gain=-0.35)
+    p = replace(p, side_gain=-0.35, size3_gain=-0.4)
     rng = np.random.default_rng(11)
     features = [f._replace(side=rng.uniform(-1.0, 1.0)) for f in random_features(rng, 400)]
     features += [
