@@ -764,8 +764,11 @@ def experiment_agreement_cmd(
     allow_calibration_seeds: bool = typer.Option(
         False, "--allow-calibration-seeds", help="Development only: evaluate on seeds the PEM saw."
     ),
-    camera_rows: Optional[Path] = typer.Option(  # noqa: UP045
-        None, "--camera-rows", help="Reuse the camera-mode rows of an earlier rows file."
+    camera_rows: Optional[list[Path]] = typer.Option(  # noqa: UP045
+        None,
+        "--camera-rows",
+        help="Reuse the camera-mode rows of an earlier rows file (repeatable: the first "
+        "file that has a run's row gives it).",
     ),
     kind: Optional[str] = typer.Option(  # noqa: UP045
         None, "--kind", help="pedestrian | cyclist: that kind's derived t-junction situations."
@@ -817,7 +820,7 @@ def experiment_agreement_cmd(
     summary["command"] = ag.command_line(
         seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
         pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
-        camera_rows=None if camera_rows is None else str(camera_rows), kind=kind,
+        camera_rows=[str(p) for p in camera_rows or ()], kind=kind,
         pem_classes=None if pem_classes is None else str(pem_classes), stacks=stacks,
     )  # fmt: skip
     summary_path = summary_out or out.with_name(out.stem + ".summary.json")

@@ -769,7 +769,7 @@ def run_agreement(
     model: str | None = None,
     workers: int = 1,
     allow_calibration_seeds: bool = False,
-    camera_rows: Path | None = None,
+    camera_rows: Path | Sequence[Path] | None = None,
     kind: str | None = None,
     pem_classes: str | None = None,
     stacks: Sequence[str] = (DEFAULT_STACK,),
@@ -782,8 +782,8 @@ def run_agreement(
     Checks everything before the first run: the pairs, the rows file's suffix, the PEM
     file, that no evaluation seed calibrated it, and (when a camera side is needed) the
     detector model. ``on_plan`` then gets the jobs (to print the plan), ``progress`` each
-    row as it finishes. ``camera_rows``: a rows file of an earlier run whose camera-mode
-    rows are taken instead of simulated again (see :func:`reusable_camera_rows`).
+    row as it finishes. ``camera_rows``: one or several rows files of earlier runs whose
+    camera-mode rows are taken instead of simulated again (see :func:`reusable_camera_rows`).
     ``kind``: pedestrian or cyclist situations only (their PEM: ``pem_classes``, whose
     calibration seeds are refused too).
 
@@ -806,7 +806,11 @@ def run_agreement(
 
         check_class_seeds(seeds, kind, pem_classes, allow=allow_calibration_seeds)
     jobs = plan_jobs(seeds, situations, pairs, stacks)
-    reused = reusable_camera_rows(camera_rows, jobs) if camera_rows is not None else {}
+    row_files = _row_files(camera_rows)
+    reused: dict[tuple, dict[str, Any]] = {}
+    for path in row_files:  # the first file that has a row gives it
+        for key, row in reusable_camera_rows(path, jobs).items():
+            reused.setdefault(key, row)
     jobs = [j for j in jobs if _job_key(j) not in reused]
     if run_job is None and any(j.perception == "camera" for j in jobs):
         from sitcov.perception._models import model_path
@@ -861,13 +865,29 @@ def run_agreement(
             "pem": sum(j.perception == "pem" for j in jobs),
             "camera_reused": len(reused),
         },  # fmt: skip
-        camera_rows_from=None if camera_rows is None else str(camera_rows),
+        camera_rows_from=_rows_from(row_files),
         kind=kind,
         pem_classes=pem_classes,
         wall_s=round(wall, 1),
         rows_file=str(out),
     )
     return summary
+
+
+def _row_files(camera_rows: Path | Sequence[Path] | None) -> list[Path]:
+    """``--camera-rows`` as a list of paths (none, one or several files)."""
+    if camera_rows is None:
+        return []
+    if isinstance(camera_rows, (str, Path)):
+        return [Path(camera_rows)]
+    return [Path(p) for p in camera_rows]
+
+
+def _rows_from(files: Sequence[Path]) -> str | list[str] | None:
+    """The summary's ``camera_rows_from``: None, the one file (as before), or the list."""
+    if not files:
+        return None
+    return str(files[0]) if len(files) == 1 else [str(f) for f in files]
 
 
 def _job_key(job: Job) -> tuple[int, int, str, str, str]:
@@ -929,7 +949,7 @@ def command_line(
     workers: int,
     pem: str | None,
     allow: bool,
-    camera_rows: str | None = None,
+    camera_rows: str | Sequence[str] | None = None,
     kind: str | None = None,
     pem_classes: str | None = None,
     stacks: Sequence[str] = (DEFAULT_STACK,),
@@ -945,8 +965,8 @@ def command_line(
         parts += ["--pem", pem]
     if allow:
         parts.append("--allow-calibration-seeds")
-    if camera_rows is not None:
-        parts += ["--camera-rows", camera_rows]
+    for path in [camera_rows] if isinstance(camera_rows, str) else camera_rows or ():
+        parts += ["--camera-rows", path]
     if kind is not None:
         parts += ["--kind", kind]
     if pem_classes is not None:

@@ -293,6 +293,39 @@ def test_camera_rows_of_an_earlier_file_are_reused_not_rerun(tmp_path: Path) -> 
         )  # fmt: skip
 
 
+def test_camera_rows_from_several_files_each_give_their_runs(tmp_path: Path) -> None:
+    """``--camera-rows`` repeated: stream A's camera rows from one file, B's from another
+    (a stale row in the first is taken from the second); nothing camera is simulated
+    again, the rows are those of a run without reuse, and the command names both files."""
+    ag.run_agreement(seeds=[3], situations=12, out=tmp_path / "all.csv", run_job=fake_run)
+    rows = ag.read_rows(tmp_path / "all.csv")
+    camera = [r for r in rows if r["perception"] == "camera"]
+    first = [dict(r) for r in camera if r["stream"] == "A"]
+    first[0]["world_model"] = WORLD_MODEL_VERSION - 1  # stale here, fresh in the second
+    second = [r for r in camera if r["stream"] == "B" or r["index"] == first[0]["index"]]
+    ag.write_rows(tmp_path / "one.csv", first)
+    ag.write_rows(tmp_path / "two.csv", second)
+    simulated: list[ag.Job] = []
+
+    def counting(job: ag.Job) -> dict:
+        simulated.append(job)
+        return fake_run(job)
+
+    files = [tmp_path / "one.csv", tmp_path / "two.csv"]
+    summary = ag.run_agreement(
+        seeds=[3], situations=12, out=tmp_path / "b.csv", run_job=counting, camera_rows=files
+    )
+    assert [j for j in simulated if j.perception == "camera"] == []
+    assert summary["runs"]["camera_reused"] == 2 * 12
+    assert summary["camera_rows_from"] == [str(f) for f in files]
+    assert ag.read_rows(tmp_path / "b.csv") == rows
+    line = ag.command_line(
+        seeds=[3], situations=12, out="b.csv", pairs="all", workers=1, pem=None,
+        allow=False, camera_rows=["one.csv", "two.csv"],
+    )  # fmt: skip
+    assert "--camera-rows one.csv --camera-rows two.csv" in line
+
+
 def test_agreement_pool_of_the_published_rows_files(tmp_path: Path, capsys) -> None:
     """README's pooled figure is printed by a command: PEM vs camera over the 600 situations
     of seeds 2, 4 and 8, 9 (docs/data) agree on 512 = 85.3 % [82.3, 87.9]."""
