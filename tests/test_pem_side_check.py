@@ -13,7 +13,7 @@ from benchmark_modules import load_benchmark
 
 from sitcov.calibration._frame_check import pass_probability
 from sitcov.calibration._frames import KindFrames, read_frames, write_frames
-from sitcov.campaign._agreement import approach_side
+from sitcov.hyperspace._situation import approach_side
 from sitcov.perception._pem_params import load_pem_params
 
 ROOT = Path(__file__).resolve().parents[1]

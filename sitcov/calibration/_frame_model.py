@@ -209,8 +209,8 @@ class Tracks:
 
 def approach_of(situation: dict[str, Any]) -> float:
     """+1 if the run's road user comes from the ego's left, -1 from its right, 0 otherwise
-    (:func:`sitcov.campaign._agreement.approach_side` of the recorded situation)."""
-    from sitcov.campaign._agreement import approach_side
+    (:func:`sitcov.hyperspace._situation.approach_side` of the recorded situation)."""
+    from sitcov.hyperspace._situation import approach_side
 
     side = approach_side(situation.get("bins", {}), situation.get("values", {}))
     return {"left": 1.0, "right": -1.0}.get(side, 0.0)

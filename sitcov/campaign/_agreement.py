@@ -68,6 +68,7 @@ from typing import Any
 import numpy as np
 
 from sitcov.errors import ConfigError
+from sitcov.hyperspace._situation import approach_side
 from sitcov.sim import WORLD_MODEL_VERSION
 
 #: Seed-sequence stream of the second run seed (0 and 1 are ask and run, sitcov._seeding).
@@ -639,27 +640,6 @@ def pool_lines(pooled: Mapping[str, Any]) -> list[str]:
     lines = [f"pooled over {', '.join(pooled['files'])} (seeds {pooled['seeds']})"]
     lines.extend(_line(pair, row) for pair, row in pooled["pairs"].items() if row["n"])
     return lines
-
-
-#: T-junction legs: entry leg of the ego -> the leg on its left / on its right (leg B is the
-#: stem; from L the stem is on the right, from R on the left; tests/av/test_plugins.py).
-_ON_LEFT = {"B": "L", "R": "B"}
-_ON_RIGHT = {"B": "R", "L": "B"}
-
-
-def approach_side(bins: Mapping[str, Any], values: Mapping[str, Any]) -> str:
-    """Where the conflicting road user comes from, seen by the ego: ``left``, ``right`` or
-    ``ahead`` (from the situation's ``intsit`` routes, entry legs of the T-junction);
-    ``other`` when the situation names no such routes."""
-    intsit = values.get("intsit")
-    if not isinstance(intsit, Mapping) or "ego" not in intsit or "ov" not in intsit:
-        return "other"
-    ego, ov = str(intsit["ego"])[:1], str(intsit["ov"])[:1]
-    if _ON_LEFT.get(ego) == ov:
-        return "left"
-    if _ON_RIGHT.get(ego) == ov:
-        return "right"
-    return "ahead"
 
 
 def situation_sides(

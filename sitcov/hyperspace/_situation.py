@@ -108,3 +108,24 @@ class Situation(Mapping[str, str]):
         if "id" in data and data["id"] != situation.id:
             raise ValueError(f"situation id {data['id']} does not match its content")
         return situation
+
+
+#: T-junction legs: entry leg of the ego -> the leg on its left / on its right (leg B is the
+#: stem; from L the stem is on the right, from R on the left; tests/av/test_plugins.py).
+_ON_LEFT = {"B": "L", "R": "B"}
+_ON_RIGHT = {"B": "R", "L": "B"}
+
+
+def approach_side(bins: Mapping[str, Any], values: Mapping[str, Any]) -> str:
+    """Where the conflicting road user comes from, seen by the ego: ``left``, ``right`` or
+    ``ahead`` (from the situation's ``intsit`` routes, entry legs of the T-junction);
+    ``other`` when the situation names no such routes."""
+    intsit = values.get("intsit")
+    if not isinstance(intsit, Mapping) or "ego" not in intsit or "ov" not in intsit:
+        return "other"
+    ego, ov = str(intsit["ego"])[:1], str(intsit["ov"])[:1]
+    if _ON_LEFT.get(ego) == ov:
+        return "left"
+    if _ON_RIGHT.get(ego) == ov:
+        return "right"
+    return "ahead"
