@@ -336,7 +336,7 @@ class _Layers:
             (lut: surface kind x channel, sheen weight per row, mirrored sky x 0.8 on
             those rows), None when dry.
         puddle_level: puddle-field value below which a road texel is a puddle (None: no
-            deposits), with the mirrored sky x 0.55 per ground row.
+            deposits), with the mirrored sky x 0.55 per ground pixel (the same per row).
     """
 
     sky: np.ndarray
@@ -385,7 +385,7 @@ def _layers(
         wet = (lut, _full(sheen, camera.width), _full(reflect[:m] * 0.8, camera.width))
     puddle = 0.55 * w["deposits"] if w["deposits"] > 0 else None
     haze_blend = (_full(1 - haze), hor32 * haze)
-    return _Layers(sky, haze_blend, fog, wet, puddle, reflect[:, 0] * 0.55)
+    return _Layers(sky, haze_blend, fog, wet, puddle, _full(reflect * 0.55, camera.width))
 
 
 #: Relative margin around numpy's ``exp`` within which :func:`fog_transmittance32` checks
@@ -462,8 +462,12 @@ def _wet_ground(
         sheen = sheen_row * np.repeat(road[:m, :, None], 3, axis=2)
         ground[:m] = ground[:m] * (1 - sheen) + reflect * sheen
     if layers.puddle_level is not None and puddle is not None:
-        r, c = np.nonzero((puddle < layers.puddle_level) & road)
-        ground[r, c] = ground[r, c] * 0.35 + layers.puddle_sky[r]
+        # Every pixel computed, the puddles' kept: the same float32 operations per
+        # puddle pixel as gathering them, without the gather and scatter of rows of 3.
+        wet = np.repeat((puddle < layers.puddle_level) & road, 3).reshape(ground.shape)
+        mirrored = ground * 0.35
+        mirrored += layers.puddle_sky
+        ground = np.where(wet, mirrored, ground)
     return ground
 
 

@@ -4,6 +4,7 @@ letterbox buffer and best-logit scores give what the plain computations give."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -190,28 +191,36 @@ def test_rain_blend_table_and_in_place_composite_equal_pillow(rain) -> None:
     assert np.asarray(mask).any()
 
 
-def test_wet_darkening_table_equals_the_per_kind_factor(tjunction_geometry) -> None:
+@pytest.mark.parametrize("values", [{"wetness": 80}, {"precipitation_deposits": 80, "wetness": 60}])
+def test_wet_ground_equals_the_plain_formulas(tjunction_geometry, values) -> None:
+    """The per-kind-and-channel darkening table and the whole-array puddle blend give
+    what gathering the puddle pixels and a per-kind factor give."""
     geometry, ego = tjunction_geometry
     small = CameraSpec(width=CAM.width // 2, height=CAM.height // 2)
-    w = R._weather(conditions_from_values({"wetness": 80}))
+    w = R._weather(conditions_from_values(values))
     zen, hor = R._sky_colors(w)
     layers = R._layers(small, tuple(sorted(w.items())), tuple(zen), tuple(hor))
-    assert layers.wet is not None and layers.puddle_level is None
+    assert layers.wet is not None
     lut = layers.wet[0]
     assert lut.shape == (4, 3) and (lut == lut[:, :1]).all()
     fwd, right, _, _, _, _ = R._ground_rays(small)
     c, s = math.cos(ego.yaw), math.sin(ego.yaw)
-    ground, kind, _ = ground_texture(geometry).sample(
-        ego.x + fwd * c + right * s, ego.y + fwd * s - right * c, puddle=False
+    ground, kind, puddle = ground_texture(geometry).sample(
+        ego.x + fwd * c + right * s, ego.y + fwd * s - right * c
     )
-    assert kind is not None and len(np.unique(kind)) > 1
-    dry = layers.__class__(layers.sky, layers.haze, layers.fog, None, None, layers.puddle_sky)
+    assert kind is not None and puddle is not None and len(np.unique(kind)) > 1
     m = layers.wet[1].shape[0]
+    road = kind >= 1
     want = ground * lut[:, 0][kind][..., None]
-    sheen = layers.wet[1] * np.repeat((kind >= 1)[:m, :, None], 3, axis=2)
+    sheen = layers.wet[1] * np.repeat(road[:m, :, None], 3, axis=2)
     want[:m] = want[:m] * (1 - sheen) + layers.wet[2] * sheen
-    assert np.array_equal(R._wet_ground(ground.copy(), kind, None, layers), want)
-    assert R._wet_ground(ground, kind, None, dry) is ground
+    if layers.puddle_level is not None:
+        r, cc = np.nonzero((puddle < layers.puddle_level) & road)
+        assert r.size > 100
+        want[r, cc] = want[r, cc] * 0.35 + layers.puddle_sky[r, 0]
+    assert np.array_equal(R._wet_ground(ground.copy(), kind, puddle, layers), want)
+    dry = replace(layers, wet=None, puddle_level=None)
+    assert R._wet_ground(ground, kind, puddle, dry) is ground
 
 
 def test_network_input_table_is_the_pixel_formula() -> None:
