@@ -249,11 +249,55 @@ def _exposed_background(
     expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
     tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
     gain, offset = gain * expo * tint, offset * expo * tint
-    pil = Image.fromarray(_expose(img, gain, offset)).resize(
-        (camera.width, camera.height), Image.BILINEAR
-    )
+    pil = _upscale(Image.fromarray(_expose(img, gain, offset)), camera, small, key[4], gain, offset)
     _LAST_BACKGROUND[0] = (key, tex, pil, gain, offset)
     return pil.copy(), gain, offset
+
+
+#: Upscaled sky rows by (camera, weather, exposure gain, offset): the top rows of the
+#: full-resolution background that only sky pixels reach (see :func:`_upscale`).
+_SKY_TOP: dict[tuple[Any, ...], Image.Image] = {}
+#: Rows of the half-resolution image kept above the first one the upscale must redo (the
+#: bilinear filter reaches one input row; the first two output rows of a cropped resize
+#: are the crop edge's, which the cached sky rows cover).
+_SKY_MARGIN = 3
+
+
+def _upscale(
+    small_img: Image.Image,
+    camera: CameraSpec,
+    small: CameraSpec,
+    weather: tuple[tuple[str, float], ...],
+    gain: np.ndarray,
+    offset: np.ndarray,
+) -> Image.Image:
+    """The exposed half-resolution background bilinearly upscaled to the camera: Pillow's
+    resize of the whole image, to the bit, with the sky done once per weather and exposure.
+
+    The rows above the ground (``_ground_rays``' first row) are the weather's sky alone,
+    so every frame of one camera, weather and exposure has the same upscaled top rows;
+    they are cached and only the rows below (from ``_SKY_MARGIN`` rows above the ground)
+    are resized. A cropped resize gives the whole image's output rows away from the crop's
+    top edge, so the result is the same to the bit (tests/perception/test_camspeed.py).
+    """
+    full = (camera.width, camera.height)
+    cut = _ground_rays(small)[4] - _SKY_MARGIN
+    if full != (2 * small_img.width, 2 * small_img.height) or cut < 1:
+        return small_img.resize(full, Image.BILINEAR)
+    key = (camera, weather, gain.tobytes(), offset.tobytes())
+    top = _SKY_TOP.get(key)
+    if top is None:
+        pil = small_img.resize(full, Image.BILINEAR)
+        if len(_SKY_TOP) >= 8:
+            _SKY_TOP.pop(next(iter(_SKY_TOP)))
+        _SKY_TOP[key] = pil.crop((0, 0, camera.width, 2 * cut + 2))
+        return pil
+    box = (0, cut, small_img.width, small_img.height)
+    below = small_img.crop(box).resize((camera.width, camera.height - 2 * cut), Image.BILINEAR)
+    pil = Image.new("RGB", full)
+    pil.paste(below, (0, 2 * cut))
+    pil.paste(top, (0, 0))
+    return pil
 
 
 def _expose(img: np.ndarray, gain: np.ndarray, offset: np.ndarray) -> np.ndarray:

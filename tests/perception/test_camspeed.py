@@ -228,3 +228,47 @@ def test_network_input_table_is_the_pixel_formula() -> None:
 
     values = np.arange(256, dtype=np.uint8)
     assert np.array_equal(D._INPUT_OF[values], values.astype(np.float32) * (2.0 / 255.0) - 1.0)
+
+
+@pytest.mark.parametrize("values", [{}, WET_FOG, {"cloudiness": 100, "fog_density": 80}])
+def test_upscale_with_cached_sky_rows_equals_pillows_resize(tjunction_geometry, values) -> None:
+    """Frames of one weather and exposure share their upscaled sky rows: the cached rows
+    plus a cropped resize of the rest give Pillow's resize of the whole image."""
+    from PIL import Image
+
+    geometry, ego = tjunction_geometry
+    small = CameraSpec(width=CAM.width // 2, height=CAM.height // 2)
+    w = R._weather(conditions_from_values(values))
+    zen, hor = R._sky_colors(w)
+    gain = np.full(3, 1.25, dtype=np.float32)
+    offset = np.zeros(3, dtype=np.float32)
+    R._SKY_TOP.clear()
+    for k, step in enumerate((0.0, 3.0, 7.5)):
+        pose = Pose(ego.x + step * math.cos(ego.yaw), ego.y + step * math.sin(ego.yaw), ego.yaw)
+        img = R._background(small, pose, w, zen, hor, ground_texture(geometry))
+        half = Image.fromarray(R._expose(img, gain, offset))
+        got = R._upscale(half, CAM, small, tuple(w.items()), gain, offset)
+        assert len(R._SKY_TOP) == 1  # the first frame filled it, the others reused it
+        want = half.resize((CAM.width, CAM.height), Image.BILINEAR)
+        assert np.array_equal(np.asarray(got), np.asarray(want)), k
+
+
+def test_a_cropped_bilinear_upscale_keeps_rows_below_the_crop_edge() -> None:
+    """What :func:`R._upscale` relies on: Pillow's 2x bilinear resize of rows ``c:`` gives
+    the whole image's output rows from ``2 c + 2`` on, to the bit, and the output rows
+    above those (the cached sky rows) only read input rows above ``c + _SKY_MARGIN``
+    (the first ground row)."""
+    from PIL import Image
+
+    rng = np.random.default_rng(8)
+    for h, w in ((225, 400), (37, 64), (120, 91)):
+        a = rng.integers(0, 256, (h, w, 3), dtype=np.uint8)
+        full = np.asarray(Image.fromarray(a).resize((2 * w, 2 * h), Image.BILINEAR))
+        for c in range(1, h - 3, 7):
+            part = Image.fromarray(a).crop((0, c, w, h))
+            part = part.resize((2 * w, 2 * (h - c)), Image.BILINEAR)
+            assert np.array_equal(np.asarray(part)[2:], full[2 * c + 2 :]), (h, w, c)
+            b = a.copy()
+            b[c + R._SKY_MARGIN :] = rng.integers(0, 256, b[c + R._SKY_MARGIN :].shape)
+            other = np.asarray(Image.fromarray(b).resize((2 * w, 2 * h), Image.BILINEAR))
+            assert np.array_equal(other[: 2 * c + 2], full[: 2 * c + 2]), (h, w, c)
