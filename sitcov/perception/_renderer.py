@@ -249,11 +249,55 @@ def _exposed_background(
     expo = exposure_gain(img[::4, ::4] * gain + offset)  # 1 px in 16 of the half-res frame
     tint = 1.0 + (OVERCAST_TINT - 1.0) * np.float32(w["cloud"])
     gain, offset = gain * expo * tint, offset * expo * tint
-    pil = Image.fromarray(_expose(img, gain, offset)).resize(
-        (camera.width, camera.height), Image.BILINEAR
-    )
+    pil = _upscale(Image.fromarray(_expose(img, gain, offset)), camera, small, key[4], gain, offset)
     _LAST_BACKGROUND[0] = (key, tex, pil, gain, offset)
     return pil.copy(), gain, offset
+
+
+#: Upscaled sky rows by (camera, weather, exposure gain, offset): the top rows of the
+#: full-resolution background that only sky pixels reach (see :func:`_upscale`).
+_SKY_TOP: dict[tuple[Any, ...], Image.Image] = {}
+#: Rows of the half-resolution image kept above the first one the upscale must redo (the
+#: bilinear filter reaches one input row; the first two output rows of a cropped resize
+#: are the crop edge's, which the cached sky rows cover).
+_SKY_MARGIN = 3
+
+
+def _upscale(
+    small_img: Image.Image,
+    camera: CameraSpec,
+    small: CameraSpec,
+    weather: tuple[tuple[str, float], ...],
+    gain: np.ndarray,
+    offset: np.ndarray,
+) -> Image.Image:
+    """The exposed half-resolution background bilinearly upscaled to the camera: Pillow's
+    resize of the whole image, to the bit, with the sky done once per weather and exposure.
+
+    The rows above the ground (``_ground_rays``' first row) are the weather's sky alone,
+    so every frame of one camera, weather and exposure has the same upscaled top rows;
+    they are cached and only the rows below (from ``_SKY_MARGIN`` rows above the ground)
+    are resized. A cropped resize gives the whole image's output rows away from the crop's
+    top edge, so the result is the same to the bit (tests/perception/test_camspeed.py).
+    """
+    full = (camera.width, camera.height)
+    cut = _ground_rays(small)[4] - _SKY_MARGIN
+    if full != (2 * small_img.width, 2 * small_img.height) or cut < 1:
+        return small_img.resize(full, Image.BILINEAR)
+    key = (camera, weather, gain.tobytes(), offset.tobytes())
+    top = _SKY_TOP.get(key)
+    if top is None:
+        pil = small_img.resize(full, Image.BILINEAR)
+        if len(_SKY_TOP) >= 8:
+            _SKY_TOP.pop(next(iter(_SKY_TOP)))
+        _SKY_TOP[key] = pil.crop((0, 0, camera.width, 2 * cut + 2))
+        return pil
+    box = (0, cut, small_img.width, small_img.height)
+    below = small_img.crop(box).resize((camera.width, camera.height - 2 * cut), Image.BILINEAR)
+    pil = Image.new("RGB", full)
+    pil.paste(below, (0, 2 * cut))
+    pil.paste(top, (0, 0))
+    return pil
 
 
 def _expose(img: np.ndarray, gain: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -333,9 +377,10 @@ class _Layers:
         fog: fog blend of the ground: (transmittance, fog colour x (1 - transmittance)),
             None without fog.
         wet: wet-road darkening per surface kind, and the sheen of the first ground rows:
-            (lut, sheen weight per row, mirrored sky x 0.8 on those rows), None when dry.
+            (lut: surface kind x channel, sheen weight per row, mirrored sky x 0.8 on
+            those rows), None when dry.
         puddle_level: puddle-field value below which a road texel is a puddle (None: no
-            deposits), with the mirrored sky x 0.55 per ground row.
+            deposits), with the mirrored sky x 0.55 per ground pixel (the same per row).
     """
 
     sky: np.ndarray
@@ -371,25 +416,46 @@ def _layers(
     hor32 = hor.astype(np.float32)
     fog = None
     if w["beta"] > 0:
-        t = _FOG_T(w["beta"], w["fog_start"], dist.astype(np.float64)).astype(np.float32)
-        t = _full(t[..., None])
+        t = _full(fog_transmittance32(w["beta"], w["fog_start"], dist)[..., None])
         fog = (t, _fog_color(w, hor).astype(np.float32) * (1 - t))
     reflect, graze = _mirrored_sky(sky_row, first, dist.shape[0], horizon)
     wet_level = max(w["wet"], 0.6 * w["rain"])
     wet = None
     if wet_level > 0 or w["deposits"] > 0:
         lut = np.array([1.0 - 0.15 * wet_level] + [1.0 - 0.4 * wet_level] * 3, dtype=np.float32)
+        lut = np.repeat(lut[:, None], 3, axis=1)  # one row of 3 channels per surface kind
         m = int(np.count_nonzero(graze > 0)) if wet_level > 0 else 0
         sheen = (0.35 * wet_level * graze[:m, None, None]).astype(np.float32)
         wet = (lut, _full(sheen, camera.width), _full(reflect[:m] * 0.8, camera.width))
     puddle = 0.55 * w["deposits"] if w["deposits"] > 0 else None
     haze_blend = (_full(1 - haze), hor32 * haze)
-    return _Layers(sky, haze_blend, fog, wet, puddle, reflect[:, 0] * 0.55)
+    return _Layers(sky, haze_blend, fog, wet, puddle, _full(reflect * 0.55, camera.width))
 
 
-#: :func:`fog_transmittance` over an array of distances (once per camera and weather:
-#: ~10 ms for the half-resolution ground, then cached with the other layers).
-_FOG_T = np.frompyfunc(fog_transmittance, 3, 1)
+#: Relative margin around numpy's ``exp`` within which :func:`fog_transmittance32` checks
+#: that rounding to float32 cannot depend on the last bits of the float64 result (4 units
+#: in the last place; numpy's float64 ``exp`` is within 1 of ``math.exp``'s).
+_EXP_MARGIN = 2.0**-50
+
+
+def fog_transmittance32(extinction: float, start: float, distance: np.ndarray) -> np.ndarray:
+    """:func:`fog_transmittance` of every distance [m], rounded to float32: the same bits as
+    calling it per element and rounding, in one numpy pass (~25x faster).
+
+    numpy's ``exp`` may differ from ``math.exp`` in the last bit of a float64 (about 2 %
+    of values); that changes the float32 only if the result lies within that bit of a
+    float32 rounding boundary. Such elements (``_EXP_MARGIN`` wide, about one in a
+    million) are taken from :func:`fog_transmittance` itself, so the result is exact.
+    """
+    d = np.asarray(distance, dtype=np.float64)
+    beyond = d - start
+    t64 = np.exp(-extinction * np.where(beyond > 0.0, beyond, 0.0))
+    out = t64.astype(np.float32)
+    lo = (t64 * (1.0 - _EXP_MARGIN)).astype(np.float32)
+    hi = (t64 * (1.0 + _EXP_MARGIN)).astype(np.float32)
+    for i in np.flatnonzero(lo != hi).tolist():
+        out.flat[i] = fog_transmittance(extinction, start, float(d.flat[i]))
+    return out
 
 
 def _full(a: np.ndarray, width: int | None = None) -> np.ndarray:
@@ -434,14 +500,18 @@ def _wet_ground(
         return ground
     lut, sheen_row, reflect = layers.wet
     road = kind >= 1
-    ground *= lut[kind][..., None]
+    ground *= np.take(lut, kind, axis=0)  # lut's rows are per channel already
     m = sheen_row.shape[0]
     if m:
         sheen = sheen_row * np.repeat(road[:m, :, None], 3, axis=2)
         ground[:m] = ground[:m] * (1 - sheen) + reflect * sheen
     if layers.puddle_level is not None and puddle is not None:
-        r, c = np.nonzero((puddle < layers.puddle_level) & road)
-        ground[r, c] = ground[r, c] * 0.35 + layers.puddle_sky[r]
+        # Every pixel computed, the puddles' kept: the same float32 operations per
+        # puddle pixel as gathering them, without the gather and scatter of rows of 3.
+        wet = np.repeat((puddle < layers.puddle_level) & road, 3).reshape(ground.shape)
+        mirrored = ground * 0.35
+        mirrored += layers.puddle_sky
+        ground = np.where(wet, mirrored, ground)
     return ground
 
 
@@ -518,8 +588,19 @@ def _rain(img: Image.Image, w: dict[str, float], rng: np.random.Generator) -> Im
     tile = _rain_tile(h, wd, max(1, round(10 * w["rain"])), round(10 * w["wind"]))
     oy, ox = int(rng.integers(0, h)), int(rng.integers(0, wd))
     mask = Image.fromarray(tile[oy : oy + h, ox : ox + wd])
-    washed = Image.blend(img, _flat_image(img.size, 190), 0.12 * w["rain"])
-    return Image.composite(_flat_image(img.size, 215), washed, mask)
+    washed = img.point(_blend_table(190, 0.12 * w["rain"]))
+    washed.paste(_flat_image(img.size, 215), None, mask)  # Image.composite, in place
+    return washed
+
+
+@lru_cache(maxsize=8)
+def _blend_table(grey: int, alpha: float) -> list[int]:
+    """``Image.blend(image, grey image, alpha)`` as a point table (per channel): Pillow's
+    own blend of every value 0..255, so the same bits as blending the frame, in a third of
+    the time (a pixel's blend depends on its value alone)."""
+    ramp = Image.fromarray(np.repeat(np.arange(256, dtype=np.uint8)[None, :, None], 3, axis=2))
+    out = np.asarray(Image.blend(ramp, Image.new("RGB", (256, 1), (grey,) * 3), alpha))
+    return out[0].T.reshape(-1).tolist()
 
 
 @lru_cache(maxsize=4)

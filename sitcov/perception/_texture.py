@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -36,7 +36,11 @@ _NAMED = {"white": WHITE, "yellow": YELLOW}
 @dataclass
 class GroundTexture:
     """The rasterised map: colour, surface kind (0 grass, 1 road, 2 marking, 3 kerb) and a
-    puddle field in [0, 1) (a pixel is a puddle when its value is below the deposit level)."""
+    puddle field in [0, 1) (a pixel is a puddle when its value is below the deposit level).
+
+    For lookups the texels are also kept flat, with one extra texel at the end that stands
+    for everything off the map (grass, kind 0, no puddle), and the colour packed as one
+    32-bit word per texel: a lookup is then one gather of whole words per pixel."""
 
     x0: float
     y0: float
@@ -44,11 +48,22 @@ class GroundTexture:
     color: np.ndarray
     kind: np.ndarray
     puddle: np.ndarray
+    _flat: tuple[np.ndarray, np.ndarray, np.ndarray] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        n = self.kind.size
+        rgba = np.zeros((n + 1, 4), dtype=np.uint8)
+        rgba[:n, :3] = self.color.reshape(-1, 3)
+        rgba[n, :3] = GRASS
+        kinds = np.append(self.kind.reshape(-1), np.zeros(1, self.kind.dtype))
+        puddles = np.append(self.puddle.reshape(-1), np.ones(1, self.puddle.dtype))
+        self._flat = (rgba.view(np.uint32).reshape(-1), kinds, puddles)
 
     def sample(
         self, wx: np.ndarray, wy: np.ndarray, *, kind: bool = True, puddle: bool = True
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """Nearest-texel colour (float32), kind and puddle value at world points [m].
+        """Nearest-texel colour (float32), kind and puddle value at world points [m];
+        points off the map are grass (kind 0, puddle value 1).
 
         ``kind=False`` / ``puddle=False`` skip looking those up (None is returned in their
         place): a dry road needs neither, a road without deposits no puddles.
@@ -57,17 +72,16 @@ class GroundTexture:
         ix = ((wx - self.x0) / self.res).astype(np.int64)
         iy = ((wy - self.y0) / self.res).astype(np.int64)
         inside = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
-        np.clip(ix, 0, w - 1, out=ix)
-        np.clip(iy, 0, h - 1, out=iy)
         flat = iy * w + ix
-        color = self.color.reshape(-1, 3)[flat].astype(np.float32)
-        kinds = self.kind.reshape(-1)[flat] if kind else None
-        puddles = self.puddle.reshape(-1)[flat] if puddle else None
         if not inside.all():
-            color[~inside] = GRASS
-            kinds = None if kinds is None else np.where(inside, kinds, 0)
-            puddles = None if puddles is None else np.where(inside, puddles, 1.0)
-        return color, kinds, puddles
+            flat = np.where(inside, flat, h * w)
+        rgba, kinds, puddles = self._flat
+        color = rgba[flat].view(np.uint8).reshape(*flat.shape, 4)[..., :3].astype(np.float32)
+        return (
+            color,
+            kinds[flat] if kind else None,
+            puddles[flat] if puddle else None,
+        )
 
 
 _CACHE: dict[int, tuple[Any, GroundTexture]] = {}
