@@ -208,6 +208,9 @@ def main() -> None:
     parser.add_argument("--restarts", type=int, default=0,
                         help="restart each fit's L-BFGS-B this many times from where it "
                         "stopped (kept if better)")  # fmt: skip
+    parser.add_argument("--starts", type=int, default=1,
+                        help="fit each candidate from this many starts (the others moved "
+                        "at random, seeded), keep the best")  # fmt: skip
     parser.add_argument("--extras-from-zero", action="store_true",
                         help="start the extra terms at 0 and the rest where the model "
                         "without them starts")  # fmt: skip
@@ -216,7 +219,8 @@ def main() -> None:
     results = []
     for kind in args.kinds.split(","):
         sets = args.sets.split(",") if args.sets else None
-        opts = {"restarts": args.restarts, "extras_from_zero": args.extras_from_zero}
+        opts = {"restarts": args.restarts, "extras_from_zero": args.extras_from_zero,
+                "starts": args.starts}  # fmt: skip
         results += run_kind(kind, fit_frames[kind], held_frames[kind], sets, **opts)
     if args.out:
         with open(args.out, "w") as fh:  # one candidate a line

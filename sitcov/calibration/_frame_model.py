@@ -576,7 +576,7 @@ def fit_tracks(
     t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False,
     scale: float | None = None, free_size: bool = False, side: bool = False,
     extras: Sequence[str] = (), near_noise: bool = False, extras_from_zero: bool = False,
-    restarts: int = 0,
+    restarts: int = 0, starts: int = 1,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
@@ -591,8 +591,10 @@ def fit_tracks(
     from step 1's least squares with them (which can start step 2 far from the nested
     model's optimum); ``restarts``: step 2's L-BFGS-B started again that many times from
     where it stopped, each kept only if it raised the likelihood (it stops on failed
-    line searches; a restart drops its curvature memory). The defaults give the same
-    bits as before these two options."""
+    line searches; a restart drops its curvature memory); ``starts``: step 2 run from
+    that many starts, the first as without the option, the others it moved by N(0, 0.3)
+    in every parameter (a Generator seeded with the start's number), the best kept. The
+    defaults give the same bits as before these options."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -688,6 +690,12 @@ def fit_tracks(
     start += [0.0] if near_noise else []
     res = minimize(nll, np.asarray(start), method="L-BFGS-B",
                    options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+    for k in range(1, starts):
+        moved = np.asarray(start) + np.random.default_rng(k).normal(0.0, 0.3, len(start))
+        other = minimize(nll, moved, method="L-BFGS-B",
+                         options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+        if other.fun < res.fun:
+            res = other
     for _ in range(restarts):
         again = minimize(nll, res.x, method="L-BFGS-B",
                          options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
