@@ -3,7 +3,8 @@
 For each kind, the model the shipped file chose (``meta``'s ``model_choice.chosen``) and
 that model with each of :data:`sitcov.calibration._frame_model.EXTRA_SETS` (side by
 distance band, side times offset, the lane, a close-range intercept, a close-range noise
-scale, a cubic size term) are
+scale, a cubic size term, bends of the size term, the size in the detection term alone)
+are
 
 1. fitted on the fit frames and scored by their sequence log-likelihood per frame on the
    held-out file's even-index runs (the model choice of ``sitcov calibrate --frames-from
@@ -16,7 +17,11 @@ scale, a cubic size term) are
 
 The extra terms enter the PEM's logit (and so its detection term) as an offset per frame,
 the close-range noise factor its score noise's scale; nothing is chosen on a stack's
-verdicts. Prints one block per (kind, candidate) and writes the rows as JSON.
+verdicts. Prints one block per (kind, candidate) and writes the rows as JSON: with the
+log-likelihood per frame on the odd runs too, and with every frame alone
+(:func:`marginal_loglik`), and the cells of the fit before the refit. ``--starts``,
+``--restarts`` and ``--extras-from-zero`` are the fits' optimiser options
+(:func:`sitcov.calibration._frame_model.fit_tracks`).
 
     python benchmarks/pem_cell_candidates.py docs/data/pem-frames-seed1.jsonl.gz \\
         docs/data/pem-frames-seed2.jsonl.gz --kinds car --out /tmp/cells-car.json
