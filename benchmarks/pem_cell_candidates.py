@@ -3,7 +3,8 @@
 For each kind, the model the shipped file chose (``meta``'s ``model_choice.chosen``) and
 that model with each of :data:`sitcov.calibration._frame_model.EXTRA_SETS` (side by
 distance band, side times offset, the lane, a close-range intercept, a close-range noise
-scale, a cubic size term) are
+scale, a cubic size term, bends of the size term, the size in the detection term alone)
+are
 
 1. fitted on the fit frames and scored by their sequence log-likelihood per frame on the
    held-out file's even-index runs (the model choice of ``sitcov calibrate --frames-from
@@ -16,7 +17,11 @@ scale, a cubic size term) are
 
 The extra terms enter the PEM's logit (and so its detection term) as an offset per frame,
 the close-range noise factor its score noise's scale; nothing is chosen on a stack's
-verdicts. Prints one block per (kind, candidate) and writes the rows as JSON.
+verdicts. Prints one block per (kind, candidate) and writes the rows as JSON: with the
+log-likelihood per frame on the odd runs too, and with every frame alone
+(:func:`marginal_loglik`), and the cells of the fit before the refit. ``--starts``,
+``--restarts`` and ``--extras-from-zero`` are the fits' optimiser options
+(:func:`sitcov.calibration._frame_model.fit_tracks`).
 
     python benchmarks/pem_cell_candidates.py docs/data/pem-frames-seed1.jsonl.gz \\
         docs/data/pem-frames-seed2.jsonl.gz --kinds car --out /tmp/cells-car.json
@@ -59,17 +64,40 @@ def shipped(kind: str) -> tuple[Any, str]:
 def pass_rates(fit: fm.FrameFit, params: Any, t: fm.Tracks, theta: float) -> np.ndarray:
     """The PEM's P(score >= θ) per frame of ``t``: ``params`` (the fit as PEM parameters,
     with its side gain) plus the fit's extra terms as an intercept offset per frame and
-    its close-range noise factor."""
+    its close-range noise factor; the detection-only terms (``det_``) as a shift of the
+    detection term's bias per frame."""
     offset = np.broadcast_to(np.asarray(fit.extra(t), dtype=float), (len(t.score),))
+    det = np.broadcast_to(np.asarray(fit.extra(t, detection=True), dtype=float), offset.shape)
     near = fm.near_of(t)
     out = np.empty(len(t.score))
     for i, f in enumerate(t.feats):
         p = params
-        if offset[i] != 0.0 or (fit.noise.kn != 0.0 and near[i]):
+        if offset[i] != 0.0 or det[i] != 0.0 or (fit.noise.kn != 0.0 and near[i]):
             sig = params.noise_sigma * (math.exp(fit.noise.kn) if near[i] else 1.0)
-            p = replace(params, bias=params.bias + float(offset[i]), noise_sigma=sig)
+            p = replace(params, bias=params.bias + float(offset[i]), noise_sigma=sig,
+                        detect_bias=params.detect_bias + float(det[i]))  # fmt: skip
         out[i] = pass_probability(f, p, theta)
     return out
+
+
+def marginal_loglik(fit: fm.FrameFit, t: fm.Tracks) -> float:
+    """The frames' log-likelihood per frame, each frame alone (its AR state integrated
+    over its prior, not filtered from the track's earlier frames): how well the model
+    gives each frame's score distribution, which is what the check compares. The
+    sequence likelihood of the model choice also rewards predicting a frame from the
+    ones before it, which a persistent AR state does even when the mean is off."""
+    from scipy.special import logsumexp
+
+    y, obs = fm._observed(t)
+    nz = fit.noise
+    size = fm.scale_size(t, fit.size_ref, nz.cap) if nz.k != 0.0 else None
+    det = fit.extra(t, detection=True)
+    det = None if np.isscalar(det) else np.asarray(det)
+    geom = fm.geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
+    near = fm.near_of(t) if nz.kn != 0.0 else None
+    u, prior = fm._grid(nz)
+    le = fm.frame_logliks(fit.logit(t), y, obs, u, nz, geom, size, near, det)
+    return float(np.mean(logsumexp(le + np.log(prior)[None, :], axis=1)))
 
 
 def cells(fit: fm.FrameFit, params: Any, t: fm.Tracks) -> list[dict[str, Any]]:
@@ -100,11 +128,13 @@ def cells(fit: fm.FrameFit, params: Any, t: fm.Tracks) -> list[dict[str, Any]]:
 
 
 def run_kind(
-    kind: str, fit_data: KindFrames, held: KindFrames, sets: list[str] | None = None
-) -> list[dict[str, Any]]:
+    kind: str, fit_data: KindFrames, held: KindFrames, sets: list[str] | None = None,
+    **opts: Any,
+) -> list[dict[str, Any]]:  # fmt: skip
     """Every candidate of ``kind`` (the shipped model and it with each extra set, or the
     ``sets`` named: ``base`` the shipped model): held-out log-likelihood, the fit, the
-    check's rows."""
+    check's rows. ``opts``: the fits' optimiser options (:func:`fm.fit_tracks`:
+    ``extras_from_zero``, ``restarts``)."""
     base_params, chosen = shipped(kind)
     base = next(c for c in fm.CANDIDATES if c[0] == chosen)
     cands = [base] + [fm.extended(base, *s) for s in fm.EXTRA_SETS]
@@ -117,21 +147,30 @@ def run_kind(
     tr = fm.tracks_of(refit_data)
     out = []
     for cand in cands:
-        fit = fm.fit_candidate(t, cand, base_params.size_ref_px)
+        fit = fm.fit_candidate(t, cand, base_params.size_ref_px, **opts)
         ll = fit.loglik(te) / max(1, len(te.score))
         ll_fit = fit.loglik(t) / max(1, len(t.score))
-        full = fm.fit_candidate(tr, cand, base_params.size_ref_px)
+        full = fm.fit_candidate(tr, cand, base_params.size_ref_px, **opts)
         plain = replace(full, extras=(), gains=(), noise=replace(full.noise, kn=0.0))
         params = fm.to_params(plain, base_params, tr, refit_data.runs)
         rows = cells(full, params, to)
         judged = [r for r in rows if "ok" in r]
+        # the fit on the fit frames alone (the one scored held out), checked the same way
+        bare = replace(fit, extras=(), gains=(), noise=replace(fit.noise, kn=0.0))
+        judged1 = [r for r in cells(fit, fm.to_params(bare, base_params, t, fit_data.runs), to)
+                   if "ok" in r]  # fmt: skip
         res = {"kind": kind, "label": KIND_LABEL[kind], "candidate": cand[0],
                "heldout_loglik_per_frame": round(ll, 4), "heldout_frames": len(te.score),
                "fit_loglik_per_frame": round(ll_fit, 4),
+               "odd_loglik_per_frame": round(full.loglik(to) / max(1, len(to.score)), 4),
+               "heldout_marginal_loglik_per_frame": round(marginal_loglik(fit, te), 4),
+               "odd_marginal_loglik_per_frame": round(marginal_loglik(full, to), 4),
+               "cells_ok_fit_only": sum(r["ok"] for r in judged1),
                "cells_ok": sum(r["ok"] for r in judged), "cells": len(judged),
                "extras": dict(zip(full.extras, [round(g, 4) for g in full.gains],
                                   strict=True)),
                "side_gain": round(full.side_gain, 4), "kn": round(full.noise.kn, 4),
+               "options": {k: v for k, v in opts.items() if v},
                "rows": rows}  # fmt: skip
         out.append(res)
         print(report(res), flush=True)
@@ -142,8 +181,12 @@ def report(res: dict[str, Any]) -> str:
     """One candidate's block: log-likelihood, cells, failing cells, side table."""
     lines = [f"== {res['label']} {res['candidate']}: held-out loglik/frame "
              f"{res['heldout_loglik_per_frame']:+.4f} ({res['heldout_frames']} frames; "
-             f"on the fit frames {res['fit_loglik_per_frame']:+.4f}); "
-             f"cells {res['cells_ok']}/{res['cells']}; extras {res['extras']} "
+             f"on the fit frames {res['fit_loglik_per_frame']:+.4f}; refit on the odd runs "
+             f"{res['odd_loglik_per_frame']:+.4f}; frames alone: held out "
+             f"{res['heldout_marginal_loglik_per_frame']:+.4f}, odd "
+             f"{res['odd_marginal_loglik_per_frame']:+.4f}); "
+             f"cells {res['cells_ok']}/{res['cells']} "
+             f"(the fit before the refit: {res['cells_ok_fit_only']}); extras {res['extras']} "
              f"side_gain {res['side_gain']} kn {res['kn']}"]  # fmt: skip
     fails = [f"{r['band']} θ{r['theta']} {r['diff']:+.3f}"
              for r in res["rows"] if "ok" in r and not r["ok"]]  # fmt: skip
@@ -167,12 +210,23 @@ def main() -> None:
                         help="only these (comma-separated EXTRA_SETS names, base: the shipped "
                         "model); default all")  # fmt: skip
     parser.add_argument("--out", default=None, help="write the results as JSON here")
+    parser.add_argument("--restarts", type=int, default=0,
+                        help="restart each fit's L-BFGS-B this many times from where it "
+                        "stopped (kept if better)")  # fmt: skip
+    parser.add_argument("--starts", type=int, default=1,
+                        help="fit each candidate from this many starts (the others moved "
+                        "at random, seeded), keep the best")  # fmt: skip
+    parser.add_argument("--extras-from-zero", action="store_true",
+                        help="start the extra terms at 0 and the rest where the model "
+                        "without them starts")  # fmt: skip
     args = parser.parse_args()
     fit_frames, held_frames = read_frames(args.fit), read_frames(args.heldout)
     results = []
     for kind in args.kinds.split(","):
         sets = args.sets.split(",") if args.sets else None
-        results += run_kind(kind, fit_frames[kind], held_frames[kind], sets)
+        opts = {"restarts": args.restarts, "extras_from_zero": args.extras_from_zero,
+                "starts": args.starts}  # fmt: skip
+        results += run_kind(kind, fit_frames[kind], held_frames[kind], sets, **opts)
     if args.out:
         with open(args.out, "w") as fh:  # one candidate a line
             fh.write("[\n" + ",\n".join(json.dumps(r) for r in results) + "\n]\n")

@@ -51,7 +51,8 @@ df; without it they are 0), or that with the noise's size gain k (the height cap
 the score's ``size_max_px`` or at the image height), with the size terms free, and that
 with the side's term (``side_gain``: the road user seen from its left or its right), by
 the log-likelihood of held-out tracks. :data:`EXTRA_SETS` are further terms (the side by
-distance band or offset, the lane, close-range terms, a cubic size term) that
+distance band or offset, the lane, close-range terms, a cubic size term, bends of the size
+term at fixed heights, the size in the detection term alone) that
 ``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; none is a
 candidate of ``sitcov calibrate`` (the PEM has no parameter for them, and none was chosen
 with an effect: docs/pem.md, "Terms tried for the per-cell check").
@@ -144,6 +145,14 @@ EXTRA_SETS: tuple[tuple[str, tuple[str, ...], bool], ...] = (
     ("near", ("near",), False),
     ("near_noise", ("near",), True),
     ("size3", ("size3",), False),
+    ("size_hinge", ("hinge40", "hinge80"), False),
+    ("size_hinge3", ("hinge35", "hinge60", "hinge120"), False),
+    ("det_size", ("det_size", "det_size2"), False),
+    (
+        "size_hinge_det",
+        ("hinge40", "hinge80", "det_size", "det_size2", "det_hinge40", "det_hinge80"),
+        False,
+    ),
 )
 
 
@@ -287,10 +296,22 @@ NEAR_M = 10.0
 #: (``from_left``, ``from_right``: ahead is the reference); ``near`` an intercept below
 #: :data:`NEAR_M`, ``offset_near``/``trunc_near`` the offset and the truncation there
 #: (their gain at close range apart from the one at every range); ``size3`` the cube of
-#: the log apparent size.
+#: the log apparent size; ``hinge<N>`` (any whole ``N`` px, e.g. ``hinge40``) the hinge
+#: ``max(0, ln(h / N))`` of the box height ``h`` [px] (unclamped: a piecewise-linear
+#: bend of the size term at ``N`` px, which the quadratic in the clamped log size cannot
+#: make), ``size``/``size2`` the clamped log
+#: size and its square (the logit has them already: only as detection terms). Any name
+#: prefixed ``det_`` (``det_size``, ``det_hinge40``) is that column in the detection
+#: term's probit only (:func:`is_detection_term`), not in the score's mean: the SSD's
+#: chance of giving a box at all need not follow the box size as its score does.
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
-               "size3")  # fmt: skip
+               "size3", "hinge<N>", "size", "size2", "det_<term>")  # fmt: skip
+
+
+def is_detection_term(name: str) -> bool:
+    """Whether the extra term ``name`` enters the detection term only (``det_`` prefix)."""
+    return name.startswith("det_")
 
 
 def near_of(t: Tracks) -> np.ndarray:
@@ -321,8 +342,17 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         "offset_near": lambda: -x[:, 13] * near,
         "trunc_near": lambda: -x[:, 8] * near,
         "size3": lambda: x[:, 1] ** 3,
+        "size": lambda: x[:, 1],
+        "size2": lambda: x[:, 2],
     }
     for name in names:
+        if name.startswith("det_"):  # the same column, in the detection term only
+            cols[name] = lambda n=name[4:]: extra_columns(t, x, (n,))[:, 0]
+            continue
+        knot = name[5:] if name.startswith("hinge") else ""
+        if knot.isdigit() and int(knot) > 0:
+            h = np.asarray([f.height_px for f in t.feats], dtype=float)
+            cols[name] = lambda n=int(knot), h=h: np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n))
         if name not in cols:
             raise SitcovError(f"unknown extra term {name!r}; expected one of {EXTRA_TERMS}")
     return np.column_stack([np.asarray(cols[n](), dtype=float) for n in names]).reshape(
@@ -424,12 +454,13 @@ def _ginv(v: np.ndarray, noise: Noise, sigma: np.ndarray | float | None = None) 
 def frame_logliks(
     m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise,
     geom: np.ndarray | None = None, size: np.ndarray | None = None,
-    near: np.ndarray | None = None,
+    near: np.ndarray | None = None, det: np.ndarray | None = None,
 ) -> np.ndarray:  # fmt: skip
     """Log-likelihood of each frame (rows) given the AR state at each grid node (columns);
     ``geom`` the frames' :func:`geometry` (needed when ``dt`` or ``df`` is not 0), ``size``
     their log apparent size (needed when ``k`` is not 0, :func:`_scale`), ``near`` their
-    close-range flag (needed when ``kn`` is not 0)."""
+    close-range flag (needed when ``kn`` is not 0), ``det`` a shift of the detection
+    term's probit per frame (its extra terms, :func:`is_detection_term`; None: none)."""
     from scipy.special import log_ndtr
 
     c = float(_logit(CENSOR))
@@ -437,6 +468,8 @@ def frame_logliks(
     lin = noise.d0 + noise.d1 * m
     if geom is not None and (noise.dt != 0.0 or noise.df != 0.0):
         lin = lin - noise.dt * geom[:, 0] - noise.df * geom[:, 1]
+    if det is not None:
+        lin = lin + det
     det = lin[:, None] + noise.lam * u[None, :]
     log_det, log_miss = log_ndtr(det), log_ndtr(-det)
     v = y - m
@@ -454,7 +487,7 @@ def frame_logliks(
 def track_loglik(
     m: np.ndarray, y: np.ndarray, obs: np.ndarray, t: Tracks, noise: Noise,
     geom: np.ndarray | None = None, size: np.ndarray | None = None,
-    near: np.ndarray | None = None,
+    near: np.ndarray | None = None, det: np.ndarray | None = None,
 ) -> np.ndarray:  # fmt: skip
     """Log-likelihood of each track (array over tracks, in track order): the forward
     filter over the AR state's grid; ``m`` the PEM logit per frame, ``y``/``obs`` the
@@ -467,7 +500,7 @@ def track_loglik(
         geom = geometry(t)
     if near is None and noise.kn != 0.0:
         near = near_of(t)
-    log_e = frame_logliks(m, y, obs, u, noise, geom, size, near)
+    log_e = frame_logliks(m, y, obs, u, noise, geom, size, near, det)
     starts = np.flatnonzero(np.r_[True, t.track[1:] != t.track[:-1]])
     lengths = np.diff(np.r_[starts, len(t.track)])
     order = np.argsort(-lengths, kind="stable")  # longest first: active tracks are a prefix
@@ -518,24 +551,32 @@ class FrameFit:
         m = x @ self.beta + self.extra(t, x)
         return m + self.side_gain * sides(t) if self.side_gain != 0.0 else m
 
-    def extra(self, t: Tracks, x: np.ndarray | None = None) -> np.ndarray | float:
-        """The extra terms' part of the logit per frame (0 without extra terms)."""
-        if not self.extras:
+    def extra(
+        self, t: Tracks, x: np.ndarray | None = None, detection: bool = False
+    ) -> np.ndarray | float:
+        """The extra terms' part of the logit per frame (0 without extra terms); with
+        ``detection`` that of the terms in the detection term only (``det_``)."""
+        pick = [i for i, n in enumerate(self.extras) if is_detection_term(n) == detection]
+        if not pick:
             return 0.0
         x = _design_for(t, self.size_max, self.size_ref) if x is None else x
-        return extra_columns(t, x, self.extras) @ np.asarray(self.gains)
+        names = tuple(self.extras[i] for i in pick)
+        return extra_columns(t, x, names) @ np.asarray([self.gains[i] for i in pick])
 
     def loglik(self, t: Tracks) -> float:
         """Sequence log-likelihood of ``t`` (every track)."""
         y, obs = _observed(t)
         size = scale_size(t, self.size_ref, self.noise.cap) if self.noise.k != 0.0 else None
-        return float(track_loglik(self.logit(t), y, obs, t, self.noise, size=size).sum())
+        det = self.extra(t, detection=True)
+        det = None if np.isscalar(det) else np.asarray(det)
+        return float(track_loglik(self.logit(t), y, obs, t, self.noise, size=size, det=det).sum())
 
 
 def fit_tracks(
     t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False,
     scale: float | None = None, free_size: bool = False, side: bool = False,
-    extras: Sequence[str] = (), near_noise: bool = False,
+    extras: Sequence[str] = (), near_noise: bool = False, extras_from_zero: bool = False,
+    restarts: int = 0, starts: int = 1,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
@@ -545,7 +586,15 @@ def fit_tracks(
     the score's mean over distance; ``side``: with the term ``side_gain * side``, started
     from step 1's least squares and fitted by likelihood in step 2; ``extras``: the extra
     terms of :data:`EXTRA_TERMS`, the same way; ``near_noise``: the score noise's scale
-    times ``exp(kn)`` at close range, :data:`NEAR_M`)."""
+    times ``exp(kn)`` at close range, :data:`NEAR_M`; ``extras_from_zero``: the extra
+    terms' gains started at 0 and the rest where the model without them starts, not
+    from step 1's least squares with them (which can start step 2 far from the nested
+    model's optimum); ``restarts``: step 2's L-BFGS-B started again that many times from
+    where it stopped, each kept only if it raised the likelihood (it stops on failed
+    line searches; a restart drops its curvature memory); ``starts``: step 2 run from
+    that many starts, the first as without the option, the others it moved by N(0, 0.3)
+    in every parameter (a Generator seeded with the start's number), the best kept. The
+    defaults give the same bits as before these options."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -556,12 +605,24 @@ def fit_tracks(
     if side_col is not None and not side_col.any():
         side_col = None  # frames recorded before ``side``: exactly the model without it
     best: tuple[float, np.ndarray, float, float, np.ndarray, np.ndarray] | None = None
+    # the detection-only terms: not in the score's least squares, started at 0
+    in_det = np.asarray(
+        [False] * (side_col is not None) + [is_detection_term(n) for n in extras], dtype=bool
+    )
     for size_max in SIZE_MAX_GRID:
         x = _design_for(t, size_max, size_ref)
         ex = extra_columns(t, x, extras)
         ex = ex if side_col is None else np.column_stack([side_col, ex])
-        xs = np.column_stack([x, ex]) if ex.shape[1] else x
+        xs = np.column_stack([x, ex[:, ~in_det]]) if ex.shape[1] else x
         beta, sigma0, value = _ridge_ls(xs[obs], y[obs], ridge)
+        if in_det.any():  # the score's terms as fitted, the detection terms at 0
+            ls, beta = beta, np.zeros(x.shape[1] + len(in_det))
+            beta[: x.shape[1]] = ls[: x.shape[1]]
+            beta[x.shape[1] :][~in_det] = ls[x.shape[1] :]
+        if extras_from_zero and extras:
+            b, sigma0, value = _ridge_ls(x[obs], y[obs], ridge)
+            beta = np.r_[b, beta[len(b) : len(b) + (side_col is not None)],
+                         np.zeros(len(extras))]  # fmt: skip
         if best is None or value < best[0]:
             best = (value, beta, sigma0, size_max, x, ex)
     assert best is not None
@@ -598,7 +659,12 @@ def fit_tracks(
     def mean(p: np.ndarray, b0: float, kappa: float) -> np.ndarray:
         m = b0 + kappa * rest
         m = m + sized @ p[at_free : at_free + 3] if free_size else m
-        return m + ex @ p[at_side:at_kn] if n_ex else m
+        if not n_ex:
+            return m
+        return m + ex[:, ~in_det] @ p[at_side:at_kn][~in_det]
+
+    def det_shift(p: np.ndarray) -> np.ndarray | None:
+        return ex[:, in_det] @ p[at_side:at_kn][in_det] if in_det.any() else None
 
     def with_kn(p: np.ndarray, noise: Noise) -> Noise:
         return replace(noise, kn=float(min(3.0, max(-3.0, p[at_kn])))) if near_noise else noise
@@ -606,7 +672,8 @@ def fit_tracks(
     def nll(p: np.ndarray) -> float:
         b0, kappa, noise = unpack(p)
         m = mean(p, b0, kappa)
-        return -float(track_loglik(m, y, obs, t, with_kn(p, noise), geom, size, near).sum())
+        noise = with_kn(p, noise)
+        return -float(track_loglik(m, y, obs, t, noise, geom, size, near, det_shift(p)).sum())
 
     rate = float(np.clip(np.mean(obs), 0.02, 0.98))
     # start: no detection slope, a slightly narrower upper spread, an AR share of 0.7
@@ -623,6 +690,17 @@ def fit_tracks(
     start += [0.0] if near_noise else []
     res = minimize(nll, np.asarray(start), method="L-BFGS-B",
                    options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+    for k in range(1, starts):
+        moved = np.asarray(start) + np.random.default_rng(k).normal(0.0, 0.3, len(start))
+        other = minimize(nll, moved, method="L-BFGS-B",
+                         options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+        if other.fun < res.fun:
+            res = other
+    for _ in range(restarts):
+        again = minimize(nll, res.x, method="L-BFGS-B",
+                         options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+        if again.fun < res.fun:
+            res = again
     b0, kappa, noise = unpack(res.x)
     noise = with_kn(res.x, noise)
     coef = np.r_[b0, kappa * beta[1:]]
@@ -633,13 +711,15 @@ def fit_tracks(
     return FrameFit(coef, size_max, size_ref, noise, gain, tuple(extras), tuple(gains))
 
 
-def fit_candidate(t: Tracks, candidate: Sequence[Any], size_ref: float) -> FrameFit:
+def fit_candidate(t: Tracks, candidate: Sequence[Any], size_ref: float, **opts: Any) -> FrameFit:
     """:func:`fit_tracks` of ``t`` as the candidate (:data:`CANDIDATES`,
-    :data:`EXTRA_CANDIDATES`) says."""
+    :data:`EXTRA_SETS`) says; ``opts`` are :func:`fit_tracks`'s optimiser options
+    (``extras_from_zero``, ``restarts``)."""
     ridge, ar, edge, scale, free, side = _flags(candidate)
     extras, near_noise = _extras(candidate)
     return fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
-                      free_size=free, side=side, extras=extras, near_noise=near_noise)  # fmt: skip
+                      free_size=free, side=side, extras=extras, near_noise=near_noise,
+                      **opts)  # fmt: skip
 
 
 def start_of(ar: bool, edge: bool, scale: float | None) -> list[int]:
