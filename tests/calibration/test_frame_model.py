@@ -203,12 +203,18 @@ def test_an_extra_term_is_recovered_and_chosen_only_when_it_is_there() -> None:
     assert logit - fits["ar1"].logit(t) != pytest.approx(0.0)
     with pytest.raises(SitcovError, match="extra terms"):
         fm.to_params(fits[chosen], PEMParams(size_ref_px=25.0), t, [])
-    t0, held0 = (fm.tracks_of(_draw(s, runs=60)) for s in (21, 22))
+    _assert_buys_nothing_when_absent((21, 22), cands, "ar1+near", max_gain=0.15)
+
+
+def _assert_buys_nothing_when_absent(
+    seeds: tuple[int, int], cands: tuple, name: str, max_gain: float
+) -> None:
+    """Frames drawn without the extra term: candidate ``name`` fits it small (|gain| under
+    ``max_gain``) and gains under 0.01 per frame of held-out likelihood over ``ar1``."""
+    t0, held0 = (fm.tracks_of(_draw(s, runs=60)) for s in seeds)
     _, table0, fits0 = fm.held_out_choice(t0, held0, size_ref=25.0, candidates=cands)
-    assert abs(fits0["ar1+near"].gains[0]) < 0.15
-    gain = (
-        table0["ar1+near"]["heldout_loglik_per_frame"] - table0["ar1"]["heldout_loglik_per_frame"]
-    )
+    assert abs(fits0[name].gains[0]) < max_gain
+    gain = table0[name]["heldout_loglik_per_frame"] - table0["ar1"]["heldout_loglik_per_frame"]
     assert gain < 0.01
 
 
@@ -230,13 +236,7 @@ def test_the_size_hinge_is_recovered_and_chosen_only_when_it_is_there() -> None:
     chosen, table, fits = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
     assert chosen == "ar1+hinge", table
     assert fits[chosen].gains[0] == pytest.approx(-1.5, abs=0.45)
-    t0, held0 = (fm.tracks_of(_draw(s, runs=60)) for s in (31, 32))
-    _, table0, fits0 = fm.held_out_choice(t0, held0, size_ref=25.0, candidates=cands)
-    assert abs(fits0["ar1+hinge"].gains[0]) < 0.25
-    gain = (
-        table0["ar1+hinge"]["heldout_loglik_per_frame"] - table0["ar1"]["heldout_loglik_per_frame"]
-    )
-    assert gain < 0.01
+    _assert_buys_nothing_when_absent((31, 32), cands, "ar1+hinge", max_gain=0.25)
     for bad in ("hinge", "hinge0", "hinge4.5"):
         with pytest.raises(SitcovError, match="unknown extra term"):
             fm.extra_columns(t, np.zeros((len(h), 14)), (bad,))
