@@ -92,6 +92,7 @@ MATCH_IOU = 0.3
 HEIGHT_BANDS = (0, 20, 30, 40, 60, 90, 150, 10000)
 DISTANCE_BANDS = (0, 10, 20, 40, 1000)
 SIDE_ON = 0.8  # view angle [rad] above which a box counts as side-on
+FRAME_S = 0.1  # camera frame period of the embedded backend [s]
 #: Box height bands [px] of the per-class score tables.
 SCORE_BANDS = (0, 30, 60, 120, 10000)
 _COLOR_NAMES = {rgb: name for name, (rgb, _) in PALETTE.items()}
@@ -229,12 +230,13 @@ def _frame_record(
         geo = bool(test((Detection(box, 1.0, label),)))
         pt = pass_probability(feats, params, theta, width)
         p = pt * geo
-        score, dbox, dhit = 0.0, None, False
+        score, score_iou, dbox, dhit = 0.0, 0.0, None, False
         if dets:  # the top-scoring detection overlapping the true box (IoU >= MATCH_IOU)
             cand = np.asarray([d.box for d in dets], dtype=np.float64)
             ov = iou(np.asarray(box, dtype=np.float64), cand)
             ok = np.flatnonzero(ov >= MATCH_IOU)
-            if len(ok):
+            if len(ok):  # and the best-overlapping one's (what the frames files record)
+                score_iou = float(dets[int(np.argmax(ov))].score)
                 best = int(ok[np.argmax([dets[k].score for k in ok])])
                 score, dbox = float(dets[best].score), dets[best].box
                 dhit = any(test((dets[k],)) for k in ok)
@@ -257,6 +259,7 @@ def _frame_record(
             "p07": round(pass_probability(feats, params, 0.7, width), 4),
             "geo": geo,
             "score": round(score, 4),
+            "score_iou": round(score_iou, 4),
             "dbox": None if dbox is None else [round(float(v), 1) for v in dbox],
             "dhit": dhit,
         })  # fmt: skip
@@ -376,6 +379,27 @@ def cell_rates(path: str, thresholds: Sequence[float]) -> dict[float, dict[tuple
             a[0] += float(s >= th)
             a[1] += pass_probability(f, params, th)
             a[2] += 1
+        out[th] = {k: (a[0] / a[2], a[1] / a[2], a[2]) for k, a in acc.items()}
+    return out
+
+
+def cell_rates_of_runs(
+    runs: list[dict[str, Any]], thresholds: Sequence[float]
+) -> dict[float, dict[tuple, tuple]]:
+    """:func:`cell_rates` from the observe runs' camera frames of every road user, with
+    the top score among the detections overlapping the true box (what the AEB acts on;
+    the frames files hold the best-overlapping detection's score)."""
+    out: dict[float, dict[tuple, tuple]] = {}
+    for th in thresholds:
+        key_p = "p05" if th == 0.5 else "p07"
+        acc: dict[tuple, list[float]] = defaultdict(lambda: [0.0, 0.0, 0])
+        for r in runs:
+            for f in r["camera"]:
+                for a in f["actors"]:
+                    row = acc[cell_key(a["h"], a["dist"], a["view"])]
+                    row[0] += float(a["score"] >= th)
+                    row[1] += a[key_p]
+                    row[2] += 1
         out[th] = {k: (a[0] / a[2], a[1] / a[2], a[2]) for k, a in acc.items()}
     return out
 
@@ -536,18 +560,26 @@ def observe_stats(runs: list[dict[str, Any]], thresholds: Sequence[float]) -> di
     """Run lengths of frames >= θ and of reference-test hits, per mode; per-frame rates by
     approach side and image-position band."""
     stats: dict[str, Any] = {}
-    for mode in ("camera", "pem"):
+    for mode, field in (("camera", "score"), ("pem", "score"), ("camera_iou_match", "score_iou")):
         per: dict[str, Any] = {}
         for th in thresholds:
             lengths: list[int] = []
             onsets: dict[str, list[float]] = defaultdict(list)
             for r in runs:
-                fr = r[mode]
+                fr = r[mode.split("_")[0]]
                 a = conflict_actor(fr)
-                seq = [next((x for x in f["actors"] if x["a"] == a), None) for f in fr]
-                flags = [x is not None and x["score"] >= th for x in seq]
+                flags, last_t = [], None
+                for f in fr:  # a frame not rendered (camera's gate) ends a run
+                    if last_t is not None and f["t"] - last_t > FRAME_S + 1e-6:
+                        flags.append(False)
+                    last_t = f["t"]
+                    x = next((x for x in f["actors"] if x["a"] == a), None)
+                    flags.append(x is not None and x[field] >= th)
                 lengths += runs_of(flags)
-                first = next((f["t"] for f, ok in zip(fr, flags, strict=True) if ok), None)
+                first = next(
+                    (f["t"] for f in fr for x in f["actors"] if x["a"] == a and x[field] >= th),
+                    None,
+                )
                 if first is not None:
                     onsets[r["side"]].append(first)
             per[str(th)] = {
@@ -601,7 +633,7 @@ def observe_stats(runs: list[dict[str, Any]], thresholds: Sequence[float]) -> di
         for k, v in sorted(realized.items()) if v[0] >= 10
     }  # fmt: skip
     # per-frame, the conflicting car: detector >= 0.5 vs the PEM's P(>= 0.5) (camera frames)
-    table: dict[str, list[float]] = defaultdict(lambda: [0, 0.0, 0.0, 0, 0.0])
+    table: dict[str, list[float]] = defaultdict(lambda: [0, 0.0, 0.0, 0, 0.0, 0.0])
     for r in runs:
         fr = r["camera"]
         a = conflict_actor(fr)
@@ -618,10 +650,11 @@ def observe_stats(runs: list[dict[str, Any]], thresholds: Sequence[float]) -> di
                     row[2] += x["p05"]
                     row[3] += int(x["score"] > 0)
                     row[4] += x["score"]
+                    row[5] += float(x["score_iou"] >= 0.5)
     # every camera frame of the conflicting car by box height, view and distance band:
     # the detector's mean score and shares >= 0.5 / 0.7 against the PEM's median score
     # and P(score >= 0.5 / 0.7)
-    cells: dict[str, list[float]] = defaultdict(lambda: [0] + [0.0] * 6)
+    cells: dict[str, list[float]] = defaultdict(lambda: [0] + [0.0] * 7)
     for r in runs:
         fr = r["camera"]
         a = conflict_actor(fr)
@@ -640,16 +673,19 @@ def observe_stats(runs: list[dict[str, Any]], thresholds: Sequence[float]) -> di
                 row[4] += x["p05"]
                 row[5] += float(x["score"] >= 0.7)
                 row[6] += x["p07"]
+                row[7] += float(x["score_iou"] >= 0.5)
     stats["cells"] = {
         k: {"frames": int(v[0]), "detector_mean": round(v[1] / v[0], 3),
             "pem_median": round(v[2] / v[0], 3), "detector_ge05": round(v[3] / v[0], 3),
             "pem_p_ge05": round(v[4] / v[0], 3), "detector_ge07": round(v[5] / v[0], 3),
-            "pem_p_ge07": round(v[6] / v[0], 3)}
+            "pem_p_ge07": round(v[6] / v[0], 3),
+            "detector_iou_match_ge05": round(v[7] / v[0], 3)}
         for k, v in sorted(cells.items(), key=lambda kv: _band_order(kv[0])) if v[0] >= 20
     }  # fmt: skip
     stats["side_frames"] = {
         k: {"frames": int(v[0]), "detector_ge05": round(v[1] / v[0], 3),
-            "pem_p_ge05": round(v[2] / v[0], 3), "mean_score": round(v[4] / v[0], 3)}
+            "pem_p_ge05": round(v[2] / v[0], 3), "mean_score": round(v[4] / v[0], 3),
+            "detector_iou_match_ge05": round(v[5] / v[0], 3)}
         for k, v in sorted(table.items()) if v[0] >= 10
     }  # fmt: skip
     return stats
@@ -771,6 +807,21 @@ def main() -> None:
     from sitcov._seeding import run_seed
     from sitcov.hyperspace._situation import approach_side
 
+    observe, cells_top = None, None
+    if args.observe:  # first: its frames give the per-cell rates of the top score
+        runs = []
+        for index in range(args.observe):
+            sit = sim.situation(index)
+            _, cam, c1 = sim.run(index, "reference", "camera", observe=True)
+            _, pem, _ = sim.run(index, "reference", "pem", observe=True)
+            cpu_camera += c1
+            runs.append({"index": index, "side": approach_side(sit.bins, sit.values),
+                         "camera": cam, "pem": pem})  # fmt: skip
+            print(f"observe {index}", flush=True)
+        observe = observe_stats(runs, thresholds)
+        cells_top = cell_rates_of_runs(runs, thresholds)
+        del runs
+
     for stack in stacks:
         make = STACKS.get(stack, stack)
         need = 3 if make == "three-frames" else 1
@@ -802,6 +853,10 @@ def main() -> None:
                 "threshold": theta,
             }
             flip.update(classify(flip, cam, pem, need, cells[theta]))
+            if cells_top is not None:  # the same with the seed's own top-score cells
+                alt = classify(flip, cam, pem, need, cells_top[theta])
+                flip["pem_fire_cellfixed_top"] = alt["pem_fire_cellfixed"]
+                flip["class_top_cells"] = alt["class"]
             end = flip["window_end"] if flip["window_end"] is not None else math.inf
             window = [f for f in cam if f["t"] <= end + 1e-6]
             flip["scene"] = _scene(values, window, run_seed(args.seed, index))
@@ -816,18 +871,6 @@ def main() -> None:
     if args.modal:
         modal = modal_agreement(sim, args.rows, args.seed, stacks, args.modal, rng)
         print(json.dumps(modal, indent=1), flush=True)
-    observe = None
-    if args.observe:
-        runs = []
-        for index in range(args.observe):
-            sit = sim.situation(index)
-            _, cam, c1 = sim.run(index, "reference", "camera", observe=True)
-            _, pem, _ = sim.run(index, "reference", "pem", observe=True)
-            cpu_camera += c1
-            runs.append({"index": index, "side": approach_side(sit.bins, sit.values),
-                         "camera": cam, "pem": pem})  # fmt: skip
-            print(f"observe {index}", flush=True)
-        observe = observe_stats(runs, thresholds)
     summary = summarise(records)
     payload = {
         "command": "python benchmarks/pem_flip_diagnosis.py " + " ".join(_argv()),
@@ -883,6 +926,7 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
                 for r in rs
             ),
             "not_flips_now": sum(r["camera_failed"] == r["pem_failed"] for r in rs),
+            "classes_top_cells": dict(Counter(r.get("class_top_cells", "-") for r in rs)),
             "pem_fails_more": sum(r["pem_failed"] and not r["camera_failed"] for r in rs),
             "by_side": dict(Counter(f"{r['side']} {r['class']}" for r in rs)),
         }
