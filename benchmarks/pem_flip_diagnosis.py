@@ -16,6 +16,7 @@ detection passes the stack's single-frame test; plus when the AEB first fired.
 
 Each flip is then put in one class (the first that applies):
 
+- ``none``: the two verdicts agree on this code (the stored row was judged by older code).
 - ``d-noise``: the PEM's per-run draw. ``--perception-seeds`` PEM runs of the same world
   (``EmbeddedBackend.run(..., perception_seed=)``) reach the camera's verdict in at least
   half of them.
@@ -93,6 +94,8 @@ HEIGHT_BANDS = (0, 20, 30, 40, 60, 90, 150, 10000)
 DISTANCE_BANDS = (0, 10, 20, 40, 1000)
 SIDE_ON = 0.8  # view angle [rad] above which a box counts as side-on
 FRAME_S = 0.1  # camera frame period of the embedded backend [s]
+#: Truncation bands of the observe runs' table [-].
+TRUNC_BANDS = ((0.0, 0.01), (0.01, 0.2), (0.2, 0.4), (0.4, 1.01))
 #: Box height bands [px] of the per-class score tables.
 SCORE_BANDS = (0, 30, 60, 120, 10000)
 _COLOR_NAMES = {rgb: name for name, (rgb, _) in PALETTE.items()}
@@ -525,6 +528,18 @@ def classify(
         out["camera_fire_stray"] = bool(last) and all(
             all(q[1] < MATCH_IOU for q in f.get("passing", [])) for f in last
         )
+    # the frame where the first-firing mode fired: the largest road user's truth there
+    fire_frames = pem if pem_first else cam
+    t_fire = tp if pem_first else tc
+    hit = [f for f in fire_frames if t_fire is not None and abs(f["t"] - t_fire) < 1e-6]
+    if hit and hit[0]["actors"]:
+        a = max(hit[0]["actors"], key=lambda a: a["wf"])
+        keys = ("h", "dist", "view", "trunc", "cx", "side", "score", "score_iou", "pt")
+        out["fire_frame"] = {"mode": "pem" if pem_first else "camera",
+                             **{k: a[k] for k in keys}}  # fmt: skip
+    if flip["camera_failed"] == flip["pem_failed"]:
+        out["class"] = "none"  # not a flip on this code (the stored row is older)
+        return out
     if "class" in out:
         return out
     if (tc is None and tp is None) or (tc is not None and tp is not None and abs(tc - tp) < 1e-6):
@@ -583,6 +598,7 @@ def observe_stats(runs: list[dict[str, Any]], thresholds: Sequence[float]) -> di
                 if first is not None:
                     onsets[r["side"]].append(first)
             per[str(th)] = {
+                "situations_with_any": sum(len(v) for v in onsets.values()),
                 "runs": len(lengths),
                 "frames": int(sum(lengths)),
                 "mean_length": round(float(np.mean(lengths)), 2) if lengths else None,
@@ -681,6 +697,30 @@ def observe_stats(runs: list[dict[str, Any]], thresholds: Sequence[float]) -> di
             "pem_p_ge07": round(v[6] / v[0], 3),
             "detector_iou_match_ge05": round(v[7] / v[0], 3)}
         for k, v in sorted(cells.items(), key=lambda kv: _band_order(kv[0])) if v[0] >= 20
+    }  # fmt: skip
+    # the same by truncation (fraction of the true box outside the image), distance band
+    # and approach side: the edge of the image, where a road user from the left is
+    trunc: dict[str, list[float]] = defaultdict(lambda: [0, 0.0, 0.0, 0.0])
+    for r in runs:
+        fr = r["camera"]
+        a = conflict_actor(fr)
+        for f in fr:
+            for x in f["actors"]:
+                if x["a"] != a or x["kind"] != "car" or x["dist"] >= 20:
+                    continue
+                tb = next(f"{lo:.1f}-{hi:.1f}" for lo, hi in TRUNC_BANDS if x["trunc"] < hi)
+                for key in (f"trunc {tb} {_dband(x['dist'])}",
+                            f"trunc {tb} {_dband(x['dist'])} {r['side']}"):  # fmt: skip
+                    row = trunc[key]
+                    row[0] += 1
+                    row[1] += float(x["score"] >= 0.5)
+                    row[2] += x["p05"]
+                    row[3] += float(x["score_iou"] >= 0.5)
+    stats["truncation"] = {
+        k: {"frames": int(v[0]), "detector_ge05": round(v[1] / v[0], 3),
+            "pem_p_ge05": round(v[2] / v[0], 3),
+            "detector_iou_match_ge05": round(v[3] / v[0], 3)}
+        for k, v in sorted(trunc.items()) if v[0] >= 15
     }  # fmt: skip
     stats["side_frames"] = {
         k: {"frames": int(v[0]), "detector_ge05": round(v[1] / v[0], 3),
@@ -782,6 +822,7 @@ def main() -> None:
     )
     parser.add_argument("--frames", action="store_true", help="store every flip's frames")
     parser.add_argument("--no-flips", action="store_true", help="skip the flips")
+    parser.add_argument("--observe-frames", help="write the observe runs' frames here (.json.gz)")
     parser.add_argument(
         "--resummarise", action="store_true", help="only recompute --out's summary (no runs)"
     )
@@ -820,6 +861,11 @@ def main() -> None:
             print(f"observe {index}", flush=True)
         observe = observe_stats(runs, thresholds)
         cells_top = cell_rates_of_runs(runs, thresholds)
+        if args.observe_frames:
+            import gzip
+
+            with gzip.open(args.observe_frames, "wt", encoding="utf-8") as fh:
+                json.dump(runs, fh)
         del runs
 
     for stack in stacks:
@@ -930,6 +976,33 @@ def summarise(records: list[dict[str, Any]]) -> dict[str, Any]:
             "pem_fails_more": sum(r["pem_failed"] and not r["camera_failed"] for r in rs),
             "by_side": dict(Counter(f"{r['side']} {r['class']}" for r in rs)),
         }
+    # the systematic flips by direction, at the first-firing mode's firing frame
+    sysf = [r for r in records if r["class"] not in ("d-noise", "none")]
+    under = [r for r in sysf if not r["pem_fired_first"] and r.get("fire_frame")]
+    over = [r for r in sysf if r["pem_fired_first"]]
+    out["systematic"] = {
+        "flips": len(sysf),
+        "camera_fired_first": len(under),
+        "camera_first_by_stack": dict(Counter(r["stack"] for r in under)),
+        "camera_first_sides": dict(Counter(r["side"] for r in under)),
+        "camera_first_within_10_7_m": sum(r["fire_frame"]["dist"] <= 10.7 for r in under),
+        "camera_first_truncated_ge015": sum(r["fire_frame"]["trunc"] >= 0.15 for r in under),
+        "camera_first_best_overlap_below_theta": sum(
+            r["fire_frame"]["score_iou"] < r["threshold"] for r in under
+        ),
+        "camera_first_pem_p_at_fire_median": round(
+            float(np.median([r["fire_frame"]["pt"] for r in under])), 3
+        )
+        if under
+        else None,
+        "pem_fired_first": len(over),
+        "pem_first_frames": [
+            {k: r["fire_frame"][k] for k in ("dist", "h", "view")}
+            | {"stack": r["stack"], "index": r["index"], "class": r["class"]}
+            for r in over
+            if r.get("fire_frame")
+        ],  # fmt: skip
+    }
     for cls in sorted({r["class"] for r in records}):
         rs = [r for r in records if r["class"] == cls]
         bands: dict[str, list[float]] = defaultdict(lambda: [0, 0.0, 0.0, 0, 0.0])
