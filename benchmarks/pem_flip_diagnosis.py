@@ -305,7 +305,7 @@ class Simulator:
         self.seed = seed
         self.generator = make_generator("random", load_hyperspace())
         self.log = FrameLog()
-        self.detector = RecordingDetector(self.log)
+        self.detector: RecordingDetector | None = None  # made at the first camera run
         self.pem = RecordingPEM()
         self.pem.log = self.log
         self.camera_backend = EmbeddedBackend(perception="camera")
@@ -332,6 +332,8 @@ class Simulator:
         if key not in self._stacks:
             self._stacks[key] = recorded_stack(stack, self.log, observe)
         st = self._stacks[key]
+        if mode == "camera" and self.detector is None:
+            self.detector = RecordingDetector(self.log)
         st.detector = self.detector
         self.log.start()
         backend = self.camera_backend if mode == "camera" else self.pem_backend
