@@ -341,17 +341,18 @@ class Simulator:
         outcome = backend.run(self.situation(index), st, run_seed(self.seed, index))
         return outcome, list(self.log.frames), time.process_time() - cpu
 
-    def pem_verdicts(self, index: int, stack: str, seeds: Sequence[int]) -> list[bool]:
-        """PEM verdicts of situation ``index``'s world A under other perception seeds."""
+    def pem_verdicts(
+        self, index: int, stack: str, seeds: Sequence[int], backend: Any = None
+    ) -> list[bool]:
+        """PEM verdicts of situation ``index``'s world A under other perception seeds (on
+        ``backend``, default the shipped PEM's)."""
         from sitcov._seeding import run_seed
         from sitcov.av import make_stack
 
         st = make_stack(stack)
         sit, seed = self.situation(index), run_seed(self.seed, index)
-        return [
-            bool(self.plain_backend.run(sit, st, seed, perception_seed=int(s)).failed)
-            for s in seeds
-        ]
+        backend = backend or self.plain_backend
+        return [bool(backend.run(sit, st, seed, perception_seed=int(s)).failed) for s in seeds]
 
 
 # --- the per-cell rates ------------------------------------------------------------------
@@ -795,6 +796,70 @@ def modal_agreement(
     return out
 
 
+def parse_whatif(text: str) -> tuple[str, dict[str, float]]:
+    """``NAME:key=value,key=value`` -> (name, PEM parameter overrides)."""
+    name, _, body = text.partition(":")
+    try:
+        over = {k.strip(): float(v) for k, v in (kv.split("=") for kv in body.split(","))}
+    except ValueError:
+        raise SystemExit(f"--whatif: {text!r}: expected NAME:key=value[,key=value]") from None
+    return name, over
+
+
+def whatif_agreement(
+    sim: Simulator, rows: str, seed: int, stacks: Sequence[str], n: int,
+    variants: Sequence[tuple[str, dict[str, float]]],
+) -> dict[str, Any]:  # fmt: skip
+    """Per variant (PEM parameter overrides; ``shipped`` first) and stack: the expected
+    agreement with camera@A of ``n`` PEM runs of world A per situation (the same
+    perception seeds for every variant: paired), the majority verdict's agreement, and
+    the expected failure rates from the left and the right against the camera's. A
+    sensitivity of the verdicts to one parameter at a time, not a refit."""
+    from sitcov.hyperspace._situation import approach_side
+    from sitcov.perception import PEMSensor
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    with open(rows, encoding="utf-8") as fh:
+        by = {(r["stack"], r["perception"], r["stream"], int(r["index"])): r
+              for r in csv.DictReader(fh) if int(r["seed"]) == seed}  # fmt: skip
+    rng = np.random.default_rng([seed, 0x57484154])
+    plan = {
+        stack: [(i, rng.integers(0, 2**32, size=n))
+                for i in sorted(k[3] for k in by if k[:3] == (stack, "camera", "A"))]
+        for stack in stacks
+    }  # fmt: skip
+    sides = {i: approach_side(sim.situation(i).bins, sim.situation(i).values)
+             for items in plan.values() for i, _ in items}  # fmt: skip
+    out: dict[str, Any] = {}
+    for name, over in (("shipped", {}), *variants):
+        backend = EmbeddedBackend(perception="pem", sensor=PEMSensor(over or None))
+        res: dict[str, Any] = {"overrides": over}
+        for stack in stacks:
+            exp = major = 0.0
+            fails: dict[str, list[float]] = defaultdict(list)
+            cams: dict[str, list[float]] = defaultdict(list)
+            for i, seeds in plan[stack]:
+                cam = by[stack, "camera", "A", i]["failed"] == "True"
+                verdicts = sim.pem_verdicts(i, stack, seeds, backend)
+                share = float(np.mean([v == cam for v in verdicts]))
+                exp += share
+                major += 1.0 if share > 0.5 else (0.5 if share == 0.5 else 0.0)
+                fails[sides[i]].append(float(np.mean(verdicts)))
+                cams[sides[i]].append(float(cam))
+            m = max(len(plan[stack]), 1)
+            res[STACKS.get(stack, stack)] = {
+                "expected_agreement": round(exp / m, 3),
+                "majority_agreement": round(major / m, 3),
+                "pem_fail_left": round(float(np.mean(fails["left"])), 3),
+                "pem_fail_right": round(float(np.mean(fails["right"])), 3),
+                "camera_fail_left": round(float(np.mean(cams["left"])), 3),
+                "camera_fail_right": round(float(np.mean(cams["right"])), 3),
+            }
+        out[name] = res
+        print(name, json.dumps(res), flush=True)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
@@ -824,6 +889,13 @@ def main() -> None:
     )
     parser.add_argument("--frames", action="store_true", help="store every flip's frames")
     parser.add_argument("--no-flips", action="store_true", help="skip the flips")
+    parser.add_argument(
+        "--whatif",
+        action="append",
+        default=[],
+        help="NAME:key=value,... PEM parameter overrides to score (with --whatif-seeds)",
+    )
+    parser.add_argument("--whatif-seeds", type=int, default=10, help="PEM runs per situation")
     parser.add_argument("--observe-frames", help="write the observe runs' frames here (.json.gz)")
     parser.add_argument(
         "--resummarise", action="store_true", help="only recompute --out's summary (no runs)"
@@ -915,6 +987,10 @@ def main() -> None:
                   f"aeb {oc.aeb_time} pem {op.failed!s:5s} aeb {op.aeb_time} "
                   f"agree {flip['pem_agree_share']:.2f} E {flip['pem_expected_hits']} "
                   f"cam_hits {flip['camera_hits']}", flush=True)  # fmt: skip
+    whatif = None
+    if args.whatif:
+        variants = [parse_whatif(w) for w in args.whatif]
+        whatif = whatif_agreement(sim, args.rows, args.seed, stacks, args.whatif_seeds, variants)
     modal = None
     if args.modal:
         modal = modal_agreement(sim, args.rows, args.seed, stacks, args.modal, rng)
@@ -929,6 +1005,7 @@ def main() -> None:
         "summary": summary,
         "observe": observe,
         "modal": modal,
+        "whatif": whatif,
         "flips": records,
     }
     Path(args.out).write_text(json.dumps(payload, indent=1) + "\n", encoding="utf-8")
