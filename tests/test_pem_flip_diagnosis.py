@@ -72,3 +72,19 @@ def test_stored_summary_is_the_summary_of_the_stored_flips(diag) -> None:
     assert diag.summarise(data["flips"]) == json.loads(json.dumps(data["summary"]))
     counts = {s: v["flips"] for s, v in data["summary"]["stacks"].items()}
     assert counts == {"reference": 18, "threshold-0.7": 22, "three-frames": 24, "right-blind": 14}
+
+
+def test_recorded_camera_run_decides_as_the_agreement_runner(diag, ssd_model_dir) -> None:
+    """Camera mode: the instrumented stack with the low-floor detector reaches the verdict
+    and AEB time of ``sitcov experiment agreement``'s own run of the same job (reference
+    situation 9 of seed 8: the AEB fires at 11.0 s), and the frame it fired in holds a
+    detection that passed on the road user."""
+    from sitcov.campaign._agreement import Job, SideRunner, SideSettings
+
+    sim = diag.Simulator(8)
+    outcome, frames, _ = sim.run(9, "reference", "camera")
+    row = SideRunner(SideSettings())(Job(8, 9, "camera", "A", "reference"))
+    assert (outcome.failed, outcome.aeb_time) == (row["failed"], row["aeb_time"])
+    fired = [f for f in frames if f["fire"]]
+    assert fired and fired[0]["t"] == pytest.approx(outcome.aeb_time)
+    assert any(a["dhit"] and a["score"] >= 0.5 for a in fired[0]["actors"])
