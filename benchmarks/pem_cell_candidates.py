@@ -129,7 +129,7 @@ def run_kind(
     check's rows. ``opts``: the fits' optimiser options (:func:`fm.fit_tracks`:
     ``extras_from_zero``, ``restarts``, ``starts``, ``stages``)."""
     base_params, chosen = shipped(kind)
-    base = next(c for c in fm.CANDIDATES if c[0] == chosen)
+    base = next(c for c in fm.candidates_for(kind) if c[0] == chosen)
     cands = [base] + [fm.extended(base, *s) for s in fm.EXTRA_SETS]
     if sets is not None:
         cands = [c for c in cands if (c[0].split("+") + ["base"])[1] in sets]
