@@ -132,10 +132,20 @@ CLASS_CANDIDATES = (
 )
 
 
+#: Candidates tried for cars besides :data:`CANDIDATES`: the chosen model's family with
+#: bends of the size term at 40 and 80 px (``size_hinge40_gain``, ``size_hinge80_gain``:
+#: the car's scores rise faster through 40-80 px and flatten above, docs/pem.md, "The
+#: two-stage fit"); measured on cars only.
+CAR_CANDIDATES = (
+    ("ar1_edge_scale_image_size_hinge", 1.0, True, True, IMAGE_HEIGHT, True, False,
+     ("hinge40", "hinge80")),
+)  # fmt: skip
+
+
 def candidates_for(kind: str) -> tuple[tuple[Any, ...], ...]:
-    """The model choice's candidates for ``kind``: :data:`CANDIDATES`, and for
-    pedestrians and cyclists :data:`CLASS_CANDIDATES` too."""
-    return CANDIDATES if kind == "car" else CANDIDATES + CLASS_CANDIDATES
+    """The model choice's candidates for ``kind``: :data:`CANDIDATES`, and for cars
+    :data:`CAR_CANDIDATES`, for pedestrians and cyclists :data:`CLASS_CANDIDATES` too."""
+    return CANDIDATES + CAR_CANDIDATES if kind == "car" else CANDIDATES + CLASS_CANDIDATES
 
 
 #: Extra term sets (not chosen among by default: ``sitcov calibrate`` uses
@@ -914,14 +924,20 @@ def selector(stages: int) -> str:
     return "heldout_marginal_loglik_per_frame" if stages == 2 else "heldout_loglik_per_frame"
 
 
+#: Extra terms (:data:`EXTRA_TERMS`) with a PEM parameter: the cube of the log size
+#: (``size3_gain``) and the size term's bends at 40 and 80 px (``size_hinge40_gain``,
+#: ``size_hinge80_gain``, :data:`sitcov.perception._pem.HINGE_PX`).
+_PEM_EXTRAS = ("size3", "hinge40", "hinge80")
+
+
 def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) -> PEMParams:
     """The fit as PEM parameters (other fields from ``base``; jitter from the runs'
     matched boxes; ``size_min_px`` the :data:`MIN_PX_PERCENTILE` percentile of the box
     heights reported: below it the sensor reports nothing, above it the fitted logit,
-    fitted down to 1 px, decides). Of the extra terms (:data:`EXTRA_TERMS`) only
-    ``size3`` has a PEM parameter (``size3_gain``): a fit with another is refused (one
+    fitted down to 1 px, decides). Of the extra terms (:data:`EXTRA_TERMS`) only those
+    of :data:`_PEM_EXTRAS` have a PEM parameter: a fit with another is refused (one
     clear error)."""
-    other = [n for n in fit.extras if n != "size3"]
+    other = [n for n in fit.extras if n not in _PEM_EXTRAS]
     if other or fit.noise.kn != 0.0:
         raise SitcovError(
             f"the PEM has no parameter for the extra terms {other}"
@@ -956,6 +972,8 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         noise_up_ratio=round(nz.up, 4),
         side_gain=round(fit.side_gain, 4),
         size3_gain=round(gains.get("size3", 0.0), 4),
+        size_hinge40_gain=round(gains.get("hinge40", 0.0), 4),
+        size_hinge80_gain=round(gains.get("hinge80", 0.0), 4),
         rain_sigma=0.0,
         rain_miss=0.0,
         rain_jitter=0.0,
