@@ -43,7 +43,11 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
    stopping rule ignorable, but with the detection term it does not undo the selection
    (tests/calibration/test_frame_model.py: runs cut at the first score >= 0.5 fit an
    intercept too low): runs recorded to their end (``--record-frames``) are the data
-   to fit on.
+   to fit on. That is ``stages=1``; ``sitcov calibrate`` fits in two stages (``stages=2``,
+   :func:`_two_stage`): the marginal terms (the logit, sigma, up, k, d0, d1, dt, df, lam)
+   by the frames-alone likelihood (:meth:`FrameFit.marginal_loglik`), then s and rho by
+   the sequence likelihood with every frame's law held, and chooses among the candidates
+   by the frames-alone held-out likelihood (docs/pem.md, "How it is fitted").
 
 Model choice (:func:`choose_model`, :func:`held_out_choice`): independent frames
 (``s = 0``), the AR(1) model, the AR(1) model with the detection term's geometry (dt,
@@ -53,9 +57,10 @@ with the side's term (``side_gain``: the road user seen from its left or its rig
 the log-likelihood of held-out tracks. :data:`EXTRA_SETS` are further terms (the side by
 distance band or offset, the lane, close-range terms, a cubic size term, bends of the size
 term at fixed heights, the size in the detection term alone) that
-``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; none is a
-candidate of ``sitcov calibrate`` (the PEM has no parameter for them, and none was chosen
-with an effect: docs/pem.md, "Terms tried for the per-cell check").
+``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; of them only
+the cube of the log size (:data:`CLASS_CANDIDATES`) and the bends at 40 and 80 px
+(:data:`CAR_CANDIDATES`) are candidates of ``sitcov calibrate``, with PEM parameters
+(docs/pem.md, "Terms tried for the per-cell check").
 """
 
 from __future__ import annotations
