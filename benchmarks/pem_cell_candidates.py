@@ -20,8 +20,11 @@ the close-range noise factor its score noise's scale; nothing is chosen on a sta
 verdicts. Prints one block per (kind, candidate) and writes the rows as JSON: with the
 log-likelihood per frame on the odd runs too, and with every frame alone
 (:func:`marginal_loglik`), and the cells of the fit before the refit. ``--starts``,
-``--restarts`` and ``--extras-from-zero`` are the fits' optimiser options
-(:func:`sitcov.calibration._frame_model.fit_tracks`).
+``--restarts``, ``--extras-from-zero`` and ``--stages`` are the fits' optimiser options
+(:func:`sitcov.calibration._frame_model.fit_tracks`; ``--stages 2``: the two-stage fit
+``sitcov calibrate`` uses, whose model choice is by the frames-alone held-out
+log-likelihood, ``heldout_marginal_loglik_per_frame``; 1, the default here, the
+single-stage sequence fit the rows before it were measured with).
 
     python benchmarks/pem_cell_candidates.py docs/data/pem-frames-seed1.jsonl.gz \\
         docs/data/pem-frames-seed2.jsonl.gz --kinds car --out /tmp/cells-car.json
@@ -32,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import time
 from dataclasses import replace
 from typing import Any
 
@@ -86,18 +90,7 @@ def marginal_loglik(fit: fm.FrameFit, t: fm.Tracks) -> float:
     gives each frame's score distribution, which is what the check compares. The
     sequence likelihood of the model choice also rewards predicting a frame from the
     ones before it, which a persistent AR state does even when the mean is off."""
-    from scipy.special import logsumexp
-
-    y, obs = fm._observed(t)
-    nz = fit.noise
-    size = fm.scale_size(t, fit.size_ref, nz.cap) if nz.k != 0.0 else None
-    det = fit.extra(t, detection=True)
-    det = None if np.isscalar(det) else np.asarray(det)
-    geom = fm.geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
-    near = fm.near_of(t) if nz.kn != 0.0 else None
-    u, prior = fm._grid(nz)
-    le = fm.frame_logliks(fit.logit(t), y, obs, u, nz, geom, size, near, det)
-    return float(np.mean(logsumexp(le + np.log(prior)[None, :], axis=1)))
+    return fit.marginal_loglik(t) / max(1, len(t.score))
 
 
 def cells(fit: fm.FrameFit, params: Any, t: fm.Tracks) -> list[dict[str, Any]]:
@@ -134,9 +127,9 @@ def run_kind(
     """Every candidate of ``kind`` (the shipped model and it with each extra set, or the
     ``sets`` named: ``base`` the shipped model): held-out log-likelihood, the fit, the
     check's rows. ``opts``: the fits' optimiser options (:func:`fm.fit_tracks`:
-    ``extras_from_zero``, ``restarts``)."""
+    ``extras_from_zero``, ``restarts``, ``starts``, ``stages``)."""
     base_params, chosen = shipped(kind)
-    base = next(c for c in fm.CANDIDATES if c[0] == chosen)
+    base = next(c for c in fm.candidates_for(kind) if c[0] == chosen)
     cands = [base] + [fm.extended(base, *s) for s in fm.EXTRA_SETS]
     if sets is not None:
         cands = [c for c in cands if (c[0].split("+") + ["base"])[1] in sets]
@@ -147,6 +140,7 @@ def run_kind(
     tr = fm.tracks_of(refit_data)
     out = []
     for cand in cands:
+        clock = time.perf_counter()
         fit = fm.fit_candidate(t, cand, base_params.size_ref_px, **opts)
         ll = fit.loglik(te) / max(1, len(te.score))
         ll_fit = fit.loglik(t) / max(1, len(t.score))
@@ -171,6 +165,10 @@ def run_kind(
                                   strict=True)),
                "side_gain": round(full.side_gain, 4), "kn": round(full.noise.kn, 4),
                "options": {k: v for k, v in opts.items() if v},
+               "noise": {k: round(float(getattr(full.noise, k)), 4)
+                         for k in ("sigma", "up", "share", "rho", "lam", "d0", "d1", "dt",
+                                   "df", "k")},
+               "wall_s": round(time.perf_counter() - clock, 1),
                "rows": rows}  # fmt: skip
         out.append(res)
         print(report(res), flush=True)
@@ -187,7 +185,8 @@ def report(res: dict[str, Any]) -> str:
              f"{res['odd_marginal_loglik_per_frame']:+.4f}); "
              f"cells {res['cells_ok']}/{res['cells']} "
              f"(the fit before the refit: {res['cells_ok_fit_only']}); extras {res['extras']} "
-             f"side_gain {res['side_gain']} kn {res['kn']}"]  # fmt: skip
+             f"side_gain {res['side_gain']} kn {res['kn']}; noise {res['noise']}; "
+             f"{res['wall_s']} s"]  # fmt: skip
     fails = [f"{r['band']} θ{r['theta']} {r['diff']:+.3f}"
              for r in res["rows"] if "ok" in r and not r["ok"]]  # fmt: skip
     lines.append("   failing: " + (", ".join(fails) or "none"))
@@ -216,6 +215,9 @@ def main() -> None:
     parser.add_argument("--starts", type=int, default=1,
                         help="fit each candidate from this many starts (the others moved "
                         "at random, seeded), keep the best")  # fmt: skip
+    parser.add_argument("--stages", type=int, default=1, choices=(1, 2),
+                        help="1: every parameter by the sequence likelihood; 2: the two-stage "
+                        "fit (marginal terms by the frames alone, then the AR part)")  # fmt: skip
     parser.add_argument("--extras-from-zero", action="store_true",
                         help="start the extra terms at 0 and the rest where the model "
                         "without them starts")  # fmt: skip
@@ -225,7 +227,7 @@ def main() -> None:
     for kind in args.kinds.split(","):
         sets = args.sets.split(",") if args.sets else None
         opts = {"restarts": args.restarts, "extras_from_zero": args.extras_from_zero,
-                "starts": args.starts}  # fmt: skip
+                "starts": args.starts, "stages": args.stages}  # fmt: skip
         results += run_kind(kind, fit_frames[kind], held_frames[kind], sets, **opts)
     if args.out:
         with open(args.out, "w") as fh:  # one candidate a line

@@ -1210,6 +1210,15 @@ def calibrate_cmd(
         help="--frames-from: choose the model on these frames files' even-index runs "
         "(recorded with another seed) instead of --cv-folds folds.",
     ),
+    fit_stages: int = typer.Option(
+        2,
+        "--fit-stages",
+        min=1,
+        max=2,
+        help="--frames-from: 2 fits the marginal terms by the frames-alone likelihood, then "
+        "the AR part by the sequence's, and chooses the model by the frames-alone held-out "
+        "likelihood; 1 fits everything by the sequence likelihood (docs/pem.md).",
+    ),
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
     ),
@@ -1234,7 +1243,8 @@ def calibrate_cmd(
         _check_frames_cmd(check, kinds, pem, pem_classes, check_runs)
         return
     if frames_from:
-        _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout)
+        _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
+                         fit_stages)  # fmt: skip
         return
     if record_frames:
         _record_frames_cmd(kinds, runs, seed, workers, model, samples_out, sweep_frames)
@@ -1310,7 +1320,7 @@ def calibrate_cmd(
 
 def _frame_model_cmd(
     paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
-    workers: int = 1, heldout: list[Path] | None = None,
+    workers: int = 1, heldout: list[Path] | None = None, stages: int = 2,
 ) -> None:  # fmt: skip
     """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
     import shlex
@@ -1320,7 +1330,7 @@ def _frame_model_cmd(
 
     cpu = time.process_time()
     wall = time.perf_counter()
-    results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or ())
+    results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or (), stages=stages)
     wall = time.perf_counter() - wall
     command = "sitcov calibrate " + " ".join(f"--frames-from {shlex.quote(str(p))}" for p in paths)
     if heldout:
@@ -1328,6 +1338,7 @@ def _frame_model_cmd(
     else:
         command += f" --cv-folds {folds}"
     command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
+    command += f" --fit-stages {stages}" if stages != 2 else ""
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     if classes_out is not None:
@@ -1347,8 +1358,9 @@ def _frame_model_cmd(
         choice = summary["model_choice"]
         err_console.print(
             f"{kind}: {summary['frames']} frames in {summary['tracks']} tracks; chosen "
-            f"{choice['chosen']} (held-out log-likelihood per frame: "
-            + ", ".join(f"{k} {v['heldout_loglik_per_frame']}" for k, v in choice["table"].items())
+            f"{choice['chosen']} (held-out log-likelihood per frame, "
+            + ("frames alone: " if choice["by"] == fm.selector(2) else "sequence: ")
+            + ", ".join(f"{k} {v[choice['by']]}" for k, v in choice["table"].items())
             + f"); noise_sigma {params.noise_sigma}, rho {summary['rho_per_frame']} per frame, "
             f"AR share {summary['ar_share']}",
             highlight=False,

@@ -200,12 +200,13 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
 
 #: The coefficients the probit fit estimates: the logit's (``COEFFICIENTS``) but the size
 #: normalisation and clamps in pixels, which the fit keeps as given, and the side's and
-#: the cubic size term's gains, candidate terms of the frame model only
+#: the cubic size term's and the size bends' gains, candidate terms of the frame model only
 #: (:mod:`sitcov.calibration._frame_model`).
 _LINEAR = tuple(
     name
     for name in COEFFICIENTS
-    if not name.endswith("_px") and name not in ("side_gain", "size3_gain")
+    if not name.endswith("_px")
+    and name not in ("side_gain", "size3_gain", "size_hinge40_gain", "size_hinge80_gain")
 )
 #: Ridge penalty on the probit coefficients (not the intercept).
 _RIDGE = 1.0

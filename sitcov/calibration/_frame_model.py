@@ -43,7 +43,11 @@ Fit (:func:`fit_tracks`), by maximum likelihood:
    stopping rule ignorable, but with the detection term it does not undo the selection
    (tests/calibration/test_frame_model.py: runs cut at the first score >= 0.5 fit an
    intercept too low): runs recorded to their end (``--record-frames``) are the data
-   to fit on.
+   to fit on. That is ``stages=1``; ``sitcov calibrate`` fits in two stages (``stages=2``,
+   :func:`_two_stage`): the marginal terms (the logit, sigma, up, k, d0, d1, dt, df, lam)
+   by the frames-alone likelihood (:meth:`FrameFit.marginal_loglik`), then s and rho by
+   the sequence likelihood with every frame's law held, and chooses among the candidates
+   by the frames-alone held-out likelihood (docs/pem.md, "How it is fitted").
 
 Model choice (:func:`choose_model`, :func:`held_out_choice`): independent frames
 (``s = 0``), the AR(1) model, the AR(1) model with the detection term's geometry (dt,
@@ -53,9 +57,10 @@ with the side's term (``side_gain``: the road user seen from its left or its rig
 the log-likelihood of held-out tracks. :data:`EXTRA_SETS` are further terms (the side by
 distance band or offset, the lane, close-range terms, a cubic size term, bends of the size
 term at fixed heights, the size in the detection term alone) that
-``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; none is a
-candidate of ``sitcov calibrate`` (the PEM has no parameter for them, and none was chosen
-with an effect: docs/pem.md, "Terms tried for the per-cell check").
+``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; of them only
+the cube of the log size (:data:`CLASS_CANDIDATES`) and the bends at 40 and 80 px
+(:data:`CAR_CANDIDATES`) are candidates of ``sitcov calibrate``, with PEM parameters
+(docs/pem.md, "Terms tried for the per-cell check").
 """
 
 from __future__ import annotations
@@ -87,6 +92,15 @@ GRID_NODES = 17
 SHARE_MAX = 0.97
 #: Largest AR(1) coefficient per frame tried (the grid resolves kernels down to this).
 RHO_MAX = 0.98
+#: Step of stage 1's first pass's finite-difference gradient (the two-stage fit,
+#: :func:`fit_tracks`) [parameter units]: the split normal's density jumps by ``ln up``
+#: where the mean crosses a frame's score, so the frames-alone likelihood is piecewise
+#: smooth with thousands of small steps, and L-BFGS-B with the default 1e-8 differences
+#: stops on them (synthetic runs drawn with sigma 0.8: 0.65, up 1.21 for 1.0, 24 log-
+#: likelihood units short); differences this wide step over them (a second pass with
+#: the default ones from there gained 3.4 units on the 18,000 car frames, 0.0002 per
+#: frame, in 70 s: not made).
+SMOOTH_EPS = 1e-3
 #: The default camera's image height [px]: a cap of the score noise's size term.
 IMAGE_HEIGHT = 450.0
 #: Percentile of the reported boxes' heights below which the PEM reports nothing [%]
@@ -123,10 +137,20 @@ CLASS_CANDIDATES = (
 )
 
 
+#: Candidates tried for cars besides :data:`CANDIDATES`: the chosen model's family with
+#: bends of the size term at 40 and 80 px (``size_hinge40_gain``, ``size_hinge80_gain``:
+#: the car's scores rise faster through 40-80 px and flatten above, docs/pem.md, "The
+#: two-stage fit"); measured on cars only.
+CAR_CANDIDATES = (
+    ("ar1_edge_scale_image_size_hinge", 1.0, True, True, IMAGE_HEIGHT, True, False,
+     ("hinge40", "hinge80")),
+)  # fmt: skip
+
+
 def candidates_for(kind: str) -> tuple[tuple[Any, ...], ...]:
-    """The model choice's candidates for ``kind``: :data:`CANDIDATES`, and for
-    pedestrians and cyclists :data:`CLASS_CANDIDATES` too."""
-    return CANDIDATES if kind == "car" else CANDIDATES + CLASS_CANDIDATES
+    """The model choice's candidates for ``kind``: :data:`CANDIDATES`, and for cars
+    :data:`CAR_CANDIDATES`, for pedestrians and cyclists :data:`CLASS_CANDIDATES` too."""
+    return CANDIDATES + CAR_CANDIDATES if kind == "car" else CANDIDATES + CLASS_CANDIDATES
 
 
 #: Extra term sets (not chosen among by default: ``sitcov calibrate`` uses
@@ -571,12 +595,32 @@ class FrameFit:
         det = None if np.isscalar(det) else np.asarray(det)
         return float(track_loglik(self.logit(t), y, obs, t, self.noise, size=size, det=det).sum())
 
+    def marginal_loglik(self, t: Tracks) -> float:
+        """Frames-alone log-likelihood of ``t``: the sum over frames of each frame's
+        log-likelihood with its AR state integrated over the prior (not filtered from the
+        track's earlier frames). It scores each frame's law of (output, score), the
+        marginal that P(score >= θ) per frame and the held-out check read, and not the
+        law over consecutive frames (the AR share and coefficient do not enter it but
+        through the detection term's correlation with the score noise)."""
+        from scipy.special import logsumexp
+
+        y, obs = _observed(t)
+        nz = self.noise
+        size = scale_size(t, self.size_ref, nz.cap) if nz.k != 0.0 else None
+        det = self.extra(t, detection=True)
+        det = None if np.isscalar(det) else np.asarray(det)
+        geom = geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
+        near = near_of(t) if nz.kn != 0.0 else None
+        u, prior = _grid(nz)
+        le = frame_logliks(self.logit(t), y, obs, u, nz, geom, size, near, det)
+        return float(np.sum(logsumexp(le + np.log(prior)[None, :], axis=1)))
+
 
 def fit_tracks(
     t: Tracks, *, ridge: float, ar: bool, size_ref: float, edge: bool = False,
     scale: float | None = None, free_size: bool = False, side: bool = False,
     extras: Sequence[str] = (), near_noise: bool = False, extras_from_zero: bool = False,
-    restarts: int = 0, starts: int = 1,
+    restarts: int = 0, starts: int = 1, stages: int = 1,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
@@ -593,8 +637,12 @@ def fit_tracks(
     where it stopped, each kept only if it raised the likelihood (it stops on failed
     line searches; a restart drops its curvature memory); ``starts``: step 2 run from
     that many starts, the first as without the option, the others it moved by N(0, 0.3)
-    in every parameter (a Generator seeded with the start's number), the best kept. The
-    defaults give the same bits as before these options."""
+    in every parameter (a Generator seeded with the start's number), the best kept;
+    ``stages``: 1 fits every parameter at once by the sequence likelihood, 2 in two
+    stages (a composite likelihood, :func:`_two_stage`: the marginal parameters by the
+    frames-alone likelihood, then the AR share and coefficient by the sequence likelihood
+    with the per-frame marginal held; ``starts`` and ``restarts`` then act on stage 1).
+    The defaults give the same bits as before these options."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -688,33 +736,109 @@ def fit_tracks(
     start += [0.0, 0.0, 0.0] if free_size else []
     start += ex0
     start += [0.0] if near_noise else []
-    res = minimize(nll, np.asarray(start), method="L-BFGS-B",
-                   options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+
+    def frames_nll(p: np.ndarray) -> float:  # every frame alone (stage 1)
+        from scipy.special import logsumexp
+
+        b0, kappa, noise = unpack(p)
+        noise = with_kn(p, noise)
+        u, prior = _grid(noise)
+        le = frame_logliks(mean(p, b0, kappa), y, obs, u, noise, geom, size, near, det_shift(p))
+        return -float(np.sum(logsumexp(le + np.log(prior)[None, :], axis=1)))
+
+    two = stages == 2 and ar
+    opts = {"maxiter": 150 if edge else 80, "ftol": 1e-6}
+    if two:  # wide differences: the frames-alone likelihood's steps (SMOOTH_EPS)
+        opts = {"maxiter": 400, "ftol": 1e-10, "eps": SMOOTH_EPS}
+    # stage 1 (two stages): the AR share and coefficient held at their start (the
+    # frames-alone likelihood does not see rho; the share only through lam * sqrt(share))
+    fixed = np.zeros(len(start), dtype=bool)
+    if two:
+        fixed[6:8] = True
+    full0 = np.asarray(start, dtype=float)
+
+    def embed(q: np.ndarray) -> np.ndarray:
+        p = full0.copy()
+        p[~fixed] = q
+        return p
+
+    first = (lambda q: frames_nll(embed(q))) if two else nll
+
+    def run(x0: np.ndarray) -> Any:
+        return minimize(first, x0, method="L-BFGS-B", options=opts)
+
+    res = run(full0[~fixed])
     for k in range(1, starts):
-        moved = np.asarray(start) + np.random.default_rng(k).normal(0.0, 0.3, len(start))
-        other = minimize(nll, moved, method="L-BFGS-B",
-                         options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+        moved = full0[~fixed] + np.random.default_rng(k).normal(0.0, 0.3, int((~fixed).sum()))
+        other = run(moved)
         if other.fun < res.fun:
             res = other
     for _ in range(restarts):
-        again = minimize(nll, res.x, method="L-BFGS-B",
-                         options={"maxiter": 150 if edge else 80, "ftol": 1e-6})  # fmt: skip
+        again = minimize(first, res.x, method="L-BFGS-B", options=opts)
         if again.fun < res.fun:
             res = again
-    b0, kappa, noise = unpack(res.x)
-    noise = with_kn(res.x, noise)
+    px = embed(res.x)
+    if two:
+        det_at = [3, 4] + ([9, 10] if edge else [])
+        det_at += [at_side + i for i in np.flatnonzero(in_det)]
+        px = _two_stage(px, nll, det_at)
+    b0, kappa, noise = unpack(px)
+    noise = with_kn(px, noise)
     coef = np.r_[b0, kappa * beta[1:]]
     if free_size:
-        coef[1:4] += res.x[at_free : at_free + 3]
-    gains = [float(g) for g in res.x[at_side:at_kn]]
+        coef[1:4] += px[at_free : at_free + 3]
+    gains = [float(g) for g in px[at_side:at_kn]]
     gain = gains.pop(0) if side_col is not None else 0.0
     return FrameFit(coef, size_max, size_ref, noise, gain, tuple(extras), tuple(gains))
+
+
+def _two_stage(p: np.ndarray, nll: Any, det_at: Sequence[int]) -> np.ndarray:
+    """Stage 2 of the two-stage fit (:func:`fit_tracks` with ``stages=2``): the AR share
+    ``s`` and coefficient ``rho`` by the sequence likelihood ``nll`` from the stage-1
+    parameter vector ``p`` (its entries 6, 7, 8 the share, rho and detection AR gain
+    ``lam`` as :func:`fit_tracks` packs them; ``det_at`` the detection probit's linear
+    coefficients), with every frame's marginal held.
+
+    A frame's marginal law depends on the share and ``lam`` only through the detection
+    probit's total variance ``1 + lam**2`` and its correlation with the score noise,
+    ``c = lam sqrt(s) / sqrt(1 + lam**2)`` (the probit's latent ``d + lam a + N(0, 1)``,
+    the score noise ``sqrt(s) a + sqrt(1 - s) e``; ``rho`` does not enter). So for a new
+    share ``s > c**2`` the detection AR gain is ``lam = c / sqrt(s - c**2)`` and the
+    probit's linear coefficients are scaled by ``sqrt(1 + lam**2) / sqrt(1 + lam1**2)``:
+    the same detection probability and correlation in every frame, so the same
+    P(score >= θ) per frame (:func:`sitcov.perception._pem.pass_probability`) as stage 1
+    gave; only the law over consecutive frames changes."""
+    from scipy.optimize import minimize
+
+    s1 = SHARE_MAX / (1.0 + math.exp(-p[6]))
+    lam1 = float(p[8])
+    c = lam1 * math.sqrt(s1) / math.sqrt(1.0 + lam1 * lam1)
+    lo = c * c
+
+    def full(q: np.ndarray) -> np.ndarray:
+        a = min(30.0, max(-30.0, float(q[0])))
+        s = lo + (SHARE_MAX - lo) / (1.0 + math.exp(-a))
+        s = max(s, lo + 1e-9)
+        lam = c / math.sqrt(s - lo)
+        out = p.copy()
+        out[6] = math.log(s / (SHARE_MAX - s))
+        out[7] = q[1]
+        out[8] = lam
+        out[list(det_at)] = (
+            p[list(det_at)] * math.sqrt(1.0 + lam * lam) / math.sqrt(1.0 + lam1 * lam1)
+        )
+        return out
+
+    a0 = math.log((s1 - lo) / (SHARE_MAX - s1)) if s1 > lo else 0.0
+    res = minimize(lambda q: nll(full(q)), np.asarray([a0, p[7]]), method="L-BFGS-B",
+                   options={"maxiter": 60, "ftol": 1e-7})  # fmt: skip
+    return full(res.x)
 
 
 def fit_candidate(t: Tracks, candidate: Sequence[Any], size_ref: float, **opts: Any) -> FrameFit:
     """:func:`fit_tracks` of ``t`` as the candidate (:data:`CANDIDATES`,
     :data:`EXTRA_SETS`) says; ``opts`` are :func:`fit_tracks`'s optimiser options
-    (``extras_from_zero``, ``restarts``)."""
+    (``extras_from_zero``, ``restarts``, ``starts``, ``stages``)."""
     ridge, ar, edge, scale, free, side = _flags(candidate)
     extras, near_noise = _extras(candidate)
     return fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
@@ -768,38 +892,57 @@ def choose_model(
     folds: int,
     size_ref: float,
     candidates: Sequence[tuple[Any, ...]] = CANDIDATES,
+    stages: int = 1,
 ) -> tuple[str, dict[str, Any]]:
-    """The candidate with the best held-out sequence log-likelihood (per held-out frame),
-    over run-grouped folds: each fold's runs are left out of the fit and scored."""
+    """The candidate with the best held-out log-likelihood (per held-out frame), over
+    run-grouped folds: each fold's runs are left out of the fit and scored. ``stages``
+    as :func:`fit_tracks`'s; with 2 the candidates are chosen by the frames-alone
+    log-likelihood (:meth:`FrameFit.marginal_loglik`, ``heldout_marginal_loglik_per_frame``),
+    else by the sequence's (``heldout_loglik_per_frame``); the table holds both."""
     table: dict[str, Any] = {}
     parts = _folds(t.group, folds)
     all_groups = np.unique(t.group)
     for cand in candidates:
         name, (ridge, ar, edge, scale, free, side) = cand[0], _flags(cand)
         extras, near_noise = _extras(cand)
-        total, frames = 0.0, 0
+        total, marginal, frames = 0.0, 0.0, 0
         for held in parts:
             train = t.subset(np.setdiff1d(all_groups, held))
             test = t.subset(held)
             fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
                              scale=scale, free_size=free, side=side, extras=extras,
-                             near_noise=near_noise)  # fmt: skip
+                             near_noise=near_noise, stages=stages)  # fmt: skip
             total += fit.loglik(test)
+            marginal += fit.marginal_loglik(test)
             frames += len(test.score)
         table[name] = {"heldout_loglik_per_frame": round(total / max(1, frames), 4),
+                       "heldout_marginal_loglik_per_frame": round(marginal / max(1, frames), 4),
                        "heldout_frames": frames}  # fmt: skip
-    chosen = max(table, key=lambda k: table[k]["heldout_loglik_per_frame"])
+    key = selector(stages)
+    chosen = max(table, key=lambda k: table[k][key])
     return chosen, table
+
+
+def selector(stages: int) -> str:
+    """The model choice table's column that chooses (:func:`choose_model`): the
+    frames-alone held-out log-likelihood for the two-stage fit, else the sequence's."""
+    return "heldout_marginal_loglik_per_frame" if stages == 2 else "heldout_loglik_per_frame"
+
+
+#: Extra terms (:data:`EXTRA_TERMS`) with a PEM parameter: the cube of the log size
+#: (``size3_gain``) and the size term's bends at 40 and 80 px (``size_hinge40_gain``,
+#: ``size_hinge80_gain``, :data:`sitcov.perception._pem.HINGE_PX`).
+_PEM_EXTRAS = ("size3", "hinge40", "hinge80")
 
 
 def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) -> PEMParams:
     """The fit as PEM parameters (other fields from ``base``; jitter from the runs'
     matched boxes; ``size_min_px`` the :data:`MIN_PX_PERCENTILE` percentile of the box
     heights reported: below it the sensor reports nothing, above it the fitted logit,
-    fitted down to 1 px, decides). Of the extra terms (:data:`EXTRA_TERMS`) only
-    ``size3`` has a PEM parameter (``size3_gain``): a fit with another is refused (one
+    fitted down to 1 px, decides). Of the extra terms (:data:`EXTRA_TERMS`) only those
+    of :data:`_PEM_EXTRAS` have a PEM parameter: a fit with another is refused (one
     clear error)."""
-    other = [n for n in fit.extras if n != "size3"]
+    other = [n for n in fit.extras if n not in _PEM_EXTRAS]
     if other or fit.noise.kn != 0.0:
         raise SitcovError(
             f"the PEM has no parameter for the extra terms {other}"
@@ -834,6 +977,8 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         noise_up_ratio=round(nz.up, 4),
         side_gain=round(fit.side_gain, 4),
         size3_gain=round(gains.get("size3", 0.0), 4),
+        size_hinge40_gain=round(gains.get("hinge40", 0.0), 4),
+        size_hinge80_gain=round(gains.get("hinge80", 0.0), 4),
         rain_sigma=0.0,
         rain_miss=0.0,
         rain_jitter=0.0,
@@ -844,10 +989,12 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
 
 def held_out_choice(
     t: Tracks, held: Tracks, *, size_ref: float,
-    candidates: Sequence[tuple[Any, ...]] = CANDIDATES,
+    candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 1,
 ) -> tuple[str, dict[str, Any], dict[str, FrameFit]]:  # fmt: skip
-    """Each candidate fitted on ``t`` and scored by its sequence log-likelihood on the
-    held-out tracks ``held`` (per frame): (the best, the table, the fits)."""
+    """Each candidate fitted on ``t`` and scored by its log-likelihood on the held-out
+    tracks ``held`` (per frame): (the best, the table, the fits). ``stages`` as
+    :func:`fit_tracks`'s; the choosing column as :func:`choose_model`'s
+    (:func:`selector`)."""
     table: dict[str, Any] = {}
     fits: dict[str, FrameFit] = {}
     for cand in candidates:
@@ -855,12 +1002,15 @@ def held_out_choice(
         extras, near_noise = _extras(cand)
         fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
                                 scale=scale, free_size=free, side=side, extras=extras,
-                                near_noise=near_noise)  # fmt: skip
+                                near_noise=near_noise, stages=stages)  # fmt: skip
+        n = max(1, len(held.score))
         table[name] = {
-            "heldout_loglik_per_frame": round(fits[name].loglik(held) / max(1, len(held.score)), 4),
+            "heldout_loglik_per_frame": round(fits[name].loglik(held) / n, 4),
+            "heldout_marginal_loglik_per_frame": round(fits[name].marginal_loglik(held) / n, 4),
             "heldout_frames": len(held.score),
         }
-    chosen = max(table, key=lambda k: table[k]["heldout_loglik_per_frame"])
+    key = selector(stages)
+    chosen = max(table, key=lambda k: table[k][key])
     return chosen, table, fits
 
 
@@ -876,7 +1026,7 @@ def split_runs(data: KindFrames, part: str) -> KindFrames:
 
 def fit_kind(
     data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None,
-    candidates: Sequence[tuple[Any, ...]] = CANDIDATES,
+    candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 2,
 ) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
     """Choose the model on held-out runs and fit it on every frame of the kind; the
     parameters and a summary (frames, tracks, the choice table, the fitted noise).
@@ -886,22 +1036,28 @@ def fit_kind(
     chosen one is refitted on ``data`` and those runs (the odd ones are left for the
     check, :mod:`sitcov.calibration._frame_check`); else by ``folds`` run-grouped folds
     of ``data`` and the chosen one refitted on all of it. ``candidates``: those of
-    :data:`CANDIDATES` to choose among."""
+    :data:`CANDIDATES` to choose among. ``stages``: the fit's (:func:`fit_tracks`), 2 by
+    default (the marginal parameters by the frames-alone likelihood, then the AR share
+    and coefficient by the sequence's; candidates chosen by the frames-alone held-out
+    likelihood); 1 the single-stage sequence fit and choice of the files before it."""
     t = tracks_of(data)
     size_ref = base.size_ref_px
     if held is not None:
         even = split_runs(held, "even")
         chosen, table, _ = held_out_choice(t, tracks_of(even), size_ref=size_ref,
-                                           candidates=candidates)  # fmt: skip
+                                           candidates=candidates, stages=stages)  # fmt: skip
         # then the chosen model on every frame but the check's: the held-out runs are
         # recorded with the stack given no detections, so they hold the closest frames
         # (after the moment an AEB would fire) that the calibration runs stop before
         data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
         t = tracks_of(data)
-        fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref)
+        fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
+                            stages=stages)  # fmt: skip
     else:
-        chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates)
-        fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref)
+        chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates,
+                                     stages=stages)  # fmt: skip
+        fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
+                            stages=stages)  # fmt: skip
     params = to_params(fit, base, t, data.runs)
     nz = fit.noise
     lag1 = nz.share * nz.rho
@@ -914,21 +1070,24 @@ def fit_kind(
         "model_choice": {
             "on": "held-out runs (even index)" if held is not None else f"{folds} folds",
             "chosen": chosen,
+            "by": selector(stages),
+            "fit_stages": stages,
             "table": table,
         },
         "rho_per_frame": round(nz.rho, 4),
         "ar_share": round(nz.share, 4),
         "lag1_autocorrelation_of_logit_noise": round(lag1, 4),
         "loglik_per_frame": round(fit.loglik(t) / max(1, len(t.score)), 4),
+        "marginal_loglik_per_frame": round(fit.marginal_loglik(t) / max(1, len(t.score)), 4),
     }
     return params, summary
 
 
 def _fit_job(
-    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...]],
+    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...], int],
 ) -> tuple[PEMParams, dict[str, Any]]:
-    kind, data, base, folds, held, candidates = job
-    return fit_kind(data, base, folds=folds, held=held, candidates=candidates)
+    kind, data, base, folds, held, candidates, stages = job
+    return fit_kind(data, base, folds=folds, held=held, candidates=candidates, stages=stages)
 
 
 def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
@@ -944,13 +1103,19 @@ def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
 
 
 def fit_files(
-    paths: Sequence[Any], *, folds: int = 5, workers: int = 1, held: Sequence[Any] = ()
+    paths: Sequence[Any],
+    *,
+    folds: int = 5,
+    workers: int = 1,
+    held: Sequence[Any] = (),
+    stages: int = 2,
 ) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
     """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
     kind -> (parameters, summary). Cars start from the shipped car parameters, the other
     kinds from the shipped per-class ones (their size reference [px] is kept).
     ``workers`` > 1 fits the kinds in that many processes (the same results). ``held``:
-    frames files recorded with another seed, to choose the model on (:func:`fit_kind`)."""
+    frames files recorded with another seed, to choose the model on (:func:`fit_kind`);
+    ``stages``: :func:`fit_kind`'s."""
     from sitcov.perception._pem_classes import load_class_params
     from sitcov.perception._pem_params import load_pem_params
 
@@ -959,7 +1124,7 @@ def fit_files(
     classes = load_class_params()
     jobs = [
         (kind, data, load_pem_params() if kind == "car" else classes[kind][1], folds,
-         other.get(kind) if held else None, candidates_for(kind))
+         other.get(kind) if held else None, candidates_for(kind), stages)
         for kind, data in merged.items()
     ]  # fmt: skip
     if workers <= 1 or len(jobs) <= 1:

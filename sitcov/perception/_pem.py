@@ -7,6 +7,8 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
     z = bias
         + size_gain * L + size2_gain * L^2 + side_size_gain * sin(view) * L    size
         + size3_gain * L^3                                                    (its bend)
+        + size_hinge40_gain * max(0, ln(h / 40)) + size_hinge80_gain * max(0, ln(h / 80))
+                                                        (bends at 40 and 80 px, h unclamped)
         - view_gain  * sin(view_angle) + view2_gain * sin(2 * view_angle)      side, oblique
         + facing_gain * facing + facing2_gain * (2 * facing^2 - 1)             rear/front
         - trunc_gain * truncation                                             image edge
@@ -194,6 +196,8 @@ COEFFICIENTS = (
     "yellow_blue_gain",
     "side_gain",
     "size3_gain",
+    "size_hinge40_gain",
+    "size_hinge80_gain",
 )
 (
     _BIAS,
@@ -220,7 +224,11 @@ COEFFICIENTS = (
     _YELLOW_BLUE,
     _SIDE_GAIN,
     _SIZE3,
+    _HINGE40,
+    _HINGE80,
 ) = range(len(COEFFICIENTS))
+#: The box heights of the size term's bends [px] (``size_hinge40_gain``, ``size_hinge80_gain``).
+HINGE_PX = (40.0, 80.0)
 
 
 def coefficients(params: PEMParams) -> tuple[float, ...]:
@@ -264,6 +272,11 @@ def _logit(
         ratio = 0.25 if ratio < 0.25 else ratio
         shape = math.log(4.0 if ratio > 4.0 else ratio)
     side = math.sin(view_angle)
+    bend = 0.0
+    if c[_HINGE40] != 0.0 and height_px > 40.0:
+        bend += c[_HINGE40] * math.log(height_px / 40.0)
+    if c[_HINGE80] != 0.0 and height_px > 80.0:
+        bend += c[_HINGE80] * math.log(height_px / 80.0)
     return (
         c[_BIAS]
         + (c[_SIZE] + c[_SIZE2] * size + c[_SIDE_SIZE] * side) * size
@@ -284,6 +297,7 @@ def _logit(
         + c[_YELLOW_BLUE] * yellow_blue
         + c[_SIDE_GAIN] * side_sin
         + c[_SIZE3] * size * size * size
+        + bend
     )
 
 

@@ -96,6 +96,11 @@ class PEMParams:
             left from right. 0 (the default, files written before it) changes nothing [-].
         size3_gain: logit per cubed e-fold of box height (the size term's bend beyond
             ``size2_gain``; 0, the default of files written before it, changes nothing) [-].
+        size_hinge40_gain, size_hinge80_gain: logit per e-fold of the unclamped box height
+            above 40 px and above 80 px (``max(0, ln(h / 40))``, ``max(0, ln(h / 80))``:
+            bends of the size term at fixed heights, which the quadratic in the clamped
+            log size cannot make; 0, the default of files written before them, changes
+            nothing) [-].
     """
 
     bias: float = 0.5
@@ -139,6 +144,8 @@ class PEMParams:
     noise_size_max_px: float = 450.0
     side_gain: float = 0.0
     size3_gain: float = 0.0
+    size_hinge40_gain: float = 0.0
+    size_hinge80_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

