@@ -3,11 +3,12 @@
 ``camera_runs`` drives the reference stack through random situations in camera mode (the
 renderer and the SSD detector, exactly as ``sitcov run --perception camera`` does, with
 the same frame gating) and records, for every frame the detector saw, the PEM's features
-of the OV, the score of the detection matching it and that detection's box error; and,
-per run, the verdict. Run ``i`` of seed ``s`` is situation ``ask_rng(s, i)`` of the
-random generator simulated with seed ``run_seed(s, i)``: the convention of
-``sitcov run --generator random --seed s``, so a PEM can be run on exactly the same
-situations and seeds and its verdicts compared (:func:`sitcov.calibration._calibrate.choose_tau`).
+of the OV, the top score among the detections overlapping its box (:func:`match`) and
+that detection's box error; and, per run, the verdict. Run ``i`` of seed ``s`` is
+situation ``ask_rng(s, i)`` of the random generator simulated with seed
+``run_seed(s, i)``: the convention of ``sitcov run --generator random --seed s``, so a
+PEM can be run on exactly the same situations and seeds and its verdicts compared
+(:func:`sitcov.calibration._calibrate.choose_tau`).
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ from sitcov.perception._pem import PEMFeatures, PEMSensor
 
 #: A detection matches the OV when its IoU with the projected box reaches this.
 MATCH_IOU = 0.3
+#: ``RunFrame.score_best_iou`` of frames recorded before it was stored.
+NOT_STORED = -1.0
 #: Reporting threshold of the detector while recording (low: the scores below the
 #: stack's own floor are seen too; the AEB's decisions are unchanged by it).
 RECORD_MIN_SCORE = 0.05
@@ -37,13 +40,18 @@ class RunFrame:
 
     Attributes:
         features: the PEM's features of the OV.
-        score: the matched detection's score, 0 if none matched.
-        box_error: (dx0, dy0, dx1, dy1) of the matched box over the true box size, or None.
+        score: the top score among the detections whose IoU with the OV's true box is at
+            least :data:`MATCH_IOU` (what a stack acting on any detection sees), 0 if none.
+            Recordings made before 26 Nov 2026 (evening) hold the best-overlap score here.
+        box_error: (dx0, dy0, dx1, dy1) of that detection's box over the true box size, or None.
         width_px: width of the OV's true (clipped) box [px].
         frame: the camera frame's number in the run (simulated time over the frame
             period; -1 in recordings made before it was stored: consecutive frames).
         actor: the actor's position among the run's road users in view (0 for one).
         distance: camera to the actor's centre [m] (-1 when not stored).
+        score_best_iou: the score of the detection overlapping the true box best (IoU at
+            least :data:`MATCH_IOU`; 0 if none): the older definition of ``score``, kept to
+            compare the two (:data:`NOT_STORED` in older recordings).
     """
 
     features: PEMFeatures
@@ -53,6 +61,7 @@ class RunFrame:
     frame: int = -1
     actor: int = 0
     distance: float = -1.0
+    score_best_iou: float = NOT_STORED
 
 
 @dataclass(frozen=True)
@@ -74,18 +83,42 @@ class CameraRun:
 
 
 def match(truth: Sequence[float], detections: Sequence[Any]) -> tuple[float, Any]:
-    """Score and box error of the detection best overlapping ``truth`` (IoU >= MATCH_IOU)."""
-    if not detections:
+    """Score and box error of the top-scoring detection overlapping ``truth``.
+
+    Among the detections whose IoU with ``truth`` is at least :data:`MATCH_IOU`, the one
+    with the highest score (ties: the better overlap): a stack acts on any detection that
+    passes its tests, and the SSD often puts a second, higher-scoring box on a close car,
+    so the best-overlapping box's score understates what a stack sees (docs/pem.md).
+    ``(0.0, None)`` when no detection overlaps enough.
+    """
+    overlaps = _overlaps(truth, detections)
+    ok = np.flatnonzero(overlaps >= MATCH_IOU)
+    if ok.size == 0:
         return 0.0, None
+    scores = np.asarray([float(detections[i].score) for i in ok])
+    top = int(ok[np.lexsort((overlaps[ok], scores))[-1]])
     t = np.asarray(truth, dtype=np.float64)
-    boxes = np.asarray([d.box for d in detections], dtype=np.float64)
-    overlaps = iou(t, boxes)
-    best = int(np.argmax(overlaps))
-    if overlaps[best] < MATCH_IOU:
-        return 0.0, None
     bw, bh = max(t[2] - t[0], 1.0), max(t[3] - t[1], 1.0)
-    d = boxes[best] - t
-    return float(detections[best].score), (d[0] / bw, d[1] / bh, d[2] / bw, d[3] / bh)
+    d = np.asarray(detections[top].box, dtype=np.float64) - t
+    return float(detections[top].score), (d[0] / bw, d[1] / bh, d[2] / bw, d[3] / bh)
+
+
+def best_overlap_score(truth: Sequence[float], detections: Sequence[Any]) -> float:
+    """Score of the detection overlapping ``truth`` best, if its IoU reaches
+    :data:`MATCH_IOU` (else 0): what :func:`match` returned before it took the top score."""
+    overlaps = _overlaps(truth, detections)
+    if overlaps.size == 0:
+        return 0.0
+    best = int(np.argmax(overlaps))
+    return float(detections[best].score) if overlaps[best] >= MATCH_IOU else 0.0
+
+
+def _overlaps(truth: Sequence[float], detections: Sequence[Any]) -> np.ndarray:
+    """IoU of ``truth`` with each detection's box (empty for no detections)."""
+    if not detections:
+        return np.zeros(0)
+    boxes = np.asarray([d.box for d in detections], dtype=np.float64)
+    return np.asarray(iou(np.asarray(truth, dtype=np.float64), boxes), dtype=np.float64)
 
 
 def _clocked_stack(detector: Any) -> Any:
@@ -153,8 +186,9 @@ class _Recorder:
             if feats is None or proj is None:
                 continue
             score, err = match(proj.box, candidates)
+            best = best_overlap_score(proj.box, candidates)
             dist = round(float(proj.distance), 4)
-            self.frames.append(RunFrame(feats, score, err, proj.width, frame, key, dist))
+            self.frames.append(RunFrame(feats, score, err, proj.width, frame, key, dist, best))
         return () if self.observe else detections
 
     def _records(self, actor: Any) -> bool:

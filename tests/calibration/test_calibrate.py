@@ -204,6 +204,8 @@ def test_camera_runs_record_what_the_detector_saw(ssd_model) -> None:
     gate = 0.5 * ReferenceStack().min_box_width * 800
     assert run.frames and all(f.width_px >= gate and 0.0 <= f.score <= 1.0 for f in run.frames)
     assert any(f.score >= 0.3 for f in run.frames)  # the OV is found as it comes close
+    # the top score over the overlapping boxes, never below the best-overlapping box's
+    assert all(f.score >= f.score_best_iou >= 0.0 for f in run.frames)
     # Recording changes nothing: a plain camera-mode run of that situation has that verdict.
     sit = make_generator("random", load_hyperspace()).ask(ask_rng(3, 0))
     plain = EmbeddedBackend(perception="camera").run(

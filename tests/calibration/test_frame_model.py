@@ -470,3 +470,12 @@ def test_check_command_prints_the_table_and_fails_when_off(
             main([*args, "--pem", str(good), *wrong])
         assert exc.value.code == 2
         assert capsys.readouterr().err.strip().count("\n") == 0
+
+
+def test_the_ar_parameters_logistic_does_not_overflow() -> None:
+    """The optimiser can step the AR share's parameter far negative (it did on the
+    top-score frames of seed 1); the logistic stays 0..1 and is exact where it was."""
+    assert fm.logistic(-1000.0) == pytest.approx(0.0, abs=1e-20)
+    assert fm.logistic(1000.0) == 1.0
+    for x in (-8.0, -0.7, 0.0, 1.3, 9.0):
+        assert fm.logistic(x) == 1.0 / (1.0 + math.exp(-x))
