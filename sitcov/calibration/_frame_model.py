@@ -616,11 +616,13 @@ class FrameFit:
         return float(np.sum(logsumexp(le + np.log(prior)[None, :], axis=1)))
 
 
-def logistic(x: float) -> float:
-    """``1 / (1 + exp(-x))`` without overflow: the optimiser may step an AR parameter to
+def logistic(x: float, top: float = 1.0) -> float:
+    """``top / (1 + exp(-x))`` without overflow: the optimiser may step an AR parameter to
     a large negative value (the seed-1 top-score frames did: ``math range error``); beyond
-    |x| = 50 the value is 0 or 1 to float precision."""
-    return 1.0 / (1.0 + math.exp(-min(50.0, max(-50.0, float(x)))))
+    |x| = 50 the value is 0 or ``top`` to float precision. Computed as the unclipped
+    formula was (a division by ``1 + exp``), so every value below |x| = 50 has the same
+    bits and fits that never went there are unchanged."""
+    return top / (1.0 + math.exp(-min(50.0, max(-50.0, float(x)))))
 
 
 def fit_tracks(
@@ -696,8 +698,8 @@ def fit_tracks(
         # p: b0, kappa, ln sigma, d0, d1, ln up [, share, rho, lam (ar)] [, dt, df (edge)]
         # [, k (scale)]
         up = math.exp(min(3.0, max(-5.0, p[5])))
-        share = SHARE_MAX * logistic(p[6]) if ar else 0.0
-        rho = RHO_MAX * logistic(p[7]) if ar else 0.0
+        share = logistic(p[6], SHARE_MAX) if ar else 0.0
+        rho = logistic(p[7], RHO_MAX) if ar else 0.0
         lam = p[8] if ar else 0.0
         at = 9 if ar else 6
         dt, df = (float(p[at]), float(p[at + 1])) if edge else (0.0, 0.0)

@@ -477,5 +477,6 @@ def test_the_ar_parameters_logistic_does_not_overflow() -> None:
     top-score frames of seed 1); the logistic stays 0..1 and is exact where it was."""
     assert fm.logistic(-1000.0) == pytest.approx(0.0, abs=1e-20)
     assert fm.logistic(1000.0) == 1.0
-    for x in (-8.0, -0.7, 0.0, 1.3, 9.0):
+    for x in (-8.0, -0.7, 0.0, 1.3, 9.0):  # the same bits as the formula it replaced
         assert fm.logistic(x) == 1.0 / (1.0 + math.exp(-x))
+        assert fm.logistic(x, fm.SHARE_MAX) == fm.SHARE_MAX / (1.0 + math.exp(-x))
