@@ -67,7 +67,7 @@ import json
 import math
 import time
 from collections import Counter, defaultdict
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -565,6 +565,20 @@ def classify(
 # --- the observe runs --------------------------------------------------------------------
 
 
+def _conflict_car_frames(
+    runs: list[dict[str, Any]],
+) -> Iterator[tuple[dict[str, Any], dict[str, Any]]]:
+    """(run, actor record) for every camera frame of each run's conflicting road user,
+    when it is a car."""
+    for r in runs:
+        frames = r["camera"]
+        a = conflict_actor(frames)
+        for f in frames:
+            for x in f["actors"]:
+                if x["a"] == a and x["kind"] == "car":
+                    yield r, x
+
+
 def conflict_actor(frames: list[dict]) -> int | None:
     """The road user seen largest in the run (the conflicting one)."""
     best: dict[int, float] = defaultdict(float)
@@ -653,46 +667,34 @@ def observe_stats(runs: list[dict[str, Any]], thresholds: Sequence[float]) -> di
     }  # fmt: skip
     # per-frame, the conflicting car: detector >= 0.5 vs the PEM's P(>= 0.5) (camera frames)
     table: dict[str, list[float]] = defaultdict(lambda: [0, 0.0, 0.0, 0, 0.0, 0.0])
-    for r in runs:
-        fr = r["camera"]
-        a = conflict_actor(fr)
-        for f in fr:
-            for x in f["actors"]:
-                if x["a"] != a or x["kind"] != "car":
-                    continue
-                band = f"{r['side']} cx {min(int(x['cx'] * 5), 4) / 5:.1f}"
-                dband = f"{r['side']} {_dband(x['dist'])}"
-                for k in (band, dband):
-                    row = table[k]
-                    row[0] += 1
-                    row[1] += float(x["score"] >= 0.5)
-                    row[2] += x["p05"]
-                    row[3] += int(x["score"] > 0)
-                    row[4] += x["score"]
-                    row[5] += float(x["score_iou"] >= 0.5)
+    for r, x in _conflict_car_frames(runs):
+        band = f"{r['side']} cx {min(int(x['cx'] * 5), 4) / 5:.1f}"
+        dband = f"{r['side']} {_dband(x['dist'])}"
+        for k in (band, dband):
+            row = table[k]
+            row[0] += 1
+            row[1] += float(x["score"] >= 0.5)
+            row[2] += x["p05"]
+            row[3] += int(x["score"] > 0)
+            row[4] += x["score"]
+            row[5] += float(x["score_iou"] >= 0.5)
     # every camera frame of the conflicting car by box height, view and distance band:
     # the detector's mean score and shares >= 0.5 / 0.7 against the PEM's median score
     # and P(score >= 0.5 / 0.7)
     cells: dict[str, list[float]] = defaultdict(lambda: [0] + [0.0] * 7)
-    for r in runs:
-        fr = r["camera"]
-        a = conflict_actor(fr)
-        for f in fr:
-            for x in f["actors"]:
-                if x["a"] != a or x["kind"] != "car":
-                    continue
-                band = _band(x["h"], SCORE_BANDS)
-                view = "side" if x["view"] > SIDE_ON else "end"
-                key = f"{SCORE_BANDS[band]}-{SCORE_BANDS[band + 1]} px {view} {_dband(x['dist'])}"
-                row = cells[key]
-                row[0] += 1
-                row[1] += x["score"]
-                row[2] += 1.0 / (1.0 + math.exp(-x["z"]))
-                row[3] += float(x["score"] >= 0.5)
-                row[4] += x["p05"]
-                row[5] += float(x["score"] >= 0.7)
-                row[6] += x["p07"]
-                row[7] += float(x["score_iou"] >= 0.5)
+    for _, x in _conflict_car_frames(runs):
+        band = _band(x["h"], SCORE_BANDS)
+        view = "side" if x["view"] > SIDE_ON else "end"
+        key = f"{SCORE_BANDS[band]}-{SCORE_BANDS[band + 1]} px {view} {_dband(x['dist'])}"
+        row = cells[key]
+        row[0] += 1
+        row[1] += x["score"]
+        row[2] += 1.0 / (1.0 + math.exp(-x["z"]))
+        row[3] += float(x["score"] >= 0.5)
+        row[4] += x["p05"]
+        row[5] += float(x["score"] >= 0.7)
+        row[6] += x["p07"]
+        row[7] += float(x["score_iou"] >= 0.5)
     stats["cells"] = {
         k: {"frames": int(v[0]), "detector_mean": round(v[1] / v[0], 3),
             "pem_median": round(v[2] / v[0], 3), "detector_ge05": round(v[3] / v[0], 3),
