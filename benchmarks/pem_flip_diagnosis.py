@@ -73,6 +73,7 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.calibration._camera_runs import MATCH_IOU
 from sitcov.perception._base import Detection, Pose
 from sitcov.perception._camera import project_box
 from sitcov.perception._colors import PALETTE, ov_color
@@ -88,7 +89,6 @@ STACKS = {
 }
 #: Detector floor while recording (the stack gets only detections >= its usual floor).
 RECORD_FLOOR = 0.05
-MATCH_IOU = 0.3
 #: Cells of the per-cell rates: box height [px], distance [m].
 HEIGHT_BANDS = (0, 20, 30, 40, 60, 90, 150, 10000)
 DISTANCE_BANDS = (0, 10, 20, 40, 1000)

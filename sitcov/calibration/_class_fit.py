@@ -37,7 +37,6 @@ SWEEP_MIN_SCORE = 0.05
 USE_FLOOR = 0.3
 #: The reference AEB's score threshold: the event the fit reproduces first.
 THRESHOLD = 0.5
-MATCH_IOU = 0.3
 #: Fitted coefficients: design column -> (parameter, sign).
 _COLUMNS = (
     ("bias", 1.0), ("size_gain", 1.0), ("size2_gain", 1.0), ("view_gain", -1.0),
@@ -79,10 +78,11 @@ def class_sweep(
     seed: int = 0,
     camera: CameraSpec | None = None,
 ) -> list[tuple[PEMFeatures, float]]:
-    """(PEM features, matched score or 0) of ``frames`` random frames of ``kind`` in view."""
+    """(PEM features, matched score or 0) of ``frames`` random frames of ``kind`` in view
+    (the score as recorded runs take it: :func:`sitcov.calibration._camera_runs.match`)."""
+    from sitcov.calibration._camera_runs import match
     from sitcov.perception._camera import project_box
     from sitcov.perception._detector import KIND_LABELS
-    from sitcov.perception._nms import iou
     from sitcov.perception._pem import PEMSensor
     from sitcov.perception._renderer import render_frame
     from sitcov.sim.embedded._map import load_map
@@ -102,14 +102,8 @@ def class_sweep(
         if feats is None:
             continue
         img = render_frame(camera, ego, (actor,), cond, geometry, np.random.default_rng([seed, i]))
-        box = np.asarray(project_box(camera, ego, actor).box, dtype=np.float64)
         dets = [d for d in detector(img) if d.label in KIND_LABELS[kind]]
-        score = 0.0
-        if dets:
-            ov = iou(box, np.asarray([d.box for d in dets], dtype=np.float64))
-            score = max(
-                (d.score for d, o in zip(dets, ov, strict=True) if o >= MATCH_IOU), default=0.0
-            )
+        score, _ = match(project_box(camera, ego, actor).box, dets)
         out.append((feats, score))
     return out
 

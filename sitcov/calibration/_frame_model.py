@@ -475,6 +475,21 @@ def _ginv(v: np.ndarray, noise: Noise, sigma: np.ndarray | float | None = None) 
     return np.where(v < 0.0, v / sig, v / (sig * noise.up))
 
 
+def frames_alone_loglik(
+    m: np.ndarray, y: np.ndarray, obs: np.ndarray, noise: Noise,
+    geom: np.ndarray | None = None, size: np.ndarray | None = None,
+    near: np.ndarray | None = None, det: np.ndarray | None = None,
+) -> float:  # fmt: skip
+    """Sum over frames of each frame's log-likelihood with its AR state integrated over
+    the prior (:func:`frame_logliks` on the prior's grid): the frames-alone likelihood of
+    the two-stage fit's stage 1 and of :meth:`FrameFit.marginal_loglik`."""
+    from scipy.special import logsumexp
+
+    u, prior = _grid(noise)
+    le = frame_logliks(m, y, obs, u, noise, geom, size, near, det)
+    return float(np.sum(logsumexp(le + np.log(prior)[None, :], axis=1)))
+
+
 def frame_logliks(
     m: np.ndarray, y: np.ndarray, obs: np.ndarray, u: np.ndarray, noise: Noise,
     geom: np.ndarray | None = None, size: np.ndarray | None = None,
@@ -602,8 +617,6 @@ class FrameFit:
         marginal that P(score >= θ) per frame and the held-out check read, and not the
         law over consecutive frames (the AR share and coefficient do not enter it but
         through the detection term's correlation with the score noise)."""
-        from scipy.special import logsumexp
-
         y, obs = _observed(t)
         nz = self.noise
         size = scale_size(t, self.size_ref, nz.cap) if nz.k != 0.0 else None
@@ -611,9 +624,7 @@ class FrameFit:
         det = None if np.isscalar(det) else np.asarray(det)
         geom = geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
         near = near_of(t) if nz.kn != 0.0 else None
-        u, prior = _grid(nz)
-        le = frame_logliks(self.logit(t), y, obs, u, nz, geom, size, near, det)
-        return float(np.sum(logsumexp(le + np.log(prior)[None, :], axis=1)))
+        return frames_alone_loglik(self.logit(t), y, obs, nz, geom, size, near, det)
 
 
 def logistic(x: float, top: float = 1.0) -> float:
@@ -747,13 +758,10 @@ def fit_tracks(
     start += [0.0] if near_noise else []
 
     def frames_nll(p: np.ndarray) -> float:  # every frame alone (stage 1)
-        from scipy.special import logsumexp
-
         b0, kappa, noise = unpack(p)
         noise = with_kn(p, noise)
-        u, prior = _grid(noise)
-        le = frame_logliks(mean(p, b0, kappa), y, obs, u, noise, geom, size, near, det_shift(p))
-        return -float(np.sum(logsumexp(le + np.log(prior)[None, :], axis=1)))
+        m = mean(p, b0, kappa)
+        return -frames_alone_loglik(m, y, obs, noise, geom, size, near, det_shift(p))
 
     two = stages == 2 and ar
     opts = {"maxiter": 150 if edge else 80, "ftol": 1e-6}
@@ -819,7 +827,7 @@ def _two_stage(p: np.ndarray, nll: Any, det_at: Sequence[int]) -> np.ndarray:
     gave; only the law over consecutive frames changes."""
     from scipy.optimize import minimize
 
-    s1 = SHARE_MAX / (1.0 + math.exp(-p[6]))
+    s1 = logistic(p[6], SHARE_MAX)
     lam1 = float(p[8])
     c = lam1 * math.sqrt(s1) / math.sqrt(1.0 + lam1 * lam1)
     lo = c * c
