@@ -198,15 +198,15 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
     return np.stack(cols, axis=1)
 
 
+#: The gains of the frame model's candidate terms (:mod:`sitcov.calibration._frame_model`):
+#: the side's, the cubic size term's and the size bends'.
+_CANDIDATE_GAINS = ("side_gain", "size3_gain", "size_hinge40_gain", "size_hinge80_gain",
+                    "view_hinge40_gain")  # fmt: skip
 #: The coefficients the probit fit estimates: the logit's (``COEFFICIENTS``) but the size
-#: normalisation and clamps in pixels, which the fit keeps as given, and the side's and
-#: the cubic size term's and the size bends' gains, candidate terms of the frame model only
-#: (:mod:`sitcov.calibration._frame_model`).
+#: normalisation and clamps in pixels, which the fit keeps as given, and the candidate
+#: terms' gains.
 _LINEAR = tuple(
-    name
-    for name in COEFFICIENTS
-    if not name.endswith("_px")
-    and name not in ("side_gain", "size3_gain", "size_hinge40_gain", "size_hinge80_gain")
+    name for name in COEFFICIENTS if not name.endswith("_px") and name not in _CANDIDATE_GAINS
 )
 #: Ridge penalty on the probit coefficients (not the intercept).
 _RIDGE = 1.0

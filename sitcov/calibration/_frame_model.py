@@ -140,10 +140,14 @@ CLASS_CANDIDATES = (
 #: Candidates tried for cars besides :data:`CANDIDATES`: the chosen model's family with
 #: bends of the size term at 40 and 80 px (``size_hinge40_gain``, ``size_hinge80_gain``:
 #: the car's scores rise faster through 40-80 px and flatten above, docs/pem.md, "The
-#: two-stage fit"); measured on cars only.
+#: two-stage fit"), and with a bend at 40 px seen side-on (``view_hinge40_gain``: a close
+#: car crossing side-on scores higher than one seen end-on, docs/pem.md, "The side-on
+#: bend"); measured on cars only.
 CAR_CANDIDATES = (
     ("ar1_edge_scale_image_size_hinge", 1.0, True, True, IMAGE_HEIGHT, True, False,
      ("hinge40", "hinge80")),
+    ("ar1_edge_scale_image_size_hinge_view", 1.0, True, True, IMAGE_HEIGHT, True, False,
+     ("hinge40", "hinge80", "view_hinge40")),
 )  # fmt: skip
 
 
@@ -177,6 +181,16 @@ EXTRA_SETS: tuple[tuple[str, tuple[str, ...], bool], ...] = (
         ("hinge40", "hinge80", "det_size", "det_size2", "det_hinge40", "det_hinge80"),
         False,
     ),
+    ("hinge_120", ("hinge40", "hinge80", "hinge120"), False),
+    ("hinge_160", ("hinge40", "hinge80", "hinge160"), False),
+    ("hinge_det", ("hinge40", "hinge80", "det_size"), False),
+    ("hinge_near", ("hinge40", "hinge80", "near"), False),
+    ("hinge_trunc_side", ("hinge40", "hinge80", "trunc_side"), False),
+    ("hinge_120_trunc_side", ("hinge40", "hinge80", "hinge120", "trunc_side"), False),
+    ("hinge_view80", ("hinge40", "hinge80", "view_hinge80"), False),
+    ("hinge_view40", ("hinge40", "hinge80", "view_hinge40"), False),
+    ("hinge_view120", ("hinge40", "hinge80", "view_hinge120"), False),
+    ("hinge_view80_det", ("hinge40", "hinge80", "view_hinge80", "det_view_hinge80"), False),
 )
 
 
@@ -319,18 +333,22 @@ NEAR_M = 10.0
 #: that at close range (``lane_near``), or one level each for the left and the right
 #: (``from_left``, ``from_right``: ahead is the reference); ``near`` an intercept below
 #: :data:`NEAR_M`, ``offset_near``/``trunc_near`` the offset and the truncation there
-#: (their gain at close range apart from the one at every range); ``size3`` the cube of
+#: (their gain at close range apart from the one at every range); ``trunc_side`` the
+#: truncation times ``side`` (a road user cut by the image's left edge from one cut by
+#: its right); ``size3`` the cube of
 #: the log apparent size; ``hinge<N>`` (any whole ``N`` px, e.g. ``hinge40``) the hinge
 #: ``max(0, ln(h / N))`` of the box height ``h`` [px] (unclamped: a piecewise-linear
 #: bend of the size term at ``N`` px, which the quadratic in the clamped log size cannot
-#: make), ``size``/``size2`` the clamped log
+#: make), ``view_hinge<N>`` that hinge times the sine of the view angle (the bend seen
+#: side-on), ``size``/``size2`` the clamped log
 #: size and its square (the logit has them already: only as detection terms). Any name
 #: prefixed ``det_`` (``det_size``, ``det_hinge40``) is that column in the detection
 #: term's probit only (:func:`is_detection_term`), not in the score's mean: the SSD's
 #: chance of giving a box at all need not follow the box size as its score does.
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
-               "size3", "hinge<N>", "size", "size2", "det_<term>")  # fmt: skip
+               "trunc_side", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
+               "det_<term>")  # fmt: skip
 
 
 def is_detection_term(name: str) -> bool:
@@ -365,6 +383,7 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         "near": lambda: near,
         "offset_near": lambda: -x[:, 13] * near,
         "trunc_near": lambda: -x[:, 8] * near,
+        "trunc_side": lambda: -x[:, 8] * side,
         "size3": lambda: x[:, 1] ** 3,
         "size": lambda: x[:, 1],
         "size2": lambda: x[:, 2],
@@ -373,10 +392,14 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         if name.startswith("det_"):  # the same column, in the detection term only
             cols[name] = lambda n=name[4:]: extra_columns(t, x, (n,))[:, 0]
             continue
-        knot = name[5:] if name.startswith("hinge") else ""
+        view = name.startswith("view_hinge")
+        knot = name[10 if view else 5 :] if name.startswith(("hinge", "view_hinge")) else ""
         if knot.isdigit() and int(knot) > 0:
             h = np.asarray([f.height_px for f in t.feats], dtype=float)
-            cols[name] = lambda n=int(knot), h=h: np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n))
+            gain = -x[:, 4] if view else 1.0  # the sine of the view angle (side-on: 1)
+            cols[name] = lambda n=int(knot), h=h, g=gain: (
+                g * np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n))
+            )
         if name not in cols:
             raise SitcovError(f"unknown extra term {name!r}; expected one of {EXTRA_TERMS}")
     return np.column_stack([np.asarray(cols[n](), dtype=float) for n in names]).reshape(
@@ -947,9 +970,10 @@ def selector(stages: int) -> str:
 
 
 #: Extra terms (:data:`EXTRA_TERMS`) with a PEM parameter: the cube of the log size
-#: (``size3_gain``) and the size term's bends at 40 and 80 px (``size_hinge40_gain``,
-#: ``size_hinge80_gain``, :data:`sitcov.perception._pem.HINGE_PX`).
-_PEM_EXTRAS = ("size3", "hinge40", "hinge80")
+#: (``size3_gain``), the size term's bends at 40 and 80 px (``size_hinge40_gain``,
+#: ``size_hinge80_gain``, :data:`sitcov.perception._pem.HINGE_PX`) and the side-on bend
+#: at 40 px (``view_hinge40_gain``).
+_PEM_EXTRAS = ("size3", "hinge40", "hinge80", "view_hinge40")
 
 
 def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) -> PEMParams:
@@ -996,6 +1020,7 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         size3_gain=round(gains.get("size3", 0.0), 4),
         size_hinge40_gain=round(gains.get("hinge40", 0.0), 4),
         size_hinge80_gain=round(gains.get("hinge80", 0.0), 4),
+        view_hinge40_gain=round(gains.get("view_hinge40", 0.0), 4),
         rain_sigma=0.0,
         rain_miss=0.0,
         rain_jitter=0.0,

@@ -9,6 +9,7 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + size3_gain * L^3                                                    (its bend)
         + size_hinge40_gain * max(0, ln(h / 40)) + size_hinge80_gain * max(0, ln(h / 80))
                                                         (bends at 40 and 80 px, h unclamped)
+        + view_hinge40_gain * sin(view) * max(0, ln(h / 40))  (the bend at 40 px, side-on)
         - view_gain  * sin(view_angle) + view2_gain * sin(2 * view_angle)      side, oblique
         + facing_gain * facing + facing2_gain * (2 * facing^2 - 1)             rear/front
         - trunc_gain * truncation                                             image edge
@@ -198,6 +199,7 @@ COEFFICIENTS = (
     "size3_gain",
     "size_hinge40_gain",
     "size_hinge80_gain",
+    "view_hinge40_gain",
 )
 (
     _BIAS,
@@ -226,6 +228,7 @@ COEFFICIENTS = (
     _SIZE3,
     _HINGE40,
     _HINGE80,
+    _VIEW_HINGE40,
 ) = range(len(COEFFICIENTS))
 #: The box heights of the size term's bends [px] (``size_hinge40_gain``, ``size_hinge80_gain``).
 HINGE_PX = (40.0, 80.0)
@@ -277,6 +280,8 @@ def _logit(
         bend += c[_HINGE40] * math.log(height_px / 40.0)
     if c[_HINGE80] != 0.0 and height_px > 80.0:
         bend += c[_HINGE80] * math.log(height_px / 80.0)
+    if c[_VIEW_HINGE40] != 0.0 and height_px > 40.0:
+        bend += c[_VIEW_HINGE40] * side * math.log(height_px / 40.0)
     return (
         c[_BIAS]
         + (c[_SIZE] + c[_SIZE2] * size + c[_SIDE_SIZE] * side) * size

@@ -101,6 +101,11 @@ class PEMParams:
             bends of the size term at fixed heights, which the quadratic in the clamped
             log size cannot make; 0, the default of files written before them, changes
             nothing) [-].
+        view_hinge40_gain: logit per e-fold of the unclamped box height above 40 px, times
+            the sine of the view angle (``sin(view) * max(0, ln(h / 40))``): the
+            detector's scores on a close car seen side-on rise further with its size than
+            on one seen end-on (docs/pem.md, "The side-on bend"); 0, the default of files
+            written before it, changes nothing [-].
     """
 
     bias: float = 0.5
@@ -146,6 +151,7 @@ class PEMParams:
     size3_gain: float = 0.0
     size_hinge40_gain: float = 0.0
     size_hinge80_gain: float = 0.0
+    view_hinge40_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

@@ -350,29 +350,45 @@ def test_the_cubic_size_term_is_the_pems_size3_gain() -> None:
 
 
 def test_the_size_bends_are_the_pems_hinge_gains() -> None:
-    """A fit with the ``hinge40`` and ``hinge80`` extra terms (the car candidate of
-    :data:`CAR_CANDIDATES`) writes them as ``size_hinge40_gain`` / ``size_hinge80_gain``,
-    and the PEM's logit of every frame is then the fit's, on both sides of both bends."""
+    """A fit with the ``hinge40``, ``hinge80`` and ``view_hinge40`` extra terms (the car
+    candidates of :data:`CAR_CANDIDATES`) writes them as ``size_hinge40_gain``,
+    ``size_hinge80_gain`` and ``view_hinge40_gain``, and the PEM's logit of every frame is
+    then the fit's, on both sides of both bends, seen side-on and obliquely."""
     from sitcov.calibration._calibrate import _LINEAR
     from sitcov.perception._pem import pem_logit
 
     t = fm.tracks_of(_draw(23, runs=5, length=40))
     beta = np.random.default_rng(1).uniform(-0.5, 0.5, len(_LINEAR))
+    gains = (1.3, -1.5, 0.4)
     fit = fm.FrameFit(beta, 150.0, 25.0, fm.Noise(0.3, 0.5, 0.8), 0.0,
-                      ("hinge40", "hinge80"), (1.3, -1.5))  # fmt: skip
+                      ("hinge40", "hinge80", "view_hinge40"), gains)  # fmt: skip
     params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, [])
-    assert (params.size_hinge40_gain, params.size_hinge80_gain) == (1.3, -1.5)
+    assert (params.size_hinge40_gain, params.size_hinge80_gain) == gains[:2]
+    assert params.view_hinge40_gain == gains[2]
     exact = fm.FrameFit(np.asarray([getattr(params, n) for n in _LINEAR]), 150.0, 25.0,
-                        fit.noise, 0.0, fit.extras, (1.3, -1.5))  # fmt: skip
+                        fit.noise, 0.0, fit.extras, gains)  # fmt: skip
     inside = [i for i, f in enumerate(t.feats) if f.height_px >= params.size_min_px]
     heights = [t.feats[i].height_px for i in inside]
     assert min(heights) < 40.0 and max(heights) > 80.0
+    views = np.sin([t.feats[i].view_angle for i in inside if t.feats[i].height_px > 40.0])
+    assert views.min() < 0.5 and views.max() > 0.9  # oblique and side-on above the bend
     logits = exact.logit(t)
     for i in inside:
         assert pem_logit(t.feats[i], params) == pytest.approx(logits[i], abs=1e-9)
     car = [c[0] for c in fm.candidates_for("car")]
-    assert "ar1_edge_scale_image_size_hinge" in car
+    assert {"ar1_edge_scale_image_size_hinge", "ar1_edge_scale_image_size_hinge_view"} <= set(car)
     assert "ar1_edge_scale_image_size_hinge" not in [c[0] for c in fm.candidates_for("cyclist")]
+
+
+def test_the_side_on_bend_is_the_size_bend_times_the_view_sine() -> None:
+    """``view_hinge<N>`` is ``sin(view) * hinge<N>``: 0 end-on and below the bend, the
+    size bend itself side-on."""
+    t = fm.tracks_of(_draw(5, runs=4, length=40))
+    x = fm._design_for(t, 450.0, 25.0)
+    cols = fm.extra_columns(t, x, ("view_hinge40", "hinge40"))
+    view_sine = np.sin([f.view_angle for f in t.feats])
+    np.testing.assert_allclose(cols[:, 0], view_sine * cols[:, 1], atol=1e-12)
+    assert (cols[:, 1] > 0).any() and (cols[:, 1] == 0).any()
 
 
 def test_the_size_terms_fitted_by_likelihood_undo_the_censored_least_squares() -> None:

@@ -570,18 +570,20 @@ def documented_logit(f: PEMFeatures, p: PEMParams) -> float:
         + p.yellow_blue_gain * f.yellow_blue
         + p.side_gain * f.side
         + p.size3_gain * size * size * size
-        + _bends(f.height_px, p)
+        + _bends(f.height_px, side, p)
     )
 
 
-def _bends(h: float, p: PEMParams) -> float:
-    """The size term's bends at 40 and 80 px of the unclamped height (the PEM adds them
-    as one sum, the 40 px bend first)."""
+def _bends(h: float, view_sine: float, p: PEMParams) -> float:
+    """The size term's bends at 40 and 80 px of the unclamped height, then the side-on
+    bend at 40 px (the PEM adds them as one sum, in that order)."""
     bend = 0.0
     if p.size_hinge40_gain != 0.0 and h > 40.0:
         bend += p.size_hinge40_gain * math.log(h / 40.0)
     if p.size_hinge80_gain != 0.0 and h > 80.0:
         bend += p.size_hinge80_gain * math.log(h / 80.0)
+    if p.view_hinge40_gain != 0.0 and h > 40.0:
+        bend += p.view_hinge40_gain * view_sine * math.log(h / 40.0)
     return bend
 
 
@@ -591,7 +593,7 @@ def test_pem_logit_is_the_documented_formula_bit_for_bit(name):
     bits, clamped features included: boxes below and above the size range, extreme
     shapes, no width, full fog and darkness."""
     p = replace(PARAM_SETS[name], contrast_gain=0.4, chroma_gain=-0.3, yellow_blue_gain=0.2)
-    p = replace(p, side_gain=-0.35, size3_gain=-0.4)
+    p = replace(p, side_gain=-0.35, size3_gain=-0.4, view_hinge40_gain=0.3)
     rng = np.random.default_rng(11)
     features = [f._replace(side=rng.uniform(-1.0, 1.0)) for f in random_features(rng, 400)]
     features += [
@@ -617,6 +619,7 @@ def test_detect_scores_as_features_then_pem_logit(monkeypatch):
     p = replace(p, rain_jitter=0.0, rain_miss=0.0, detect_bias=8.0, detect_gain=0.0)
     p = replace(p, detect_ar=0.0)  # the actor always output: every frame has its score
     p = replace(p, side_gain=0.45)  # the side's term computed in the view too
+    p = replace(p, view_hinge40_gain=0.3)  # and the side-on bend
     sensor = PEMSensor(p)
     rng = np.random.default_rng(12)
     detected = 0
