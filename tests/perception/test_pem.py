@@ -225,10 +225,17 @@ def test_fog_hurts_less_when_it_starts_further_away(name):
 
 @params_ids
 def test_truncation_and_off_centre_never_raise_the_score(name):
+    """Cut by the image edge or off the image centre, a box scores no higher; a fitted
+    ``edge_gain`` a hair below 0 (the car fitted with its side-on bend: -0.005, no
+    measurable off-centre effect, docs/pem.md) may raise it by less than 0.01."""
     p = PARAM_SETS[name]
     for f in random_features(np.random.default_rng(2), 200):
         assert nonincreasing([pem_score(f._replace(truncation=t), p) for t in (0.0, 0.3, 0.7)])
-        assert nonincreasing([pem_score(f._replace(offset=o), p) for o in (0.0, 0.4, 1.0)])
+        off = [pem_score(f._replace(offset=o), p) for o in (0.0, 0.4, 1.0)]
+        if p.edge_gain < 0.0:
+            assert p.edge_gain > -0.04 and max(off) - off[0] < 0.01, (p.edge_gain, off)
+        else:
+            assert nonincreasing(off)
 
 
 @params_ids
