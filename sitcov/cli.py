@@ -1219,6 +1219,14 @@ def calibrate_cmd(
         "the AR part by the sequence's, and chooses the model by the frames-alone held-out "
         "likelihood; 1 fits everything by the sequence likelihood (docs/pem.md).",
     ),
+    fit_starts: int = typer.Option(
+        1,
+        "--fit-starts",
+        min=1,
+        help="--frames-from: each fit's first stage from this many starts (the first as "
+        "with 1, the others moved at random, seeded), the best kept; about that many times "
+        "the time (docs/pem.md).",
+    ),
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
     ),
@@ -1244,7 +1252,7 @@ def calibrate_cmd(
         return
     if frames_from:
         _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
-                         fit_stages)  # fmt: skip
+                         fit_stages, fit_starts)  # fmt: skip
         return
     if record_frames:
         _record_frames_cmd(kinds, runs, seed, workers, model, samples_out, sweep_frames)
@@ -1320,7 +1328,7 @@ def calibrate_cmd(
 
 def _frame_model_cmd(
     paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
-    workers: int = 1, heldout: list[Path] | None = None, stages: int = 2,
+    workers: int = 1, heldout: list[Path] | None = None, stages: int = 2, starts: int = 1,
 ) -> None:  # fmt: skip
     """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
     import shlex
@@ -1330,7 +1338,8 @@ def _frame_model_cmd(
 
     cpu = time.process_time()
     wall = time.perf_counter()
-    results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or (), stages=stages)
+    results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or (), stages=stages,
+                           starts=starts)  # fmt: skip
     wall = time.perf_counter() - wall
     command = "sitcov calibrate " + " ".join(f"--frames-from {shlex.quote(str(p))}" for p in paths)
     if heldout:
@@ -1339,6 +1348,7 @@ def _frame_model_cmd(
         command += f" --cv-folds {folds}"
     command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
     command += f" --fit-stages {stages}" if stages != 2 else ""
+    command += f" --fit-starts {starts}" if starts != 1 else ""
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     if classes_out is not None:

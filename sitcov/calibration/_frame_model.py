@@ -933,12 +933,14 @@ def choose_model(
     size_ref: float,
     candidates: Sequence[tuple[Any, ...]] = CANDIDATES,
     stages: int = 1,
+    starts: int = 1,
 ) -> tuple[str, dict[str, Any]]:
     """The candidate with the best held-out log-likelihood (per held-out frame), over
     run-grouped folds: each fold's runs are left out of the fit and scored. ``stages``
     as :func:`fit_tracks`'s; with 2 the candidates are chosen by the frames-alone
     log-likelihood (:meth:`FrameFit.marginal_loglik`, ``heldout_marginal_loglik_per_frame``),
-    else by the sequence's (``heldout_loglik_per_frame``); the table holds both."""
+    else by the sequence's (``heldout_loglik_per_frame``); the table holds both.
+    ``starts``: :func:`fit_tracks`'s."""
     table: dict[str, Any] = {}
     parts = _folds(t.group, folds)
     all_groups = np.unique(t.group)
@@ -951,7 +953,7 @@ def choose_model(
             test = t.subset(held)
             fit = fit_tracks(train, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
                              scale=scale, free_size=free, side=side, extras=extras,
-                             near_noise=near_noise, stages=stages)  # fmt: skip
+                             near_noise=near_noise, stages=stages, starts=starts)  # fmt: skip
             total += fit.loglik(test)
             marginal += fit.marginal_loglik(test)
             frames += len(test.score)
@@ -1031,11 +1033,11 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
 
 def held_out_choice(
     t: Tracks, held: Tracks, *, size_ref: float,
-    candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 1,
+    candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 1, starts: int = 1,
 ) -> tuple[str, dict[str, Any], dict[str, FrameFit]]:  # fmt: skip
     """Each candidate fitted on ``t`` and scored by its log-likelihood on the held-out
     tracks ``held`` (per frame): (the best, the table, the fits). ``stages`` as
-    :func:`fit_tracks`'s; the choosing column as :func:`choose_model`'s
+    :func:`fit_tracks`'s (and ``starts``); the choosing column as :func:`choose_model`'s
     (:func:`selector`)."""
     table: dict[str, Any] = {}
     fits: dict[str, FrameFit] = {}
@@ -1044,7 +1046,8 @@ def held_out_choice(
         extras, near_noise = _extras(cand)
         fits[name] = fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge,
                                 scale=scale, free_size=free, side=side, extras=extras,
-                                near_noise=near_noise, stages=stages)  # fmt: skip
+                                near_noise=near_noise, stages=stages,
+                                starts=starts)  # fmt: skip
         n = max(1, len(held.score))
         table[name] = {
             "heldout_loglik_per_frame": round(fits[name].loglik(held) / n, 4),
@@ -1068,7 +1071,7 @@ def split_runs(data: KindFrames, part: str) -> KindFrames:
 
 def fit_kind(
     data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None,
-    candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 2,
+    candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 2, starts: int = 1,
 ) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
     """Choose the model on held-out runs and fit it on every frame of the kind; the
     parameters and a summary (frames, tracks, the choice table, the fitted noise).
@@ -1081,25 +1084,28 @@ def fit_kind(
     :data:`CANDIDATES` to choose among. ``stages``: the fit's (:func:`fit_tracks`), 2 by
     default (the marginal parameters by the frames-alone likelihood, then the AR share
     and coefficient by the sequence's; candidates chosen by the frames-alone held-out
-    likelihood); 1 the single-stage sequence fit and choice of the files before it."""
+    likelihood); 1 the single-stage sequence fit and choice of the files before it.
+    ``starts``: every fit's (:func:`fit_tracks`: its first stage from that many starts,
+    the best kept; 1, the default, is the shipped files' fit)."""
     t = tracks_of(data)
     size_ref = base.size_ref_px
     if held is not None:
         even = split_runs(held, "even")
         chosen, table, _ = held_out_choice(t, tracks_of(even), size_ref=size_ref,
-                                           candidates=candidates, stages=stages)  # fmt: skip
+                                           candidates=candidates, stages=stages,
+                                           starts=starts)  # fmt: skip
         # then the chosen model on every frame but the check's: the held-out runs are
         # recorded with the stack given no detections, so they hold the closest frames
         # (after the moment an AEB would fire) that the calibration runs stop before
         data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
         t = tracks_of(data)
         fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
-                            stages=stages)  # fmt: skip
+                            stages=stages, starts=starts)  # fmt: skip
     else:
         chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates,
-                                     stages=stages)  # fmt: skip
+                                     stages=stages, starts=starts)  # fmt: skip
         fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
-                            stages=stages)  # fmt: skip
+                            stages=stages, starts=starts)  # fmt: skip
     params = to_params(fit, base, t, data.runs)
     nz = fit.noise
     lag1 = nz.share * nz.rho
@@ -1114,6 +1120,7 @@ def fit_kind(
             "chosen": chosen,
             "by": selector(stages),
             "fit_stages": stages,
+            "fit_starts": starts,
             "table": table,
         },
         "rho_per_frame": round(nz.rho, 4),
@@ -1126,10 +1133,11 @@ def fit_kind(
 
 
 def _fit_job(
-    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...], int],
+    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...], int, int],
 ) -> tuple[PEMParams, dict[str, Any]]:
-    kind, data, base, folds, held, candidates, stages = job
-    return fit_kind(data, base, folds=folds, held=held, candidates=candidates, stages=stages)
+    kind, data, base, folds, held, candidates, stages, starts = job
+    return fit_kind(data, base, folds=folds, held=held, candidates=candidates, stages=stages,
+                    starts=starts)  # fmt: skip
 
 
 def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
@@ -1151,13 +1159,14 @@ def fit_files(
     workers: int = 1,
     held: Sequence[Any] = (),
     stages: int = 2,
+    starts: int = 1,
 ) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
     """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
     kind -> (parameters, summary). Cars start from the shipped car parameters, the other
     kinds from the shipped per-class ones (their size reference [px] is kept).
     ``workers`` > 1 fits the kinds in that many processes (the same results). ``held``:
     frames files recorded with another seed, to choose the model on (:func:`fit_kind`);
-    ``stages``: :func:`fit_kind`'s."""
+    ``stages``, ``starts``: :func:`fit_kind`'s."""
     from sitcov.perception._pem_classes import load_class_params
     from sitcov.perception._pem_params import load_pem_params
 
@@ -1166,7 +1175,7 @@ def fit_files(
     classes = load_class_params()
     jobs = [
         (kind, data, load_pem_params() if kind == "car" else classes[kind][1], folds,
-         other.get(kind) if held else None, candidates_for(kind), stages)
+         other.get(kind) if held else None, candidates_for(kind), stages, starts)
         for kind, data in merged.items()
     ]  # fmt: skip
     if workers <= 1 or len(jobs) <= 1:
