@@ -1188,7 +1188,9 @@ def calibrate_cmd(
         "no detections, so every frame to each run's end is recorded.",
     ),
     kinds: str = typer.Option(
-        "car,pedestrian,cyclist", "--kinds", help="Kinds for --record-frames / --check."
+        "car,pedestrian,cyclist",
+        "--kinds",
+        help="Kinds for --record-frames / --check / --frames-from (there: only these fitted).",
     ),
     sweep_frames: int = typer.Option(
         0, "--sweep", min=0, help="--record-frames: static sweep frames per kind too."
@@ -1252,7 +1254,7 @@ def calibrate_cmd(
         return
     if frames_from:
         _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
-                         fit_stages, fit_starts)  # fmt: skip
+                         fit_stages, fit_starts, kinds)  # fmt: skip
         return
     if record_frames:
         _record_frames_cmd(kinds, runs, seed, workers, model, samples_out, sweep_frames)
@@ -1329,17 +1331,27 @@ def calibrate_cmd(
 def _frame_model_cmd(
     paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
     workers: int = 1, heldout: list[Path] | None = None, stages: int = 2, starts: int = 1,
+    kinds: str = "car,pedestrian,cyclist",
 ) -> None:  # fmt: skip
     """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
     import shlex
     import time
 
     from sitcov.calibration import _frame_model as fm
+    from sitcov.calibration._frames import KIND_LABEL, parse_kinds
+    from sitcov.errors import ConfigError
+
+    wanted = parse_kinds(kinds)
+    if classes_out is not None and not {"pedestrian", "cyclist"} <= set(wanted):
+        raise ConfigError(
+            field="--kinds", value=kinds,
+            expected="pedestrian and cyclist with --classes-out (the per-class file holds both)",
+        )  # fmt: skip
 
     cpu = time.process_time()
     wall = time.perf_counter()
     results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or (), stages=stages,
-                           starts=starts)  # fmt: skip
+                           starts=starts, kinds=wanted)  # fmt: skip
     wall = time.perf_counter() - wall
     command = "sitcov calibrate " + " ".join(f"--frames-from {shlex.quote(str(p))}" for p in paths)
     if heldout:
@@ -1349,6 +1361,7 @@ def _frame_model_cmd(
     command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")
     command += f" --fit-stages {stages}" if stages != 2 else ""
     command += f" --fit-starts {starts}" if starts != 1 else ""
+    command += f" --kinds {','.join(wanted)}" if set(wanted) != set(KIND_LABEL) else ""
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     if classes_out is not None:

@@ -1160,17 +1160,21 @@ def fit_files(
     held: Sequence[Any] = (),
     stages: int = 2,
     starts: int = 1,
+    kinds: Sequence[str] | None = None,
 ) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
     """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
     kind -> (parameters, summary). Cars start from the shipped car parameters, the other
     kinds from the shipped per-class ones (their size reference [px] is kept).
     ``workers`` > 1 fits the kinds in that many processes (the same results). ``held``:
     frames files recorded with another seed, to choose the model on (:func:`fit_kind`);
-    ``stages``, ``starts``: :func:`fit_kind`'s."""
+    ``stages``, ``starts``: :func:`fit_kind`'s; ``kinds``: only these (None: every kind
+    in the files)."""
     from sitcov.perception._pem_classes import load_class_params
     from sitcov.perception._pem_params import load_pem_params
 
     merged = _merged(paths)
+    if kinds is not None:
+        merged = {kind: data for kind, data in merged.items() if kind in kinds}
     other = _merged(held) if held else {}
     classes = load_class_params()
     jobs = [

@@ -511,3 +511,35 @@ def test_more_starts_never_lower_the_frames_alone_likelihood() -> None:
     _, three = fm.fit_kind(data, base, held=held, candidates=cands, stages=2, starts=3)
     assert one["model_choice"]["fit_starts"] == 1 and three["model_choice"]["fit_starts"] == 3
     assert three["marginal_loglik_per_frame"] >= one["marginal_loglik_per_frame"] - 2e-4
+
+
+def test_calibrate_fits_only_the_kinds_asked_for(tmp_path, capsys, monkeypatch) -> None:
+    """``sitcov calibrate --frames-from F --kinds car``: only the car is fitted (the file's
+    other kinds are left alone), the command in ``meta`` says so, and a per-class file
+    cannot be written from a subset of its classes (one clear line, no traceback)."""
+    import yaml
+    from cli_helpers import run_cli
+
+    from sitcov.calibration._frames import write_frames
+
+    fitted = []
+    real = fm.fit_kind
+
+    def spy(data, base, **kw):
+        fitted.append(kw["candidates"][0][0])
+        return real(data, base, **{**kw, "candidates": kw["candidates"][1:2]})  # ar1 only
+
+    monkeypatch.setattr(fm, "fit_kind", spy)
+    fit_file, held_file = tmp_path / "fit.jsonl.gz", tmp_path / "held.jsonl.gz"
+    write_frames(fit_file, {"car": _draw(3, runs=20), "pedestrian": _draw(4, runs=20)})
+    write_frames(held_file, {"car": _draw(5, runs=10), "pedestrian": _draw(6, runs=10)})
+    out = tmp_path / "pem.yaml"
+    code, _, err = run_cli(capsys, "calibrate", "--frames-from", str(fit_file), "--heldout",
+                           str(held_file), "--kinds", "car", "--out", str(out))  # fmt: skip
+    assert code == 0, err
+    assert len(fitted) == 1  # the car alone, not the pedestrian
+    meta = yaml.safe_load(out.read_text())["meta"]
+    assert "--kinds car" in meta["command"] and "car" in meta and "pedestrian" not in meta
+    code, _, err = run_cli(capsys, "calibrate", "--frames-from", str(fit_file), "--kinds",
+                           "car", "--classes-out", str(tmp_path / "c.yaml"))  # fmt: skip
+    assert code != 0 and "--kinds" in err and "Traceback" not in err
