@@ -19,6 +19,9 @@ PEM mode, and records per frame of the cyclist:
     PYTHONPATH=. python benchmarks/pem_cyclist_boxes.py --seed 6 --situations 60 \\
         --out docs/data/pem-cyclist-boxes-seed6.json
 
+``--fault f4`` runs the stack with the seeded fault F4 (it ignores ``person`` boxes);
+``--pem-classes FILE`` another per-class PEM.
+
 Camera runs cost 1-3 CPU-s each (one process); PEM runs about 0.03 s. docs/pem.md,
 "The cyclist's two boxes", quotes the summary.
 """
@@ -201,7 +204,7 @@ class _PEM(PEMSensor):
 class Simulator:
     """Camera and PEM backends and an instrumented reference stack, built once."""
 
-    def __init__(self, seed: int, pem_classes: str | None = None) -> None:
+    def __init__(self, seed: int, pem_classes: str | None = None, fault: str | None = None) -> None:
         from sitcov.av import ReferenceStack
         from sitcov.av._aeb import aeb_test
         from sitcov.calibration._class_runs import class_hyperspace
@@ -240,7 +243,7 @@ class Simulator:
                 sim._record(self, detections, fire)
                 return fire
 
-        self.stack = Instrumented(detector=_Detector(lambda: self.log))
+        self.stack = Instrumented(detector=_Detector(lambda: self.log), fault=fault)
 
     def _observe(self, camera: Any, pose: Any, actors: Any, conditions: Any) -> None:
         self.log.truth = (pose, actors, conditions)
@@ -298,9 +301,10 @@ def main(argv: Sequence[str] | None = None) -> None:
     ap.add_argument("--situations", type=int, default=60)
     ap.add_argument("--pem-classes", default=None, help="per-class PEM file (default: shipped)")
     ap.add_argument("--modes", default="camera,pem")
+    ap.add_argument("--fault", default=None, help="the reference stack's seeded fault (f4 ...)")
     ap.add_argument("--out", type=Path, default=None)
     args = ap.parse_args(argv)
-    sim = Simulator(args.seed, args.pem_classes)
+    sim = Simulator(args.seed, args.pem_classes, args.fault)
     modes = args.modes.split(",")
     runs = []
     t0 = time.perf_counter()

@@ -30,7 +30,10 @@ from sitcov.perception._pem_params import PEMParams, load_pem_params, read_yaml
 PEM_CLASSES_FILE = Path(__file__).parent / "data" / "pem_classes.yaml"
 #: Parameters a class entry never takes from the car PEM: without them it keeps the
 #: default (no term), so a file written before them loads and draws as before.
-OWN_TERMS = ("noise_size_gain", "noise_size_max_px")
+OWN_TERMS = (
+    "noise_size_gain", "noise_size_max_px", "box_dx0", "box_dy0", "box_dx1", "box_dy1",
+    "jitter_y",
+)  # fmt: skip
 #: Kinds scored by the car PEM (``data/pem.yaml``), reported as ``car``.
 VEHICLE_KINDS = ("car", "truck")
 
