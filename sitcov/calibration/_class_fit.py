@@ -82,7 +82,7 @@ def class_sweep(
     (the score as recorded runs take it: :func:`sitcov.calibration._camera_runs.match`)."""
     from sitcov.calibration._camera_runs import match
     from sitcov.perception._camera import project_box
-    from sitcov.perception._detector import KIND_LABELS
+    from sitcov.perception._detector import PEM_LABELS
     from sitcov.perception._pem import PEMSensor
     from sitcov.perception._renderer import render_frame
     from sitcov.sim.embedded._map import load_map
@@ -102,7 +102,7 @@ def class_sweep(
         if feats is None:
             continue
         img = render_frame(camera, ego, (actor,), cond, geometry, np.random.default_rng([seed, i]))
-        dets = [d for d in detector(img) if d.label in KIND_LABELS[kind]]
+        dets = [d for d in detector(img) if d.label in PEM_LABELS[kind]]
         score, _ = match(project_box(camera, ego, actor).box, dets)
         out.append((feats, score))
     return out

@@ -7,8 +7,9 @@ the frames where the AEB decides. :func:`class_hyperspace` restricts a derived h
 user (``intsit``) is of one kind, with no extra actor (slots ``actor2``, ... = ``none``):
 each run then measures that kind alone. :func:`class_camera_runs` drives the reference
 stack through random situations of it in camera mode and records, per frame the detector
-saw, the PEM features of the actor of that kind and the score of the detection of an
-accepted class (:data:`sitcov.perception._detector.KIND_LABELS`) matching its box.
+saw, the PEM features of the actor of that kind and the top score of the detections of
+the labels its PEM detection stands for (:data:`sitcov.perception._detector.PEM_LABELS`:
+a cyclist's rider, ``person``) matching its box.
 Run ``i`` of seed ``s`` is situation ``ask_rng(s, i)`` simulated with ``run_seed(s, i)``,
 as in the agreement experiment (stream A).
 """
@@ -95,17 +96,18 @@ def _restrict_constraints(constraints: list[Any], axes: list[dict[str, Any]]) ->
 
 class ClassRecorder(_Recorder):
     """A camera-mode backend + reference stack over one kind's situations, recording the
-    frames of the actors of that kind (detections of the kind's accepted classes only)."""
+    frames of the actors of that kind (detections of the labels its PEM detection stands
+    for only: :data:`~sitcov.perception._detector.PEM_LABELS`)."""
 
     def __init__(
         self, kind: str, model: str | None, map_name: str = DEFAULT_MAP, observe: bool = False
     ) -> None:
         from sitcov.generation import make_generator
-        from sitcov.perception._detector import KIND_LABELS
+        from sitcov.perception._detector import PEM_LABELS
 
         super().__init__(model, observe)
         self.kind = kind
-        self.labels = KIND_LABELS[kind]
+        self.labels = PEM_LABELS[kind]
         self.generator = make_generator("random", class_hyperspace(kind, map_name))
 
     def _records(self, actor: Any) -> bool:

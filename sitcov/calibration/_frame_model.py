@@ -978,13 +978,51 @@ def selector(stages: int) -> str:
 _PEM_EXTRAS = ("size3", "hinge40", "hinge80", "view_hinge40")
 
 
-def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) -> PEMParams:
+#: Kinds whose detection box is fitted with its mean edge offsets and a corner noise per
+#: axis (:func:`box_offsets`): the cyclist, whose detection is its rider's box, inside
+#: the cyclist's (docs/pem.md, "The cyclist's detection is its rider"). Cars and
+#: pedestrians keep the jitter from the horizontal errors alone, as their files were fitted.
+BOX_OFFSET_KINDS = ("cyclist",)
+#: The PEM parameters of the box's mean edge offsets, in ``box_error``'s order.
+BOX_EDGES = ("box_dx0", "box_dy0", "box_dx1", "box_dy1")
+
+
+def box_offsets(frames: Sequence[Any]) -> dict[str, float] | None:
+    """The detected box's mean edge offsets and corner noise from recorded frames' box
+    errors (``RunFrame.box_error``: each edge's error over the true box's width or height)
+    on the frames :func:`sitcov.calibration._calibrate._jitter` uses (boxes at least
+    ``JITTER_MIN_WIDTH`` wide, not cut by the image edge): per edge the median error
+    (``box_dx0``, ``box_dy0``, ``box_dx1``, ``box_dy1``), and per axis the median absolute
+    deviation around it over 0.6745 (``jitter``: the left and right edges; ``jitter_y``:
+    top and bottom), robust to the odd misplaced box. None with fewer than 20 frames."""
+    from sitcov.calibration._calibrate import JITTER_MIN_WIDTH
+
+    errs = np.asarray([
+        f.box_error for f in frames
+        if f.box_error is not None and f.width_px >= JITTER_MIN_WIDTH
+        and f.features.truncation < 0.05
+    ], dtype=np.float64).reshape(-1, 4)  # fmt: skip
+    if len(errs) < 20:
+        return None
+    mid = np.median(errs, axis=0)
+    dev = np.abs(errs - mid)
+    out = {name: round(float(v), 4) for name, v in zip(BOX_EDGES, mid, strict=True)}
+    out["jitter"] = round(float(np.median(dev[:, [0, 2]])) / 0.6745, 4)
+    out["jitter_y"] = round(float(np.median(dev[:, [1, 3]])) / 0.6745, 4)
+    return out
+
+
+def to_params(
+    fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any], *, box: bool = False
+) -> PEMParams:
     """The fit as PEM parameters (other fields from ``base``; jitter from the runs'
     matched boxes; ``size_min_px`` the :data:`MIN_PX_PERCENTILE` percentile of the box
     heights reported: below it the sensor reports nothing, above it the fitted logit,
     fitted down to 1 px, decides). Of the extra terms (:data:`EXTRA_TERMS`) only those
     of :data:`_PEM_EXTRAS` have a PEM parameter: a fit with another is refused (one
-    clear error)."""
+    clear error). ``box``: the box's mean edge offsets and per-axis corner noise from
+    the runs' matched boxes (:func:`box_offsets`; :data:`BOX_OFFSET_KINDS`) instead of
+    the horizontal-error jitter."""
     other = [n for n in fit.extras if n not in _PEM_EXTRAS]
     if other or fit.noise.kn != 0.0:
         raise SitcovError(
@@ -997,7 +1035,11 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
     heights = np.asarray([f.height_px for f in t.feats])
     seen = heights[t.score >= FLOOR]
     size_min = float(np.percentile(seen, MIN_PX_PERCENTILE)) if seen.size else base.size_min_px
-    jitter = _jitter([f for r in runs for f in r.frames])
+    frames = [f for r in runs for f in r.frames]
+    jitter = _jitter(frames)
+    offsets = (box_offsets(frames) if box else None) or {}
+    if "jitter" in offsets:  # around the mean offsets, not around the true box
+        jitter = offsets.pop("jitter")
     nz = fit.noise
     tau = -FRAME_DT / math.log(nz.rho) if nz.share > 0.0 and nz.rho > 0.0 else 0.0
     return replace(
@@ -1028,6 +1070,7 @@ def to_params(fit: FrameFit, base: PEMParams, t: Tracks, runs: Sequence[Any]) ->
         rain_jitter=0.0,
         jitter=round(jitter, 4) if jitter is not None else base.jitter,
         floor=FLOOR,
+        **offsets,
     )
 
 
@@ -1072,6 +1115,7 @@ def split_runs(data: KindFrames, part: str) -> KindFrames:
 def fit_kind(
     data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None,
     candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 2, starts: int = 1,
+    box: bool = False,
 ) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
     """Choose the model on held-out runs and fit it on every frame of the kind; the
     parameters and a summary (frames, tracks, the choice table, the fitted noise).
@@ -1086,7 +1130,8 @@ def fit_kind(
     and coefficient by the sequence's; candidates chosen by the frames-alone held-out
     likelihood); 1 the single-stage sequence fit and choice of the files before it.
     ``starts``: every fit's (:func:`fit_tracks`: its first stage from that many starts,
-    the best kept; 1, the default, is the shipped files' fit)."""
+    the best kept; 1, the default, is the shipped files' fit). ``box``:
+    :func:`to_params`'s (the box's mean offsets and per-axis noise)."""
     t = tracks_of(data)
     size_ref = base.size_ref_px
     if held is not None:
@@ -1106,7 +1151,7 @@ def fit_kind(
                                      stages=stages, starts=starts)  # fmt: skip
         fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
                             stages=stages, starts=starts)  # fmt: skip
-    params = to_params(fit, base, t, data.runs)
+    params = to_params(fit, base, t, data.runs, box=box)
     nz = fit.noise
     lag1 = nz.share * nz.rho
     summary = {
@@ -1137,7 +1182,7 @@ def _fit_job(
 ) -> tuple[PEMParams, dict[str, Any]]:
     kind, data, base, folds, held, candidates, stages, starts = job
     return fit_kind(data, base, folds=folds, held=held, candidates=candidates, stages=stages,
-                    starts=starts)  # fmt: skip
+                    starts=starts, box=kind in BOX_OFFSET_KINDS)  # fmt: skip
 
 
 def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
@@ -1200,7 +1245,7 @@ def frame_yaml(
 
     import yaml
 
-    from sitcov.calibration._frames import KIND_LABEL
+    from sitcov.perception._detector import PEM_LABELS
 
     date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
     meta: dict[str, Any] = {
@@ -1213,7 +1258,7 @@ def frame_yaml(
         head = "# Per-class PEM parameters (pedestrians, cyclists): the frame model of\n"
         head += "# sitcov/calibration/_frame_model.py (docs/pem.md). Made by:\n"
         meta.update({k: s for k, (_, s) in results.items() if k != "car"})
-        body = {k: {"label": KIND_LABEL[k], "params": p.to_dict()}
+        body = {k: {"label": PEM_LABELS[k][0], "params": p.to_dict()}
                 for k, (p, _) in results.items() if k != "car"}  # fmt: skip
         doc = {"meta": meta, "classes": body}
     else:

@@ -213,15 +213,20 @@ class ObjectNoise:
 def pem_miss_processes() -> dict[str, tuple[float, float, float]]:
     """Per object-list label, the shipped PEM's latent noise process: ``(noise_tau [s],
     noise_frame_share, noise_run_share)`` (docs/pem.md, "The noise"; ``car`` from
-    ``data/pem.yaml``, ``person`` and ``bicycle`` from ``data/pem_classes.yaml``).
+    ``data/pem.yaml``, ``person`` and ``bicycle`` from ``data/pem_classes.yaml``: the
+    pedestrian's and the cyclist's, by kind, whatever label their PEM detection carries;
+    a cyclist's is its rider's ``person``).
 
     The PEM's AR coefficient per frame is ``exp(-frame_dt / noise_tau)``; kept as a time
     constant here so the object list's own step (the sensor rate) converts it."""
     from sitcov.perception._pem_classes import load_class_params
     from sitcov.perception._pem_params import load_pem_params
 
+    kinds = [("car", load_pem_params())]
+    kinds += [(kind, params) for kind, (_, params) in load_class_params().items()]
     out = {}
-    for label, params in [("car", load_pem_params())] + list(load_class_params().values()):
+    for kind, params in kinds:
+        label = OBJECT_CLASS.get(kind, kind)
         out.setdefault(label, (params.noise_tau, params.noise_frame_share, params.noise_run_share))
     return out
 

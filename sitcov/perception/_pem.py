@@ -60,7 +60,9 @@ A detection is reported when the score reaches the detector's output ``floor``; 
 drops whole frames with probability ``rain_miss * rain_noise``, decided by a second
 process of the same form (so misses come in runs too), and the box corners jitter by a
 Gaussian whose standard deviation is ``jitter + rain_jitter * rain_noise`` times the box
-size (independent per frame). The noise state lives in the sensor: it is reset by
+size (independent per frame), around the true box moved by the class's mean edge offsets
+(``box_dx0`` ... ``box_dy1``: a cyclist's detection is its rider's box, inside the
+cyclist's). The noise state lives in the sensor: it is reset by
 :meth:`PEMSensor.reset` and automatically whenever ``detect`` is given a different rng
 (each run has its own), so a sensor reused across runs stays deterministic per run.
 The parameters live in ``data/pem.yaml`` (documented in docs/pem.md), the output of
@@ -479,16 +481,19 @@ def _view_kernel() -> Any:
 #: the AR(1) coefficient per frame and the run and frame shares of the noise (the car
 #: PEM's, as ``PEMSensor._noise`` takes them), then the actor class's noise sigma, rain
 #: sigma, upper-spread ratio, detection gate (gain, AR weight, bias), score floor, box
-#: jitter and rain jitter, the scene's rain noise and the image's width and height.
+#: jitter and rain jitter, the scene's rain noise and the image's width and height, and
+#: the box's mean edge offsets (``box_dx0``, ``box_dy0``, ``box_dx1``, ``box_dy1``) and its
+#: vertical corner noise (``PEMParams.jitter_vertical``).
 _F_PHI, _F_SHARE, _F_FRESH, _F_SIGMA, _F_RAIN_SIGMA, _F_UP, _F_GAIN, _F_AR, _F_BIAS = range(9)
 _F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(9, 15)
+_F_BOX, _F_JITTER_Y = 15, 19
 #: Most normals :func:`_pem_frame` takes for one actor and frame.
 FRAME_NORMALS = 9
 
 
 #: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
 #: ``track``'s 5, then the view array ``q``).
-_F_N = 15
+_F_N = 20
 
 
 def _pem_frame(
@@ -566,19 +571,24 @@ def _pem_frame(
     at += 4
     w, h = c[_F_WIDTH], c[_F_HEIGHT]
     jit = c[_F_JITTER] + c[_F_RAIN_JITTER] * rain
-    sx, sy = jit * (x1 - x0), jit * (y1 - y0)
-    v = x0 + sx * n1
+    jit_y = c[_F_JITTER_Y] + c[_F_RAIN_JITTER] * rain
+    bw, bh = x1 - x0, y1 - y0
+    sx, sy = jit * bw, jit_y * bh
+    # the mean offsets (0: x0 + 0.0 is x0, the same bits as without them)
+    v = x0 + c[_F_BOX] * bw + sx * n1
     v = 0.0 if v < 0.0 else v
-    x0 = w if w < v else v
-    v = x1 + sx * n3
+    nx0 = w if w < v else v
+    v = x1 + c[_F_BOX + 2] * bw + sx * n3
     v = 0.0 if v < 0.0 else v
     x1 = w if w < v else v
-    v = y0 + sy * n2
+    x0 = nx0
+    v = y0 + c[_F_BOX + 1] * bh + sy * n2
     v = 0.0 if v < 0.0 else v
-    y0 = h if h < v else v
-    v = y1 + sy * n4
+    ny0 = h if h < v else v
+    v = y1 + c[_F_BOX + 3] * bh + sy * n4
     v = 0.0 if v < 0.0 else v
     y1 = h if h < v else v
+    y0 = ny0
     if x1 <= x0 or y1 <= y0:
         return 1, at, 0.0, 0.0, 0.0, 0.0, 0.0
     return 2, at, x0, y0, x1, y1, score
@@ -600,7 +610,7 @@ def _frame_kernel() -> Any:
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
                       450.0])  # fmt: skip
         c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
-        c = np.append(c, [800.0, 450.0])
+        c = np.append(c, [800.0, 450.0, 0.0, 0.0, 0.0, 0.0, 0.05])
         state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
         helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid)
@@ -910,6 +920,7 @@ class PEMSensor(Sensor):
             p.rain_sigma, p.noise_up_ratio, p.detect_gain, p.detect_ar, p.detect_bias,
             p.floor, p.jitter, p.rain_jitter, conditions.rain_noise,
             float(self.camera.width), float(self.camera.height),
+            p.box_dx0, p.box_dy0, p.box_dx1, p.box_dy1, p.jitter_vertical,
         ]  # fmt: skip
         return np.array(values, dtype=np.float64)
 
@@ -1080,11 +1091,17 @@ class PEMSensor(Sensor):
                 continue
             n1, n2, n3, n4 = normals.take(4)
             jit = p.jitter + p.rain_jitter * rain
-            sx, sy = jit * (x1 - x0), jit * (y1 - y0)
-            x0 = min(max(x0 + sx * n1, 0.0), w)
-            x1 = min(max(x1 + sx * n3, 0.0), w)
-            y0 = min(max(y0 + sy * n2, 0.0), h)
-            y1 = min(max(y1 + sy * n4, 0.0), h)
+            jit_y = p.jitter_vertical + p.rain_jitter * rain
+            bw, bh = x1 - x0, y1 - y0
+            sx, sy = jit * bw, jit_y * bh
+            x0, x1 = (
+                min(max(x0 + p.box_dx0 * bw + sx * n1, 0.0), w),
+                min(max(x1 + p.box_dx1 * bw + sx * n3, 0.0), w),
+            )
+            y0, y1 = (
+                min(max(y0 + p.box_dy0 * bh + sy * n2, 0.0), h),
+                min(max(y1 + p.box_dy1 * bh + sy * n4, 0.0), h),
+            )
             if x1 <= x0 or y1 <= y0:
                 continue
             out.append(Detection((x0, y0, x1, y1), score, label))

@@ -29,8 +29,13 @@ from sitcov.perception._pem_params import PEMParams, load_pem_params, read_yaml
 #: The shipped per-class file.
 PEM_CLASSES_FILE = Path(__file__).parent / "data" / "pem_classes.yaml"
 #: Parameters a class entry never takes from the car PEM: without them it keeps the
-#: default (no term), so a file written before them loads and draws as before.
-OWN_TERMS = ("noise_size_gain", "noise_size_max_px")
+#: default (no term), so a file written before them loads and draws as before. The car's
+#: size bends and side-on bend are car terms (car candidates of the frame model): a class
+#: file that does not set them has none, whatever the car PEM fitted.
+OWN_TERMS = (
+    "noise_size_gain", "noise_size_max_px", "box_dx0", "box_dy0", "box_dx1", "box_dy1",
+    "jitter_y", "size_hinge40_gain", "size_hinge80_gain", "view_hinge40_gain",
+)  # fmt: skip
 #: Kinds scored by the car PEM (``data/pem.yaml``), reported as ``car``.
 VEHICLE_KINDS = ("car", "truck")
 

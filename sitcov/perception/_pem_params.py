@@ -45,7 +45,10 @@ class PEMParams:
         noise_sigma: standard deviation of the logit noise in clear weather [-].
         rain_sigma: extra logit noise at full rain noise [-].
         rain_miss: probability of a missed frame at full rain noise [-].
-        jitter: box-corner noise as a fraction of the box size [-].
+        jitter: box-corner noise as a fraction of the box size [-] (horizontal; vertical
+            too unless ``jitter_y`` says otherwise).
+        jitter_y: the vertical box-corner noise as a fraction of the box height [-]; a
+            negative value (the default, files written before it) means ``jitter``.
         rain_jitter: extra box-corner noise at full rain noise [-].
         floor: the detector's output threshold: lower scores are not reported [-].
         aspect_gain: logit per e-fold of the box's width/height ratio [-].
@@ -106,6 +109,13 @@ class PEMParams:
             detector's scores on a close car seen side-on rise further with its size than
             on one seen end-on (docs/pem.md, "The side-on bend"); 0, the default of files
             written before it, changes nothing [-].
+        box_dx0, box_dy0, box_dx1, box_dy1: the detected box's mean offset from the true
+            (projected, clipped) box, per edge (left, top, right, bottom), as a fraction of
+            the true box's width (x) or height (y); positive moves the edge right or down.
+            The jitter scatters the corners around it. A cyclist's detection is its rider
+            (``person``), whose box lies inside the cyclist's: its top lower than the 3-D
+            box's near top corner, its bottom above the wheels' ground contact. 0 (the
+            default, files written before them) centres the box on the true box [-].
     """
 
     bias: float = 0.5
@@ -152,6 +162,11 @@ class PEMParams:
     size_hinge40_gain: float = 0.0
     size_hinge80_gain: float = 0.0
     view_hinge40_gain: float = 0.0
+    box_dx0: float = 0.0
+    box_dy0: float = 0.0
+    box_dx1: float = 0.0
+    box_dy1: float = 0.0
+    jitter_y: float = -1.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -197,6 +212,11 @@ class PEMParams:
                 raise ConfigError(
                     file=file, field=name, value=getattr(self, name), expected="in [0, 1]"
                 )
+
+    @property
+    def jitter_vertical(self) -> float:
+        """The vertical box-corner noise: ``jitter_y``, or ``jitter`` when it is negative."""
+        return self.jitter_y if self.jitter_y >= 0.0 else self.jitter
 
     def to_dict(self) -> dict[str, float]:
         """Plain mapping, the form of ``pem.yaml``'s ``params``."""

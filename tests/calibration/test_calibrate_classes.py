@@ -140,3 +140,23 @@ def test_a_file_without_calibration_seeds_is_refused(tmp_path) -> None:
         check_class_seeds([2], "pedestrian", str(path), allow=False)
     with pytest.raises(ConfigError, match="kind"):
         check_class_seeds([2], "truck", str(path), allow=True)
+
+
+def test_a_cyclists_frames_are_scored_by_its_riders_person_boxes(monkeypatch) -> None:
+    """The class recorder scores a cyclist by the boxes its PEM detection stands for
+    (``PEM_LABELS``: the rider's ``person`` boxes, not the bicycle's), a pedestrian by
+    ``person`` boxes; the PEM's label and the recorded score are of the same box."""
+    from sitcov.calibration import _camera_runs
+    from sitcov.calibration._class_runs import ClassRecorder
+    from sitcov.perception._base import Detection
+
+    monkeypatch.setattr(_camera_runs._Recorder, "__init__", lambda self, *a, **k: None)
+    dets = [
+        Detection((0.0, 0.0, 10.0, 30.0), 0.7, "person"),
+        Detection((0.0, 10.0, 10.0, 30.0), 0.9, "bicycle"),
+        Detection((0.0, 0.0, 10.0, 30.0), 0.8, "car"),
+    ]
+    for kind in ("cyclist", "pedestrian"):
+        rec = ClassRecorder(kind, None)
+        assert rec.labels == ("person",)
+        assert rec._candidates(dets) == [dets[0]]

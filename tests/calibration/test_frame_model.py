@@ -543,3 +543,69 @@ def test_calibrate_fits_only_the_kinds_asked_for(tmp_path, capsys, monkeypatch) 
     code, _, err = run_cli(capsys, "calibrate", "--frames-from", str(fit_file), "--kinds",
                            "car", "--classes-out", str(tmp_path / "c.yaml"))  # fmt: skip
     assert code != 0 and "--kinds" in err and "Traceback" not in err
+
+
+def _boxed_frames(n: int, mid: tuple[float, ...], spread: tuple[float, float], seed: int):
+    """``n`` frames whose box errors are ``mid`` plus normal noise (``spread``: x, y)
+    and a few wild boxes, and some frames the box fit must skip (narrow, cut, no box)."""
+    rng = np.random.default_rng(seed)
+    feats = PEMFeatures(120.0, 0.3, 0.0, 1.0, 1.0, 0.0, 80.0, 0.1)
+    sd = np.array([spread[0], spread[1], spread[0], spread[1]])
+    out = []
+    for k in range(n):
+        err = np.asarray(mid) + sd * rng.standard_normal(4)
+        if k % 25 == 0:  # a misplaced box
+            err = err + rng.uniform(-1.0, 1.0, 4)
+        out.append(RunFrame(feats, 0.6, tuple(float(e) for e in err), 80.0))
+    cut = PEMFeatures(120.0, 0.3, 0.4, 1.0, 1.0, 0.0, 80.0, 0.1)
+    out += [RunFrame(feats, 0.6, (5.0, 5.0, 5.0, 5.0), 30.0)] * 50  # too narrow
+    out += [RunFrame(cut, 0.6, (5.0, 5.0, 5.0, 5.0), 80.0)] * 50  # cut by the edge
+    out += [RunFrame(feats, 0.0, None, 80.0)] * 50  # no box
+    return out
+
+
+def test_box_offsets_recover_the_edges_median_and_each_axis_noise() -> None:
+    """The cyclist's box (``BOX_OFFSET_KINDS``): per edge the median box error, per axis
+    the robust spread around it, on the wide boxes not cut by the edge (what the
+    horizontal-error jitter uses); the odd wild box does not move them."""
+    mid, spread = (0.13, 0.02, -0.2, -0.06), (0.12, 0.05)
+    got = fm.box_offsets(_boxed_frames(4000, mid, spread, seed=2))
+    assert got is not None
+    for name, want in zip(fm.BOX_EDGES, mid, strict=True):
+        assert got[name] == pytest.approx(want, abs=0.01), name
+    assert got["jitter"] == pytest.approx(0.12, rel=0.08)
+    assert got["jitter_y"] == pytest.approx(0.05, rel=0.08)
+    assert fm.box_offsets(_boxed_frames(19, mid, spread, seed=2)[:19]) is None
+    assert fm.BOX_OFFSET_KINDS == ("cyclist",)
+
+
+def test_to_params_takes_the_box_offsets_only_when_asked() -> None:
+    """``to_params(box=True)`` (the cyclist) sets the offsets and both corner noises from
+    the runs' boxes; without it (cars, pedestrians) the box keeps no offsets and the
+    horizontal-error jitter, as the files were fitted."""
+    t = fm.tracks_of(_draw(5, runs=30, length=20))
+    fit = fm.fit_candidate(t, fm.CANDIDATES[0], 25.0)
+    frames = _boxed_frames(400, (0.1, 0.03, -0.15, -0.05), (0.1, 0.04), seed=3)
+    run = CameraRun(0, 0, {}, False, None, tuple(frames))
+    plain = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, [run])
+    boxed = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, [run], box=True)
+    assert (plain.box_dx0, plain.box_dy1, plain.jitter_y) == (0.0, 0.0, -1.0)
+    assert boxed.box_dx0 == pytest.approx(0.1, abs=0.03)
+    assert boxed.box_dy1 == pytest.approx(-0.05, abs=0.02)
+    assert boxed.jitter_y == pytest.approx(0.04, rel=0.25)
+    assert boxed.jitter < plain.jitter  # around the offsets, not around the true box
+    assert (boxed.bias, boxed.noise_sigma) == (plain.bias, plain.noise_sigma)
+
+
+def test_the_class_file_labels_a_cyclist_as_its_rider() -> None:
+    """``pem_classes.yaml`` written by the frame model labels the cyclist's detection
+    ``person`` (``PEM_LABELS``: its rider's box), the pedestrian's ``person``."""
+    import yaml
+
+    from sitcov.perception._detector import PEM_LABELS
+
+    assert PEM_LABELS["cyclist"] == ("person",) and PEM_LABELS["pedestrian"] == ("person",)
+    results = {k: (PEMParams(), {"frames": 1}) for k in ("pedestrian", "cyclist")}
+    doc = yaml.safe_load(fm.frame_yaml(results, "sitcov calibrate ...", [1], classes=True))
+    assert doc["classes"]["cyclist"]["label"] == "person"
+    assert doc["classes"]["pedestrian"]["label"] == "person"

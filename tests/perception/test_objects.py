@@ -18,6 +18,7 @@ from sitcov.perception import (
     object_list,
     pem_miss_processes,
 )
+from sitcov.perception._pem_classes import load_class_params
 from sitcov.sim import conditions_from_values
 
 EGO = Pose(10.0, 5.0, math.pi / 2)  # heading +y: ego-frame x is world +y, y is world -x
@@ -249,6 +250,11 @@ def test_the_pem_gives_the_correlation_per_class() -> None:
     assert shipped.miss_process("person") == processes["person"]
     hooked = ObjectNoise(detection_probability=lambda *a: 0.5)
     assert hooked.miss_process("bicycle") == processes["bicycle"]
+    # by kind, whatever label the PEM's detection carries (a cyclist's: its rider's person)
+    classes = load_class_params()
+    cyclist, pedestrian = classes["cyclist"][1], classes["pedestrian"][1]
+    assert processes["bicycle"][0] == cyclist.noise_tau
+    assert processes["person"][0] == pedestrian.noise_tau != cyclist.noise_tau
     assert ObjectNoise().miss_process("car") == (0.0, 0.0, 0.0)  # no hook: as before
     assert ObjectNoise(miss_tau=0.3).miss_process("car") == (0.3, 0.0, 0.0)
 

@@ -679,6 +679,8 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
         c = [rnd.uniform(0.0, 0.9), rnd.choice([0.0, 0.2]), rnd.choice([0.0, 0.3]), 1.0, 0.5]
         c += [rnd.choice([1.0, 0.7]), rnd.choice([0.0, -0.3]), rnd.choice([0.0, 0.4]), 1.2]
         c += [rnd.choice([0.1, 0.5]), 0.05, rnd.choice([0.0, 0.02]), rnd.random(), 800.0, 450.0]
+        c += rnd.choice([[0.0] * 4, [0.1, 0.05, -0.1, -0.12]])  # the box's mean offsets
+        c += [rnd.choice([0.05, 0.02])]  # the vertical corner noise
         track = [rnd.gauss(0, 1), rnd.gauss(0, 1), rnd.gauss(0, 1), 3.0, rnd.choice([0.0, 1.0])]
         normals = [rnd.gauss(0, 1) for _ in range(_pem.FRAME_NORMALS + 3)]
         ex, ey, eyaw = rnd.uniform(-50, 50), rnd.uniform(-50, 50), rnd.uniform(-4, 4)
