@@ -29,7 +29,6 @@ Camera runs cost 1-3 CPU-s each (one process); PEM runs about 0.03 s. docs/pem.m
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import time
 from collections import Counter
@@ -40,10 +39,10 @@ from typing import Any
 import numpy as np
 
 from sitcov.calibration._camera_runs import MATCH_IOU
-from sitcov.perception._base import Detection, Pose
+from sitcov.perception._base import Detection
 from sitcov.perception._camera import project_box
 from sitcov.perception._nms import iou
-from sitcov.perception._pem import PEMSensor
+from sitcov.perception._recording import FrameTruth, RecordingDetector, RecordingPEM
 
 #: The SSD's reporting floor while recording (the stack still gets only its usual >= 0.3).
 RECORD_FLOOR = 0.05
@@ -51,15 +50,14 @@ RECORD_FLOOR = 0.05
 LABELS = ("person", "bicycle")
 
 
-class Log:
-    """One run's frames (filled by the instrumented stack, detector and PEM)."""
+class Log(FrameTruth):
+    """One run's frames (filled by the instrumented stack, detector and PEM; ``truth``,
+    ``views`` and ``raw`` as :class:`FrameTruth`'s)."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.frames: list[dict[str, Any]] = []
         self.first: dict[str, Any] | None = None
-        self.truth: tuple[Any, ...] | None = None
-        self.views: list[tuple[Any, Any]] = []
-        self.raw: tuple[Detection, ...] = ()
 
 
 def frame_record(
@@ -154,53 +152,6 @@ def summarise(runs: Sequence[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-class _Detector:
-    """The SSD with a low floor: keeps every detection in the log, gives the stack those
-    >= its usual floor (its decisions unchanged)."""
-
-    def __init__(self, log_of: Any) -> None:
-        from sitcov.perception import SSDDetector
-
-        self.usual = SSDDetector().min_score
-        self.ssd = SSDDetector(min_score=RECORD_FLOOR)
-        self.log_of = log_of
-
-    def __call__(self, image: np.ndarray) -> tuple[Detection, ...]:
-        dets = self.ssd(image)
-        self.log_of().raw = dets
-        return tuple(d for d in dets if d.score >= self.usual)
-
-
-class _PEM(PEMSensor):
-    """The shipped PEM (the same draws) noting each frame's truth for the log."""
-
-    log_of: Any
-
-    def prepare(self, actor, conditions):  # type: ignore[no-untyped-def]
-        out = super().prepare(actor, conditions)
-        self.log_of().views.append((actor, out))
-        return out
-
-    def frame_detector(self, conditions, rng):  # type: ignore[no-untyped-def]
-        inner = super().frame_detector(conditions, rng)
-
-        def detect(ex, ey, eyaw, actors):  # type: ignore[no-untyped-def]
-            log = self.log_of()
-            out = inner(ex, ey, eyaw, actors)
-            views, k = [], 0
-            for look, body in actors:
-                while log.views[k][1] is not look:
-                    k += 1
-                pose = Pose(float(body.x), float(body.y), float(body.yaw))
-                views.append(dataclasses.replace(log.views[k][0], pose=pose))
-                k += 1
-            log.truth = (Pose(ex, ey, eyaw), tuple(views), conditions)
-            log.raw = out
-            return out
-
-        return detect
-
-
 class Simulator:
     """Camera and PEM backends and an instrumented reference stack, built once."""
 
@@ -214,8 +165,7 @@ class Simulator:
         self.seed = seed
         self.log = Log()
         self.generator = make_generator("random", class_hyperspace("cyclist"))
-        pem = _PEM(classes=pem_classes)
-        pem.log_of = lambda: self.log
+        pem = RecordingPEM(classes=pem_classes, log_of=lambda: self.log)
         self.pem_backend = EmbeddedBackend(perception="pem", sensor=pem)
         self.camera_backend = EmbeddedBackend(perception="camera")
         self.camera_backend.frame_observer = self._observe
@@ -243,7 +193,8 @@ class Simulator:
                 sim._record(self, detections, fire)
                 return fire
 
-        self.stack = Instrumented(detector=_Detector(lambda: self.log), fault=fault)
+        detector = RecordingDetector(lambda: self.log, floor=RECORD_FLOOR)
+        self.stack = Instrumented(detector=detector, fault=fault)
 
     def _observe(self, camera: Any, pose: Any, actors: Any, conditions: Any) -> None:
         self.log.truth = (pose, actors, conditions)

@@ -62,7 +62,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import dataclasses
 import json
 import math
 import time
@@ -74,11 +73,12 @@ from typing import Any
 import numpy as np
 
 from sitcov.calibration._camera_runs import MATCH_IOU
-from sitcov.perception._base import Detection, Pose
+from sitcov.perception._base import Detection
 from sitcov.perception._camera import project_box
 from sitcov.perception._colors import PALETTE, ov_color
 from sitcov.perception._nms import iou
 from sitcov.perception._pem import PEMSensor, pass_probability, pem_logit
+from sitcov.perception._recording import FrameTruth, RecordingDetector, RecordingPEM
 
 #: Stack names of the rows files -> short names used in the output.
 STACKS = {
@@ -104,14 +104,13 @@ _COLOR_NAMES = {rgb: name for name, (rgb, _) in PALETTE.items()}
 # --- instrumented runs -------------------------------------------------------------------
 
 
-class FrameLog:
-    """What one run's stack received, frame by frame (filled by the instrumented parts)."""
+class FrameLog(FrameTruth):
+    """What one run's stack received, frame by frame (filled by the instrumented parts;
+    ``truth``, ``views`` and ``raw`` as :class:`FrameTruth`'s)."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.frames: list[dict[str, Any]] = []
-        self.truth: tuple[Any, ...] | None = None  # (pose, actor views, conditions)
-        self.views: list[tuple[Any, Any]] = []  # PEM mode: (actor view, prepared) per actor
-        self.last_raw: tuple[Detection, ...] = ()  # camera: the low-floor detections
 
     def start(self) -> None:
         self.__init__()
@@ -147,7 +146,7 @@ def recorded_stack(name: str, log: FrameLog, observe: bool = False) -> Any:
             raw = None
             if detections is None:
                 detections = self._detect(image)
-                raw = log.last_raw
+                raw = log.raw
             truth, log.truth = log.truth, None
             hit = _single_test(self)(detections)
             fire = False if observe else super()._perceive(detections, None)
@@ -157,53 +156,6 @@ def recorded_stack(name: str, log: FrameLog, observe: bool = False) -> Any:
 
     stack = Recorded()
     return stack
-
-
-class RecordingDetector:
-    """The SSD with a low floor: remembers every detection, hands the stack those >= its
-    usual floor (a lower floor adds candidates below every kept one: the kept set and
-    the AEB's decisions are unchanged)."""
-
-    def __init__(self, log: FrameLog) -> None:
-        from sitcov.perception import SSDDetector
-
-        self.usual = SSDDetector().min_score
-        self.ssd = SSDDetector(min_score=RECORD_FLOOR)
-        self.log = log
-
-    def __call__(self, image: np.ndarray) -> tuple[Detection, ...]:
-        dets = self.ssd(image)
-        self.log.last_raw = dets
-        return tuple(d for d in dets if d.score >= self.usual)
-
-
-class RecordingPEM(PEMSensor):
-    """The shipped PEM (its built-in fast path, the same draws) noting each frame's truth."""
-
-    log: FrameLog
-
-    def prepare(self, actor, conditions):  # type: ignore[no-untyped-def]
-        out = super().prepare(actor, conditions)
-        self.log.views.append((actor, out))
-        return out
-
-    def frame_detector(self, conditions, rng):  # type: ignore[no-untyped-def]
-        inner = super().frame_detector(conditions, rng)
-        log = self.log
-
-        def detect(ex, ey, eyaw, actors):  # type: ignore[no-untyped-def]
-            out = inner(ex, ey, eyaw, actors)
-            views, k = [], 0
-            for look, body in actors:  # the active actors, in prepare's order
-                while log.views[k][1] is not look:
-                    k += 1
-                pose = Pose(float(body.x), float(body.y), float(body.yaw))
-                views.append(dataclasses.replace(log.views[k][0], pose=pose))
-                k += 1
-            log.truth = (Pose(ex, ey, eyaw), tuple(views), conditions)
-            return out
-
-        return detect
 
 
 _FEATURES = PEMSensor()
@@ -306,8 +258,7 @@ class Simulator:
         self.generator = make_generator("random", load_hyperspace())
         self.log = FrameLog()
         self.detector: RecordingDetector | None = None  # made at the first camera run
-        self.pem = RecordingPEM()
-        self.pem.log = self.log
+        self.pem = RecordingPEM(log_of=lambda: self.log)
         self.camera_backend = EmbeddedBackend(perception="camera")
         self.pem_backend = EmbeddedBackend(perception="pem", sensor=self.pem)
         self.plain_backend = EmbeddedBackend(perception="pem")
@@ -333,7 +284,7 @@ class Simulator:
             self._stacks[key] = recorded_stack(stack, self.log, observe)
         st = self._stacks[key]
         if mode == "camera" and self.detector is None:
-            self.detector = RecordingDetector(self.log)
+            self.detector = RecordingDetector(lambda: self.log, floor=RECORD_FLOOR)
         st.detector = self.detector
         self.log.start()
         backend = self.camera_backend if mode == "camera" else self.pem_backend
