@@ -83,11 +83,17 @@ def measure(
     return out, situations
 
 
-def _kinds(situation: Situation) -> tuple[str, bool]:
-    """The intsit road user's kind, and whether any road user of the scene is a pedestrian."""
+def scene_kinds(situation: Situation) -> list[str]:
+    """The kinds of the scene's road users, the intsit road user's first."""
     values = situation.values
     kinds = [values["intsit"].get("kind", "car")]
     kinds += [v["kind"] for k, v in values.items() if k.startswith("actor") and v != "none"]
+    return kinds
+
+
+def _kinds(situation: Situation) -> tuple[str, bool]:
+    """The intsit road user's kind, and whether any road user of the scene is a pedestrian."""
+    kinds = scene_kinds(situation)
     return kinds[0], "pedestrian" in kinds
 
 

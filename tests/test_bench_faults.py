@@ -28,14 +28,12 @@ def test_a_derived_hyperspace_runs_on_its_map(bench) -> None:
     assert paper.map.name == "t-junction" and paper.adversary.switch_distance == 8.0
 
 
-def _person_seen(situation) -> bool:
+def _person_seen(bench, situation) -> bool:
     """Whether a road user of the scene is reported as a ``person`` by the PEM: a
     pedestrian, or a cyclist (its detection is its rider, docs/pem.md)."""
     from sitcov.perception._detector import PEM_LABELS
 
-    values = situation.values
-    kinds = [values["intsit"].get("kind", "car")]
-    kinds += [v["kind"] for k, v in values.items() if k.startswith("actor") and v != "none"]
+    kinds = bench.scene_kinds(situation)
     return any(PEM_LABELS.get(kind, ("car",))[0] == "person" for kind in kinds)
 
 
@@ -45,7 +43,7 @@ def test_f4_fails_like_no_fault_wherever_no_person_is_seen(bench) -> None:
     # 40 situations: three scenes without a pedestrian or a cyclist (12 drew none)
     table, situations = bench.measure(40, 0, hyperspace=str(DERIVED / "t-junction.yaml"))
     assert set(table) == {"NF", "f1", "f1-raw", "f2", "f3", "f4"}
-    without = [i for i, s in enumerate(situations) if not _person_seen(s)]
+    without = [i for i, s in enumerate(situations) if not _person_seen(bench, s)]
     assert without and len(without) < len(situations)  # both kinds of scene were drawn
     assert [table["f4"][i] for i in without] == [table["NF"][i] for i in without]
 

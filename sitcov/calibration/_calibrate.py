@@ -198,10 +198,18 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
     return np.stack(cols, axis=1)
 
 
+#: The frame model's extra terms (:data:`sitcov.calibration._frame_model.EXTRA_TERMS`) that
+#: have a PEM parameter, and that parameter: the cube of the log size, the size term's
+#: bends at 40 and 80 px and the side-on bend at 40 px.
+EXTRA_TERM_PARAMS = {
+    "size3": "size3_gain",
+    "hinge40": "size_hinge40_gain",
+    "hinge80": "size_hinge80_gain",
+    "view_hinge40": "view_hinge40_gain",
+}
 #: The gains of the frame model's candidate terms (:mod:`sitcov.calibration._frame_model`):
-#: the side's, the cubic size term's and the size bends'.
-_CANDIDATE_GAINS = ("side_gain", "size3_gain", "size_hinge40_gain", "size_hinge80_gain",
-                    "view_hinge40_gain")  # fmt: skip
+#: the side's and the extra terms'.
+_CANDIDATE_GAINS = ("side_gain", *EXTRA_TERM_PARAMS.values())
 #: The coefficients the probit fit estimates: the logit's (``COEFFICIENTS``) but the size
 #: normalisation and clamps in pixels, which the fit keeps as given, and the candidate
 #: terms' gains.

@@ -72,7 +72,7 @@ from typing import Any
 
 import numpy as np
 
-from sitcov.calibration._calibrate import _LINEAR, _design, _jitter
+from sitcov.calibration._calibrate import _LINEAR, EXTRA_TERM_PARAMS, _design, _jitter
 from sitcov.calibration._frames import KindFrames
 from sitcov.errors import SitcovError
 from sitcov.perception._pem import FRAME_DT, PEMFeatures, PEMParams
@@ -971,13 +971,6 @@ def selector(stages: int) -> str:
     return "heldout_marginal_loglik_per_frame" if stages == 2 else "heldout_loglik_per_frame"
 
 
-#: Extra terms (:data:`EXTRA_TERMS`) with a PEM parameter: the cube of the log size
-#: (``size3_gain``), the size term's bends at 40 and 80 px (``size_hinge40_gain``,
-#: ``size_hinge80_gain``, :data:`sitcov.perception._pem.HINGE_PX`) and the side-on bend
-#: at 40 px (``view_hinge40_gain``).
-_PEM_EXTRAS = ("size3", "hinge40", "hinge80", "view_hinge40")
-
-
 #: Kinds whose detection box is fitted with its mean edge offsets and a corner noise per
 #: axis (:func:`box_offsets`): the cyclist, whose detection is its rider's box, inside
 #: the cyclist's (docs/pem.md, "The cyclist's detection is its rider"). Cars and
@@ -1019,11 +1012,11 @@ def to_params(
     matched boxes; ``size_min_px`` the :data:`MIN_PX_PERCENTILE` percentile of the box
     heights reported: below it the sensor reports nothing, above it the fitted logit,
     fitted down to 1 px, decides). Of the extra terms (:data:`EXTRA_TERMS`) only those
-    of :data:`_PEM_EXTRAS` have a PEM parameter: a fit with another is refused (one
-    clear error). ``box``: the box's mean edge offsets and per-axis corner noise from
-    the runs' matched boxes (:func:`box_offsets`; :data:`BOX_OFFSET_KINDS`) instead of
-    the horizontal-error jitter."""
-    other = [n for n in fit.extras if n not in _PEM_EXTRAS]
+    of :data:`~sitcov.calibration._calibrate.EXTRA_TERM_PARAMS` have a PEM parameter: a
+    fit with another is refused (one clear error). ``box``: the box's mean edge offsets
+    and per-axis corner noise from the runs' matched boxes (:func:`box_offsets`;
+    :data:`BOX_OFFSET_KINDS`) instead of the horizontal-error jitter."""
+    other = [n for n in fit.extras if n not in EXTRA_TERM_PARAMS]
     if other or fit.noise.kn != 0.0:
         raise SitcovError(
             f"the PEM has no parameter for the extra terms {other}"
@@ -1061,10 +1054,7 @@ def to_params(
         noise_size_max_px=nz.cap,
         noise_up_ratio=round(nz.up, 4),
         side_gain=round(fit.side_gain, 4),
-        size3_gain=round(gains.get("size3", 0.0), 4),
-        size_hinge40_gain=round(gains.get("hinge40", 0.0), 4),
-        size_hinge80_gain=round(gains.get("hinge80", 0.0), 4),
-        view_hinge40_gain=round(gains.get("view_hinge40", 0.0), 4),
+        **{param: round(gains.get(term, 0.0), 4) for term, param in EXTRA_TERM_PARAMS.items()},
         rain_sigma=0.0,
         rain_miss=0.0,
         rain_jitter=0.0,

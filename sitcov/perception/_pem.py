@@ -232,8 +232,6 @@ COEFFICIENTS = (
     _HINGE80,
     _VIEW_HINGE40,
 ) = range(len(COEFFICIENTS))
-#: The box heights of the size term's bends [px] (``size_hinge40_gain``, ``size_hinge80_gain``).
-HINGE_PX = (40.0, 80.0)
 
 
 def coefficients(params: PEMParams) -> tuple[float, ...]:
