@@ -167,7 +167,7 @@ def run_kind(
                "options": {k: v for k, v in opts.items() if v},
                "noise": {k: round(float(getattr(full.noise, k)), 4)
                          for k in ("sigma", "up", "share", "rho", "lam", "d0", "d1", "dt",
-                                   "df", "k")},
+                                   "df", "k", "po", "ro", "ku")},
                "wall_s": round(time.perf_counter() - clock, 1),
                "rows": rows}  # fmt: skip
         out.append(res)

@@ -73,7 +73,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from functools import lru_cache
 from pathlib import Path
+from statistics import NormalDist
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
@@ -334,12 +336,20 @@ def pass_probability(
     keep = 1.0 - params.rain_miss * features.rain_noise
     ar = 1.0 - params.noise_run_share - params.noise_frame_share
     ar = ar if ar > 0.0 else 0.0
+    upper = sigma * params.noise_up_ratio
+    if params.noise_up_size_gain != 0.0:
+        upper *= noise_scale(params.noise_up_size_gain, features.height_px,
+                             params.size_min_px, params.noise_size_max_px,
+                             params.size_ref_px)  # fmt: skip
     if sigma <= 0.0:
         need = -math.inf if gap >= 0.0 else math.inf
     else:
-        need = -gap / sigma if gap > 0.0 else -gap / (sigma * params.noise_up_ratio)
+        need = -gap / sigma if gap > 0.0 else -gap / upper
     base = params.detect_bias + params.detect_gain * z
     base += detect_offset(features, params, image_width)
+    share = params.noise_outlier_share
+    wide = sigma * params.noise_outlier_ratio
+    outlier = _normal_cdf(gap / wide) if wide > 0.0 else float(gap >= 0.0)
     total = 0.0
     for u, w in zip(nodes, weights, strict=True):
         out = base + params.detect_ar * u
@@ -347,6 +357,8 @@ def pass_probability(
             passes = 1.0 if math.sqrt(ar) * u >= need else 0.0
         else:
             passes = _normal_cdf((math.sqrt(ar) * u - need) / math.sqrt(1.0 - ar))
+        if share > 0.0:  # an outlier frame's wide noise, independent of u
+            passes = (1.0 - share) * passes + share * outlier
         total += w * _normal_cdf(out) * passes
     return keep * total
 
@@ -407,6 +419,26 @@ def _heading_sine(
 
 def _normal_cdf(x: float) -> float:
     return 0.5 * math.erfc(-x / math.sqrt(2.0))
+
+
+def up_size_power(params: PEMParams) -> float:
+    """The upper scale's size factor as a power of the noise's (:func:`noise_scale`, the
+    view kernel's ``s``): ``noise_up_size_gain / noise_size_gain``, so that ``s **
+    power`` is ``(h / size_ref_px) ** noise_up_size_gain`` with the same clamped ``h``
+    (0 without an upper size gain; :class:`PEMParams` refuses one without the noise's
+    own size gain)."""
+    if params.noise_up_size_gain == 0.0:
+        return 0.0
+    return params.noise_up_size_gain / params.noise_size_gain
+
+
+@lru_cache(maxsize=64)
+def outlier_cut(share: float) -> float:
+    """The standard normal's ``share`` quantile: a frame is an outlier when its draw is
+    below it (probability ``noise_outlier_share``); -inf for a share of 0 (no draw)."""
+    if share <= 0.0:
+        return -math.inf
+    return NormalDist().inv_cdf(min(share, 1.0 - 1e-12))
 
 
 #: Layout of the array :func:`_pem_view` takes (:meth:`PEMSensor._view_array`, one per
@@ -481,17 +513,19 @@ def _view_kernel() -> Any:
 #: sigma, upper-spread ratio, detection gate (gain, AR weight, bias), score floor, box
 #: jitter and rain jitter, the scene's rain noise and the image's width and height, and
 #: the box's mean edge offsets (``box_dx0``, ``box_dy0``, ``box_dx1``, ``box_dy1``) and its
-#: vertical corner noise (``PEMParams.jitter_vertical``).
+#: vertical corner noise (``PEMParams.jitter_vertical``), then the outlier frames' cut of
+#: a standard normal (:func:`outlier_cut`) and their noise's scale ratio, then the upper
+#: scale's size exponent over the noise's (:func:`up_size_power`).
 _F_PHI, _F_SHARE, _F_FRESH, _F_SIGMA, _F_RAIN_SIGMA, _F_UP, _F_GAIN, _F_AR, _F_BIAS = range(9)
 _F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(9, 15)
-_F_BOX, _F_JITTER_Y = 15, 19
+_F_BOX, _F_JITTER_Y, _F_OUT_CUT, _F_OUT_RATIO, _F_UP_POWER = 15, 19, 20, 21, 22
 #: Most normals :func:`_pem_frame` takes for one actor and frame.
-FRAME_NORMALS = 9
+FRAME_NORMALS = 11
 
 
 #: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
 #: ``track``'s 5, then the view array ``q``).
-_F_N = 20
+_F_N = 23
 
 
 def _pem_frame(
@@ -549,8 +583,17 @@ def _pem_frame(
     rain = c[_F_RAIN_NOISE]
     sig = c[_F_SIGMA] + c[_F_RAIN_SIGMA] * rain
     sig *= s  # the size's scale (1 without noise_size_gain: the same bits)
-    if n > 0.0 and c[_F_UP] != 1.0:
-        sig *= c[_F_UP]
+    outlier = False
+    if c[_F_OUT_CUT] > -math.inf:  # an outlier frame? (no draw without them)
+        outlier = normals[at] < c[_F_OUT_CUT]
+        if outlier:
+            n = c[_F_OUT_RATIO] * normals[at + 1]
+        at += 2
+    if n > 0.0 and not outlier:
+        if c[_F_UP] != 1.0:
+            sig *= c[_F_UP]
+        if c[_F_UP_POWER] != 0.0:  # the upper scale's own size gain: s ** (ku / k)
+            sig *= s ** c[_F_UP_POWER]
     score = _sigmoid(z + sig * n)
     if (
         c[_F_GAIN] != 0.0
@@ -608,7 +651,7 @@ def _frame_kernel() -> Any:
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
                       450.0])  # fmt: skip
         c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
-        c = np.append(c, [800.0, 450.0, 0.0, 0.0, 0.0, 0.0, 0.05])
+        c = np.append(c, [800.0, 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5])
         state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
         helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid)
@@ -919,6 +962,7 @@ class PEMSensor(Sensor):
             p.floor, p.jitter, p.rain_jitter, conditions.rain_noise,
             float(self.camera.width), float(self.camera.height),
             p.box_dx0, p.box_dy0, p.box_dx1, p.box_dy1, p.jitter_vertical,
+            outlier_cut(p.noise_outlier_share), p.noise_outlier_ratio, up_size_power(p),
         ]  # fmt: skip
         return np.array(values, dtype=np.float64)
 
@@ -1071,8 +1115,16 @@ class PEMSensor(Sensor):
                 continue
             sig = p.noise_sigma + p.rain_sigma * rain
             sig *= s  # the size's scale (noise_size_gain; 1 without it)
-            if n > 0.0 and p.noise_up_ratio != 1.0:
-                sig *= p.noise_up_ratio  # the scores' narrower upper spread
+            outlier = False
+            if p.noise_outlier_share > 0.0:  # an outlier frame: a wide noise of its own
+                cut_at, wide = normals.take(2)
+                outlier = cut_at < outlier_cut(p.noise_outlier_share)
+                n = p.noise_outlier_ratio * wide if outlier else n
+            if n > 0.0 and not outlier:
+                if p.noise_up_ratio != 1.0:
+                    sig *= p.noise_up_ratio  # the scores' narrower upper spread
+                if p.noise_up_size_gain != 0.0:  # narrower still on a large box
+                    sig *= s ** up_size_power(p)
             score = _sigmoid(z + sig * n)
             if (
                 p.detect_gain != 0.0

@@ -116,6 +116,19 @@ class PEMParams:
             (``person``), whose box lies inside the cyclist's: its top lower than the 3-D
             box's near top corner, its bottom above the wheels' ground contact. 0 (the
             default, files written before them) centres the box on the true box [-].
+        noise_outlier_share, noise_outlier_ratio: the share of frames whose score noise
+            is an outlier, and that noise's scale over the frame's usual one (below the
+            median): in such a frame the logit score is ``z + noise_outlier_ratio * sigma *
+            e`` with ``e`` a fresh N(0, 1), independent of the AR(1) state and the same
+            both ways. A narrow law for most frames with a few wide ones fits the
+            detector's scores on a close road user better than one law for all (docs/
+            pem.md, "Outlier frames"); a share of 0 (the default, files written before
+            it) draws nothing and changes nothing [-].
+        noise_up_size_gain: the logit noise's scale above the median grows by a further
+            ``(h / size_ref_px) ** noise_up_size_gain`` (h clamped as for
+            ``noise_size_gain``): negative, the scores on a close road user reach a
+            ceiling the ones on a small box do not (docs/pem.md); 0 (the default, files
+            written before it) changes nothing [-].
     """
 
     bias: float = 0.5
@@ -167,6 +180,9 @@ class PEMParams:
     box_dx1: float = 0.0
     box_dy1: float = 0.0
     jitter_y: float = -1.0
+    noise_outlier_share: float = 0.0
+    noise_outlier_ratio: float = 1.0
+    noise_up_size_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -207,7 +223,19 @@ class PEMParams:
                 file=file, field="noise_frame_share", value=self.noise_frame_share,
                 expected="<= 1 - noise_run_share",
             )  # fmt: skip
-        for name in ("rain_miss", "floor", "noise_run_share", "noise_frame_share"):
+        if self.noise_up_size_gain != 0.0 and self.noise_size_gain == 0.0:
+            raise ConfigError(
+                file=file, field="noise_up_size_gain", value=self.noise_up_size_gain,
+                expected="0 when noise_size_gain is 0 (the upper scale's own size gain "
+                "goes with the noise's)",
+            )  # fmt: skip
+        if self.noise_outlier_ratio <= 0:
+            raise ConfigError(
+                file=file, field="noise_outlier_ratio", value=self.noise_outlier_ratio,
+                expected="> 0",
+            )  # fmt: skip
+        for name in ("rain_miss", "floor", "noise_run_share", "noise_frame_share",
+                     "noise_outlier_share"):  # fmt: skip
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ConfigError(
                     file=file, field=name, value=getattr(self, name), expected="in [0, 1]"

@@ -36,7 +36,10 @@ EGO = Pose(0.0, 0.0, 0.0)
 #: Terms added to the PEM after the shipped ``pem.yaml`` was fitted (their defaults there,
 #: no term): the box's mean edge offsets and vertical corner noise, fitted for cyclists
 #: only (docs/pem.md, "The cyclist's detection is its rider").
-NOT_IN_SHIPPED_FIT: tuple[str, ...] = ("box_dx0", "box_dy0", "box_dx1", "box_dy1", "jitter_y")
+NOT_IN_SHIPPED_FIT: tuple[str, ...] = (
+    "box_dx0", "box_dy0", "box_dx1", "box_dy1", "jitter_y",
+    "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain",
+)  # fmt: skip
 CLEAR = conditions_from_values({})
 N_RANDOM_SETS = 8
 
@@ -457,6 +460,50 @@ def test_sampled_frames_reach_the_aeb_threshold_as_often_as_the_model_says(name)
             dets = sensor.detect(EGO, (actor,), CLEAR, np.random.default_rng(rng.integers(1 << 62)))
             hits += any(d.score >= 0.5 for d in dets)
         assert hits / N_FRAMES == pytest.approx(expected, abs=TOLERANCE)
+
+
+def test_outlier_frames_and_the_upper_size_gain_are_sampled_as_the_model_says():
+    """``noise_outlier_share``/``_ratio`` (a share of frames with a wide noise of their
+    own) and ``noise_up_size_gain`` (the upper scale's own size gain): sampled frames of
+    a close and a far car reach θ = 0.5 and 0.7 as often as ``pass_probability`` says;
+    the outlier frames lower P(score >= 0.5) of a car whose noise-free score is above
+    it, a negative upper gain lowers the close car's P(score >= θ) for a θ above its
+    noise-free score, and a share of 0
+    is the model without them. The upper gain without the noise's own is refused."""
+    base = {"bias": 1.0, "noise_sigma": 0.5, "noise_tau": 0.0, "noise_frame_share": 0.0,
+            "noise_run_share": 0.0, "noise_up_ratio": 0.8, "rain_miss": 0.0,
+            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0,
+            "noise_size_gain": 0.3}  # fmt: skip
+    plain = PEMSensor(base)
+    wide = PEMSensor({**base, "noise_outlier_share": 0.2, "noise_outlier_ratio": 4.0})
+    capped = PEMSensor({**base, "noise_up_size_gain": -0.6})
+    near, far = car(8.0, 0.0, math.pi / 2), car(25.0, -2.0, 0.3)
+    rng = np.random.default_rng(17)
+    for actor in (near, far):
+        f = plain.features(EGO, actor, CLEAR)
+        for sensor in (plain, wide, capped):
+            for theta in (0.5, 0.7):
+                expected = pass_probability(f, sensor.params, theta)
+                hits = sum(
+                    any(d.score >= theta for d in sensor.detect(
+                        EGO, (actor,), CLEAR, np.random.default_rng(rng.integers(1 << 62))))
+                    for _ in range(N_FRAMES)
+                )  # fmt: skip
+                assert hits / N_FRAMES == pytest.approx(expected, abs=TOLERANCE)
+    f_near = plain.features(EGO, near, CLEAR)
+    assert pem_logit(f_near, plain.params) > 0.5  # noise-free score above 0.62
+    assert pass_probability(f_near, wide.params, 0.5) < pass_probability(f_near, plain.params, 0.5)
+    z = pem_logit(f_near, plain.params)  # a threshold above it: the upper spread decides
+    above = 1.0 / (1.0 + math.exp(-(z + 0.4)))
+    assert pass_probability(f_near, capped.params, above) < pass_probability(
+        f_near, plain.params, above
+    )
+    zero = PEMSensor({**base, "noise_outlier_share": 0.0, "noise_outlier_ratio": 4.0})
+    assert pass_probability(f_near, zero.params, 0.5) == pass_probability(f_near, plain.params, 0.5)
+    with pytest.raises(ConfigError, match="noise_up_size_gain"):
+        PEMParams.from_mapping({"noise_size_gain": 0.0, "noise_up_size_gain": -0.3})
+    with pytest.raises(ConfigError, match="noise_outlier_share"):
+        PEMParams.from_mapping({"noise_outlier_share": 1.5})
 
 
 def test_rain_noise_and_misses_when_the_model_has_them():

@@ -681,6 +681,8 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
         c += [rnd.choice([0.1, 0.5]), 0.05, rnd.choice([0.0, 0.02]), rnd.random(), 800.0, 450.0]
         c += rnd.choice([[0.0] * 4, [0.1, 0.05, -0.1, -0.12]])  # the box's mean offsets
         c += [rnd.choice([0.05, 0.02])]  # the vertical corner noise
+        # outlier frames (their cut: none or ~10 %, their ratio) and the upper size power
+        c += [rnd.choice([-math.inf, -1.28]), rnd.choice([1.0, 3.0]), rnd.choice([0.0, -0.6])]
         track = [rnd.gauss(0, 1), rnd.gauss(0, 1), rnd.gauss(0, 1), 3.0, rnd.choice([0.0, 1.0])]
         normals = [rnd.gauss(0, 1) for _ in range(_pem.FRAME_NORMALS + 3)]
         ex, ey, eyaw = rnd.uniform(-50, 50), rnd.uniform(-50, 50), rnd.uniform(-4, 4)
@@ -694,12 +696,14 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
         assert _bits(s_c.tolist()) == _bits(s_py.tolist()), (c, args)
     ego = SimpleNamespace(x=0.0, y=0.0, yaw=0.0)
     kinds = [("car", 4.6, 1.8, 1.5), ("cyclist", 1.8, 0.6, 1.7), ("pedestrian", 0.5, 0.5, 1.8)]
-    for rain in (0.0, 0.6):
+    # the shipped car PEM, and it with outlier frames and an upper size gain
+    wide = {"noise_outlier_share": 0.1, "noise_outlier_ratio": 3.0, "noise_up_size_gain": -0.4}
+    for rain, car_params in ((0.0, None), (0.6, None), (0.0, wide)):
         cond = Conditions(rain_noise=rain)
         runs = {}
         for frame_fn in (False, None):  # the Python loop, then the compiled frame
             monkeypatch.setattr(_pem, "_FRAME_FN", frame_fn)
-            sensor = PEMSensor()
+            sensor = PEMSensor(car_params)
             sensor.reset(frame_dt=0.1)
             looks = [
                 sensor.prepare(ActorView(Pose(0, 0, 0), ln, w, h, 0.0, (90, 90, 200), k), cond)
