@@ -1155,7 +1155,11 @@ def calibrate_cmd(
     runs: int = typer.Option(
         200, "--runs", min=0, help="Camera-mode runs recorded frame by frame (random situations)."
     ),
-    seed: int = typer.Option(1, "--seed", help="Seed of the sweep and of the runs' situations."),
+    seed: int = typer.Option(
+        1,
+        "--seed",
+        help="Seed of the sweep and of the runs' situations (--check: of the run bootstrap).",
+    ),
     workers: int = typer.Option(1, "--workers", min=1, help="Processes for the camera runs."),
     model: Optional[Path] = typer.Option(None, "--model", help="Detector .tflite file."),  # noqa: UP045
     samples_out: Optional[Path] = typer.Option(  # noqa: UP045
@@ -1236,8 +1240,8 @@ def calibrate_cmd(
         None,
         "--check",
         help="Compare the PEM's P(score >= θ) with the detector's on this frames file's "
-        "run frames per class and distance band (θ = 0.3..0.7; ±0.05); exit 1 if a cell "
-        "is off.",
+        "run frames per class and distance band (θ = 0.3..0.7; ±0.05), each difference "
+        "with its 95 % interval over the runs (bootstrap, --seed); exit 1 if a cell is off.",
     ),
     pem: Optional[Path] = typer.Option(None, "--pem", help="--check: car PEM file."),  # noqa: UP045
     pem_classes: Optional[Path] = typer.Option(  # noqa: UP045
@@ -1250,7 +1254,7 @@ def calibrate_cmd(
     from rich.progress import Progress
 
     if check is not None:
-        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs)
+        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs, seed)
         return
     if frames_from:
         _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
@@ -1396,9 +1400,13 @@ def _frame_model_cmd(
 
 
 def _check_frames_cmd(
-    path: Path, kinds: str, pem: Path | None, pem_classes: Path | None, part: str = "all"
-) -> None:
-    """``sitcov calibrate --check``: the frame model's done-when table (docs/pem.md)."""
+    path: Path, kinds: str, pem: Path | None, pem_classes: Path | None, part: str = "all",
+    seed: int = 0,
+) -> None:  # fmt: skip
+    """``sitcov calibrate --check``: the frame model's done-when table (docs/pem.md), each
+    cell with its run-bootstrap interval (drawn from ``seed``)."""
+    import numpy as np
+
     from sitcov.calibration import _frame_check as fc
     from sitcov.calibration._frames import parse_kinds, read_frames
     from sitcov.perception._pem_classes import load_class_params
@@ -1413,9 +1421,9 @@ def _check_frames_cmd(
     frames = {k: split_runs(v, part) for k, v in read_frames(path).items() if k in names}
     classes = load_class_params(pem_classes)
     params = {k: load_pem_params(pem) if k == "car" else classes[k][1] for k in frames}
-    rows = fc.check_frames(frames, params)
+    rows = fc.check_frames(frames, params, rng=np.random.default_rng(seed))
     for line in fc.table_lines(rows):
-        console.print(line, highlight=False, markup=False)
+        console.print(line, highlight=False, markup=False, soft_wrap=True)
     if not all(r.get("ok", True) for r in rows):
         raise typer.Exit(1)
 

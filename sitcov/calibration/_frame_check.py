@@ -8,6 +8,12 @@ box at least ``size_min_px`` high (0 below it, as the sensor never reports it), 
 The frames should be held out (recorded with another seed than the fit's) and recorded
 with ``--record-frames`` (the stack given no detections), so that no frame was kept or
 dropped because of a score: the marginal probability is then the right prediction.
+
+A cell's frames are not independent: one road user's consecutive frames share its
+colour, model, path and the detector's bursts. So each difference carries a 95 %
+interval from a bootstrap over the recorded runs (:func:`run_interval`, resampled whole),
+and a cell whose interval lies wholly outside ±:data:`TOLERANCE` is a *significant*
+miss: the frames show the PEM off there, not only the sample's scatter.
 """
 
 from __future__ import annotations
@@ -30,6 +36,8 @@ TOLERANCE = 0.05
 #: Fewest frames in a cell for it to be judged (the binomial standard error of a rate
 #: from 30 frames is up to 0.09, more than the tolerance: smaller cells say nothing).
 MIN_FRAMES = 30
+#: Bootstrap resamples of the runs for a cell's interval.
+RESAMPLES = 2000
 
 
 def pass_probability(params: PEMParams, feats: Any, theta: float) -> float:
@@ -38,45 +46,77 @@ def pass_probability(params: PEMParams, feats: Any, theta: float) -> float:
     return _pass(feats, params, theta)
 
 
-def frames_of(data: KindFrames) -> list[tuple[Any, float, float]]:
-    """(features, score, distance) of every run frame with a recorded distance."""
+def frames_of(data: KindFrames) -> list[tuple[Any, float, float, int]]:
+    """(features, score, distance, run number) of every run frame with a recorded
+    distance (the run number counts the file's runs from 0)."""
     return [
-        (f.features, f.score, f.distance)
-        for r in data.runs
+        (f.features, f.score, f.distance, i)
+        for i, r in enumerate(data.runs)
         for f in r.frames
         if f.distance >= 0.0 and f.features.height_px >= 1.0
     ]
 
 
+def run_interval(
+    pem: np.ndarray, hit: np.ndarray, run: np.ndarray, rng: np.random.Generator,
+    resamples: int = RESAMPLES,
+) -> tuple[float, float]:  # fmt: skip
+    """95 % interval of ``mean(pem) - mean(hit)`` over a cell's frames (the PEM's
+    probability and whether the detector's score reached θ, per frame), the runs
+    (``run``, one number per frame) resampled with replacement, whole."""
+    runs, at = np.unique(run, return_inverse=True)
+    n = np.bincount(at, minlength=len(runs)).astype(float)
+    p_sum = np.bincount(at, weights=pem, minlength=len(runs))
+    h_sum = np.bincount(at, weights=hit.astype(float), minlength=len(runs))
+    w = rng.multinomial(len(runs), np.full(len(runs), 1.0 / len(runs)), size=resamples)
+    frames = w @ n
+    diff = (w @ p_sum - w @ h_sum) / np.maximum(frames, 1.0)
+    lo, hi = np.quantile(diff, [0.025, 0.975])
+    return float(lo), float(hi)
+
+
 def check_frames(
     frames: Mapping[str, KindFrames], params: Mapping[str, PEMParams],
     thetas: Sequence[float] = THETAS, bands: Sequence[tuple[float, float]] = BANDS,
+    rng: np.random.Generator | None = None,
 ) -> list[dict[str, Any]]:  # fmt: skip
-    """One row per (kind, band, θ): frames, detector and PEM rates, difference, within
-    :data:`TOLERANCE`; ``params`` per kind."""
+    """One row per (kind, band, θ): frames, runs, detector and PEM rates, difference,
+    within :data:`TOLERANCE`; ``params`` per kind. With ``rng``, each judged row also
+    holds the difference's run-bootstrap interval (``low``, ``high``,
+    :func:`run_interval`) and whether it lies wholly outside the tolerance
+    (``significant``)."""
     rows = []
     for kind, data in frames.items():
         p = params[kind]
         got = frames_of(data)
         for lo, hi in bands:
-            sel = [(f, s) for f, s, d in got if lo <= d < hi]
+            sel = [(f, s, r) for f, s, d, r in got if lo <= d < hi]
+            run = np.asarray([r for _, _, r in sel], dtype=int)
             for theta in thetas:
                 row: dict[str, Any] = {"kind": kind, "label": KIND_LABEL[kind], "theta": theta}
-                row.update(band=f"{lo:g}-{hi:g} m", n=len(sel))
+                row.update(band=f"{lo:g}-{hi:g} m", n=len(sel), runs=len(np.unique(run)))
                 if len(sel) >= MIN_FRAMES:
-                    det = float(np.mean([s >= theta for _, s in sel]))
-                    pem = float(np.mean([pass_probability(p, f, theta) for f, _ in sel]))
+                    hit = np.asarray([s >= theta for _, s, _ in sel])
+                    prob = np.asarray([pass_probability(p, f, theta) for f, _, _ in sel])
+                    det, pem = float(np.mean(hit)), float(np.mean(prob))
                     row.update(detector=round(det, 4), pem=round(pem, 4),
                                difference=round(pem - det, 4),
                                ok=abs(pem - det) <= TOLERANCE)  # fmt: skip
+                    if rng is not None:
+                        low, high = run_interval(prob, hit, run, rng)
+                        row.update(low=round(low, 4), high=round(high, 4),
+                                   significant=low > TOLERANCE or high < -TOLERANCE)  # fmt: skip
                 rows.append(row)
     return rows
 
 
 def table_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The check as a printed table, then the count of cells within the tolerance."""
-    lines = [f"{'class':<8} {'band':<9} {'theta':>5} {'n':>6} {'detector':>9} {'PEM':>7} "
-             f"{'diff':>7}  within ±{TOLERANCE:g}"]  # fmt: skip
+    """The check as a printed table (with the intervals when the rows have them), then
+    the count of cells within the tolerance (and of significant misses)."""
+    ci = any("low" in r for r in rows)
+    head = f"{'class':<8} {'band':<9} {'theta':>5} {'n':>6} {'detector':>9} {'PEM':>7} {'diff':>7}"
+    head += f"  {'95% (runs)':<17}" if ci else ""
+    lines = [head + f"  within ±{TOLERANCE:g}"]
     for r in rows:
         if "detector" not in r:
             lines.append(
@@ -84,10 +124,17 @@ def table_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
                 f"(fewer than {MIN_FRAMES} frames: not judged)"
             )
             continue
-        lines.append(
-            f"{r['label']:<8} {r['band']:<9} {r['theta']:>5.1f} {r['n']:>6} {r['detector']:>9.3f} "
-            f"{r['pem']:>7.3f} {r['difference']:>+7.3f}  {'yes' if r['ok'] else 'NO'}"
-        )
+        line = (f"{r['label']:<8} {r['band']:<9} {r['theta']:>5.1f} {r['n']:>6} "
+                f"{r['detector']:>9.3f} {r['pem']:>7.3f} {r['difference']:>+7.3f}")  # fmt: skip
+        verdict = "yes" if r["ok"] else "NO"
+        if "low" in r:
+            line += f"  [{r['low']:+.3f}, {r['high']:+.3f}]"
+            verdict += " (significant)" if r["significant"] else ""
+        lines.append(f"{line}  {verdict}")
     judged = [r for r in rows if "ok" in r]
-    lines.append(f"{sum(r['ok'] for r in judged)}/{len(judged)} cells within ±{TOLERANCE:g}")
+    tail = f"{sum(r['ok'] for r in judged)}/{len(judged)} cells within ±{TOLERANCE:g}"
+    if ci:
+        sig = sum(bool(r.get("significant")) for r in judged)
+        tail += f"; {sig} off significantly (the 95 % interval over runs wholly outside)"
+    lines.append(tail)
     return lines

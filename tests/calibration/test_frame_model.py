@@ -21,7 +21,7 @@ def _draw(
     seed: int, *, runs: int = 150, length: int = 40, sigma: float = 0.8, share: float = 0.75,
     rho: float = 0.9, bias: float = -0.6, gain: float = 0.6, stop_at: float | None = None,
     fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
-    near_gain: float = 0.0, hinge_gain: float = 0.0,
+    near_gain: float = 0.0, hinge_gain: float = 0.0, outliers: tuple[float, float] = (0.0, 1.0),
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -34,7 +34,9 @@ def _draw(
     the view angle, recorded) and ``side_gain * side`` added to the logit; None: no side
     recorded (0, as in files written before it). ``near_gain``: added to the logit closer
     than 10 m (the recorded distance ``1.45 * 336 / h``). ``hinge_gain``: times
-    ``max(0, ln(h / 40))`` added to the logit (a bend of the size term at 40 px)."""
+    ``max(0, ln(h / 40))`` added to the logit (a bend of the size term at 40 px).
+    ``outliers``: (share, ratio): that share of frames draws its noise as ``ratio *
+    sigma * N(0, 1)`` instead, independent of the AR state (no draw with share 0)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -54,7 +56,10 @@ def _draw(
             z = bias + gain * math.log(min(h, 60.0) / 25.0) + (side_gain or 0.0) * side
             z += near_gain * (1.45 * 336 / h < 10.0)
             z += hinge_gain * max(0.0, math.log(h / 40.0))
-            z += widen * (s_a * a + s_e * rng.standard_normal())
+            noise = s_a * a + s_e * rng.standard_normal()
+            if outliers[0] > 0.0 and rng.random() < outliers[0]:
+                noise = outliers[1] * sigma * rng.standard_normal()
+            z += widen * noise
             score = 1.0 / (1.0 + math.exp(-z))
             rec = score if score >= 0.05 else 0.0
             fill = math.log(min(max(2.5 * h / 800.0, 0.05), 1.0) / 0.05)
@@ -194,7 +199,7 @@ def test_an_extra_term_is_recovered_and_chosen_only_when_it_is_there() -> None:
     extra term (the PEM has no parameter for it)."""
     base = ("ar1", 1.0, True, False)
     cands = (base, fm.extended(base, "near", ("near",), False))
-    assert cands[1][0] == "ar1+near" and fm._extras(cands[1]) == (("near",), False)
+    assert cands[1][0] == "ar1+near" and fm._extras(cands[1]) == (("near",), False, False, False)
     t, held = (fm.tracks_of(_draw(s, runs=60, near_gain=-0.6)) for s in (21, 22))
     chosen, table, fits = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
     assert chosen == "ar1+near", table
@@ -480,12 +485,59 @@ def test_check_command_prints_the_table_and_fails_when_off(
     bad.write_text(good.read_text().replace(f"bias: {params.bias}", f"bias: {params.bias + 1}"))
     with pytest.raises(SystemExit) as exc:
         main([*args, "--pem", str(bad)])
-    assert exc.value.code == 1 and " NO" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert exc.value.code == 1 and " NO (significant)" in out  # the bias is 1 logit off
+    assert "off significantly" in out
     for wrong in (["--check-runs", "half"], ["--kinds", "truck"]):
         with pytest.raises(SystemExit) as exc:
             main([*args, "--pem", str(good), *wrong])
         assert exc.value.code == 2
         assert capsys.readouterr().err.strip().count("\n") == 0
+
+
+def test_the_outlier_frames_are_recovered_and_written_to_the_pem() -> None:
+    """Frames of which 15 % draw a noise 4 times as wide (independent of the AR state):
+    the fit with ``outliers`` recovers the share and ratio, its likelihood beats the
+    model without them, and ``to_params`` writes them as the PEM's
+    ``noise_outlier_share``/``_ratio``, whose ``pass_probability`` is the fit's."""
+    t = fm.tracks_of(_draw(21, runs=120, outliers=(0.15, 4.0)))
+    fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, edge=True, stages=2,
+                        outliers=True)  # fmt: skip
+    assert fit.noise.po == pytest.approx(0.15, abs=0.04)
+    assert fit.noise.ro == pytest.approx(4.0, abs=0.8)
+    assert fit.noise.sigma == pytest.approx(0.8, abs=0.1)
+    plain = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, edge=True, stages=2)
+    assert fit.marginal_loglik(t) > plain.marginal_loglik(t) + 0.05 * len(t.score)
+    data = _draw(21, runs=120, outliers=(0.15, 4.0))
+    params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, data.runs)
+    assert params.noise_outlier_share == round(fit.noise.po, 4)
+    assert params.noise_outlier_ratio == round(fit.noise.ro, 4)
+
+
+def test_the_run_interval_covers_a_true_pem_and_widens_with_run_effects() -> None:
+    """:func:`fc.run_interval` resamples whole runs: with a rate of its own per run (the
+    frames of a run are not independent), the 95 % interval around a PEM that gives the
+    true mean rate covers 0 in about 95 % of draws, and it is wider than the interval
+    that treats the frames as independent, which covers far less often."""
+    rng = np.random.default_rng(3)
+    covered, naive_covered, widths, naive_widths = 0, 0, [], []
+    draws = 200
+    for _ in range(draws):
+        rates = rng.beta(2.0, 2.0, size=40)  # 40 runs, mean 0.5, each its own level
+        frames = rng.integers(5, 30, size=40)
+        run = np.repeat(np.arange(40), frames)
+        hit = rng.random(run.size) < rates[run]
+        pem = np.full(run.size, 0.5)
+        lo, hi = fc.run_interval(pem, hit, run, rng, resamples=400)
+        covered += lo <= 0.0 <= hi
+        widths.append(hi - lo)
+        se = math.sqrt(0.25 / run.size)
+        diff = 0.5 - hit.mean()
+        naive_covered += abs(diff) <= 1.96 * se
+        naive_widths.append(2 * 1.96 * se)
+    assert covered / draws == pytest.approx(0.95, abs=0.04)
+    assert naive_covered / draws < 0.8
+    assert np.mean(widths) > 1.8 * np.mean(naive_widths)
 
 
 def test_the_ar_parameters_logistic_does_not_overflow() -> None:

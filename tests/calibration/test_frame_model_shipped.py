@@ -3,6 +3,7 @@ held-out check."""
 
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 import pytest
@@ -12,12 +13,15 @@ from sitcov.perception._pem_classes import PEM_CLASSES_FILE, load_class_params
 from sitcov.perception._pem_params import PEM_PARAMS_FILE, load_pem_params
 
 ROOT = Path(__file__).resolve().parents[2]
-#: The held-out recordings (seed 2) per kind: the car's; the pedestrian's; the cyclist's
-#: scored by its rider's person boxes (what its PEM detection stands for, docs/pem.md).
+#: The check's held-out recordings per kind: 300 runs of seed 3, a seed neither the fit
+#: (seed 1) nor the model choice (seed 2's even runs) read; the car's; the pedestrian's;
+#: the cyclist's scored by its rider's person boxes (what its PEM detection stands for,
+#: docs/pem.md). Seed 2's odd runs (30 per kind), the check before them, leave each cell
+#: a run-bootstrap interval about +-0.08 wide below 10 m: too wide to judge +-0.05.
 HELD_OUT = {
-    "car": ROOT / "docs" / "data" / "pem-frames-top-seed2.jsonl.gz",
-    "pedestrian": ROOT / "docs" / "data" / "pem-frames-pedestrian-seed2.jsonl.gz",
-    "cyclist": ROOT / "docs" / "data" / "pem-frames-rider-seed2.jsonl.gz",
+    "car": ROOT / "docs" / "data" / "pem-frames-top-seed3.jsonl.gz",
+    "pedestrian": ROOT / "docs" / "data" / "pem-frames-pedestrian-seed3.jsonl.gz",
+    "cyclist": ROOT / "docs" / "data" / "pem-frames-rider-seed3.jsonl.gz",
 }
 
 
@@ -71,57 +75,49 @@ def test_no_term_is_chosen_on_a_stacks_verdicts() -> None:
     assert "camera_runs" not in meta and "bias_shift" not in str(meta)
 
 
+@functools.lru_cache(maxsize=1)
 def _check_rows() -> list[dict]:
+    import numpy as np
+
     from sitcov.calibration import _frame_check as fc
-    from sitcov.calibration._frame_model import split_runs
     from sitcov.calibration._frames import read_frames
 
-    frames = {k: split_runs(read_frames(path)[k], "odd") for k, path in HELD_OUT.items()}
+    frames = {k: read_frames(path)[k] for k, path in HELD_OUT.items()}
     classes = load_class_params()
     params = {k: load_pem_params() if k == "car" else classes[k][1] for k in frames}
-    return fc.check_frames(frames, params)
+    return fc.check_frames(frames, params, rng=np.random.default_rng(1))
 
 
 def test_held_out_check_from_10_m_on() -> None:
-    """On the held-out runs the model was neither fitted nor chosen on (odd runs of seed
-    2), from 10 m on: every judged cell within 0.2 and at least half within ±0.05 (the
-    refit with the noise's size gain, docs/pem.md: 14 of 20 within ±0.05, the largest gap
-    +0.12, person at θ = 0.5, 10-20 m; the refit before it 11 of 20 and +0.17; the fit on
-    the old renderer's frames, checked on the current ones, 12 of 20 and -0.17)."""
+    """On the held-out runs (seed 3, 300 per kind), from 10 m on: every judged cell within
+    ±0.05 of the detector (20 of 20 with the shipped files, the largest gap -0.050, car at
+    θ = 0.4, 10-20 m; `sitcov calibrate --check docs/data/pem-frames-top-seed3.jsonl.gz
+    --kinds car` and the two class files, docs/pem.md, "Held-out check") and none
+    significantly off (its run-bootstrap interval wholly outside ±0.05). On seed 2's 30
+    odd runs, the check before, 15 of these 20 cells passed, the largest gap +0.114: its
+    cells' intervals were up to 0.2 wide."""
     rows = [r for r in _check_rows() if "ok" in r and not r["band"].startswith("0-")]
-    assert len(rows) >= 15
-    assert all(abs(r["difference"]) <= 0.2 for r in rows), rows
-    assert sum(r["ok"] for r in rows) >= 0.5 * len(rows)
+    assert len(rows) == 20  # person and cyclist: too few frames beyond 20 m to judge
+    assert all(r["ok"] and not r["significant"] for r in rows), rows
+    assert all(r["runs"] >= 200 for r in rows)
 
 
-#: The largest gap from 10 m on per kind in :func:`test_held_out_check_from_10_m_on_as_before`:
-#: 0.1 as before for cars and pedestrians; the cyclist's PEM, fitted to its rider's person
-#: score since 27 Nov 2026, is +0.114 at θ = 0.4, 10-20 m (the file fitted to the top score
-#: of either box +0.094 on the same frames, whose detector rates at 10-20 m are the same:
-#: the rider holds the top score there), while its mean gap over the ten cells fell from
-#: 0.046 to 0.036 (docs/pem.md, "The cyclist's detection is its rider").
-FROM_10_M_BOUND = {"car": 0.1, "pedestrian": 0.1, "cyclist": 0.12}
+def test_held_out_misses_are_below_10_m_and_the_pem_under_the_detector() -> None:
+    """What is not met yet, stated as it is measured: the misses are below 10 m, at θ =
+    0.5 for every class (and 0.6 for cars), and there the PEM says a score >= θ less
+    often than the detector gives one (docs/pem.md, "Held-out check": a close car cut by
+    the image edge, a close pedestrian or rider seen whole, score higher and tighter than
+    the PEM's law); every cell around them (θ 0.3, 0.4 and 0.7) passes."""
+    rows = [r for r in _check_rows() if "ok" in r]
+    misses = [r for r in rows if not r["ok"]]
+    assert misses and all(r["band"] == "0-10 m" and r["difference"] < 0 for r in misses)
+    assert {r["theta"] for r in misses} <= {0.5, 0.6}
+    assert all(r["ok"] for r in rows if r["theta"] in (0.3, 0.4, 0.7))
 
 
-def test_held_out_check_from_10_m_on_as_before() -> None:
-    """The bound the fit on the old renderer's frames met on its own recording: every
-    judged cell from 10 m on within 0.1 (``FROM_10_M_BOUND``), at least 80 % within ±0.05
-    (met again since the two-stage fit: on the top-score recording 16 of 20 with the car's
-    side-on bend, 17 without it, the largest gap +0.094, bicycle at θ = 0.4, 10-20 m).
-    Since the cyclist's refit to its rider (a lower target below 10 m, the same from 10 m
-    on) the cyclist passes 2 of its 5 cells from 10 m on (3 before), so all classes 15 of
-    20: the 80 % holds for cars and pedestrians (13 of 15), 75 % for all."""
-    rows = [r for r in _check_rows() if "ok" in r and not r["band"].startswith("0-")]
-    assert all(abs(r["difference"]) <= FROM_10_M_BOUND[r["kind"]] for r in rows), rows
-    assert sum(r["ok"] for r in rows) >= 0.75 * len(rows)
-    others = [r for r in rows if r["kind"] != "cyclist"]
-    assert sum(r["ok"] for r in others) >= 0.8 * len(others)
-
-
-@pytest.mark.xfail(strict=True, reason="not met yet: 27 of 35 cells (car below 10 m at "
-                   "0.5 and 0.6 and at 20-40 m at 0.3, person below 10 m at 0.5, "
-                   "cyclist (its rider) below 10 m at 0.5 and at 10-20 m at 0.3 to 0.5; "
-                   "docs/pem.md, held-out check)")  # fmt: skip
+@pytest.mark.xfail(strict=True, reason="not met yet: 31 of 35 cells on seed 3's 300 "
+                   "held-out runs per kind (below 10 m: car at 0.5 and 0.6, person and "
+                   "cyclist (its rider) at 0.5; docs/pem.md, held-out check)")  # fmt: skip
 def test_held_out_check_done_when() -> None:
     """The done-when check: P(score >= θ), θ = 0.3..0.7, within ±0.05 of the detector's
     per class and distance band, on the held-out runs."""
