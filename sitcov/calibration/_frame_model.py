@@ -11,7 +11,9 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
   ``sigma_t * up * n`` above (a split normal: the detector's scores spread less upwards),
   ``sigma_t = sigma (h_t / size_ref) ** k`` with the box height ``h_t`` capped at ``cap``
   (the scores on a large, close box spread more than on a small one; ``k`` = 0 without
-  the term);
+  the term); optionally the upper scale with a size gain of its own (``ku``), and a
+  share ``po`` of *outlier frames* whose logit score is ``m(x_t)`` plus ``ro`` times the
+  frame's scale times a fresh N(0, 1), independent of the AR state (:class:`Noise`);
 - the detector outputs the road user with probability ``Phi(d0 + d1 m(x_t) - dt trunc_t -
   df fill_t + lam a_t)`` (its misses, which come in bursts with the same AR state), with
   ``trunc_t`` the share of the box outside the image and ``fill_t`` the box's width over
@@ -58,9 +60,10 @@ the log-likelihood of held-out tracks. :data:`EXTRA_SETS` are further terms (the
 distance band or offset, the lane, close-range terms, a cubic size term, bends of the size
 term at fixed heights, the size in the detection term alone) that
 ``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; of them only
-the cube of the log size (:data:`CLASS_CANDIDATES`) and the bends at 40 and 80 px
+the cube of the log size, the outlier frames and the upper spread's size gain
+(:data:`CLASS_CANDIDATES`) and the bends at 40 and 80 px and the side-on bend
 (:data:`CAR_CANDIDATES`) are candidates of ``sitcov calibrate``, with PEM parameters
-(docs/pem.md, "Terms tried for the per-cell check").
+(docs/pem.md, "Terms tried for the per-cell check", "Outlier frames").
 """
 
 from __future__ import annotations
@@ -208,6 +211,7 @@ EXTRA_SETS: tuple[tuple[Any, ...], ...] = (
         ("hinge40", "hinge80", "view_hinge40", "side_near", "side_mid", "side_far"),
         False,
     ),
+    ("hinge_view40_trunc_near", ("hinge40", "hinge80", "view_hinge40", "trunc_near"), False),
     ("outliers", (), False, True),
     ("size3_outliers", ("size3",), False, True),
     ("up_size", (), False, False, True),
@@ -1066,9 +1070,11 @@ def selector(stages: int) -> str:
 
 #: Kinds whose detection box is fitted with its mean edge offsets and a corner noise per
 #: axis (:func:`box_offsets`): the cyclist, whose detection is its rider's box, inside
-#: the cyclist's (docs/pem.md, "The cyclist's detection is its rider"). Cars and
-#: pedestrians keep the jitter from the horizontal errors alone, as their files were fitted.
-BOX_OFFSET_KINDS = ("cyclist",)
+#: the cyclist's (docs/pem.md, "The cyclist's detection is its rider"), and the
+#: pedestrian, whose detected box is narrower than its projected one and scattered far
+#: less up and down than across (docs/pem.md, "The pedestrian's box"). Cars keep the
+#: jitter from the horizontal errors alone, as their file was fitted.
+BOX_OFFSET_KINDS = ("pedestrian", "cyclist")
 #: The PEM parameters of the box's mean edge offsets, in ``box_error``'s order.
 BOX_EDGES = ("box_dx0", "box_dy0", "box_dx1", "box_dy1")
 

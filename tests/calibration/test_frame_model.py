@@ -617,9 +617,9 @@ def _boxed_frames(n: int, mid: tuple[float, ...], spread: tuple[float, float], s
 
 
 def test_box_offsets_recover_the_edges_median_and_each_axis_noise() -> None:
-    """The cyclist's box (``BOX_OFFSET_KINDS``): per edge the median box error, per axis
-    the robust spread around it, on the wide boxes not cut by the edge (what the
-    horizontal-error jitter uses); the odd wild box does not move them."""
+    """The cyclist's and pedestrian's box (``BOX_OFFSET_KINDS``): per edge the median box
+    error, per axis the robust spread around it, on the wide boxes not cut by the edge
+    (what the horizontal-error jitter uses); the odd wild box does not move them."""
     mid, spread = (0.13, 0.02, -0.2, -0.06), (0.12, 0.05)
     got = fm.box_offsets(_boxed_frames(4000, mid, spread, seed=2))
     assert got is not None
@@ -628,13 +628,13 @@ def test_box_offsets_recover_the_edges_median_and_each_axis_noise() -> None:
     assert got["jitter"] == pytest.approx(0.12, rel=0.08)
     assert got["jitter_y"] == pytest.approx(0.05, rel=0.08)
     assert fm.box_offsets(_boxed_frames(19, mid, spread, seed=2)[:19]) is None
-    assert fm.BOX_OFFSET_KINDS == ("cyclist",)
+    assert fm.BOX_OFFSET_KINDS == ("pedestrian", "cyclist")
 
 
 def test_to_params_takes_the_box_offsets_only_when_asked() -> None:
-    """``to_params(box=True)`` (the cyclist) sets the offsets and both corner noises from
-    the runs' boxes; without it (cars, pedestrians) the box keeps no offsets and the
-    horizontal-error jitter, as the files were fitted."""
+    """``to_params(box=True)`` (the cyclist and the pedestrian) sets the offsets and both
+    corner noises from the runs' boxes; without it (cars) the box keeps no offsets and the
+    horizontal-error jitter, as the file was fitted."""
     t = fm.tracks_of(_draw(5, runs=30, length=20))
     fit = fm.fit_candidate(t, fm.CANDIDATES[0], 25.0)
     frames = _boxed_frames(400, (0.1, 0.03, -0.15, -0.05), (0.1, 0.04), seed=3)

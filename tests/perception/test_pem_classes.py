@@ -190,3 +190,20 @@ def test_a_class_file_without_the_noises_size_gain_keeps_none(tmp_path: Path) ->
     assert params.noise_outlier_share == params.noise_up_size_gain == 0.0  # none inherited
     assert params.noise_outlier_ratio == 1.0
     assert params.noise_sigma == load_pem_params().noise_sigma  # the others: the car's
+
+
+def test_the_shipped_person_boxes_are_the_detectors() -> None:
+    """The pedestrian's and the rider's PEM boxes carry the detector's box as recorded
+    (``BOX_OFFSET_KINDS``, docs/pem.md "The pedestrian's box"): narrower than the
+    projected box (left edge in, right edge in) and scattered less up and down than
+    across; the car keeps the centred box with one corner noise."""
+    from sitcov.calibration._frame_model import BOX_OFFSET_KINDS
+    from sitcov.perception._pem_params import load_pem_params
+
+    classes = load_class_params()
+    for kind in BOX_OFFSET_KINDS:
+        _, p = classes[kind]
+        assert p.box_dx0 > 0.0 > p.box_dx1, kind
+        assert 0.0 <= p.jitter_y < p.jitter, kind
+    car = load_pem_params()
+    assert (car.box_dx0, car.box_dx1, car.jitter_y) == (0.0, 0.0, -1.0)
