@@ -705,13 +705,19 @@ class FrameFit:
         names = tuple(self.extras[i] for i in pick)
         return extra_columns(t, x, names) @ np.asarray([self.gains[i] for i in pick])
 
-    def loglik(self, t: Tracks) -> float:
-        """Sequence log-likelihood of ``t`` (every track)."""
-        y, obs = _observed(t)
+    def _frame_inputs(self, t: Tracks) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """(the frames' log size when the noise reads it, the detection term's shift per
+        frame when the fit has detection-only terms) of ``t``: what both likelihoods pass
+        to the frame law besides the logit."""
         nz = self.noise
         size = scale_size(t, self.size_ref, nz.cap) if nz.k != 0.0 or nz.ku != 0.0 else None
         det = self.extra(t, detection=True)
-        det = None if np.isscalar(det) else np.asarray(det)
+        return size, None if np.isscalar(det) else np.asarray(det)
+
+    def loglik(self, t: Tracks) -> float:
+        """Sequence log-likelihood of ``t`` (every track)."""
+        y, obs = _observed(t)
+        size, det = self._frame_inputs(t)
         return float(track_loglik(self.logit(t), y, obs, t, self.noise, size=size, det=det).sum())
 
     def marginal_loglik(self, t: Tracks) -> float:
@@ -723,9 +729,7 @@ class FrameFit:
         through the detection term's correlation with the score noise)."""
         y, obs = _observed(t)
         nz = self.noise
-        size = scale_size(t, self.size_ref, nz.cap) if nz.k != 0.0 or nz.ku != 0.0 else None
-        det = self.extra(t, detection=True)
-        det = None if np.isscalar(det) else np.asarray(det)
+        size, det = self._frame_inputs(t)
         geom = geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
         near = near_of(t) if nz.kn != 0.0 else None
         return frames_alone_loglik(self.logit(t), y, obs, nz, geom, size, near, det)

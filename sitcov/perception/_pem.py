@@ -347,9 +347,10 @@ def pass_probability(
         need = -gap / sigma if gap > 0.0 else -gap / upper
     base = params.detect_bias + params.detect_gain * z
     base += detect_offset(features, params, image_width)
-    share = params.noise_outlier_share
-    wide = sigma * params.noise_outlier_ratio
-    outlier = _normal_cdf(gap / wide) if wide > 0.0 else float(gap >= 0.0)
+    share, outlier = params.noise_outlier_share, 0.0
+    if share > 0.0:  # P(an outlier frame's wide noise reaches θ), independent of u
+        wide = sigma * params.noise_outlier_ratio
+        outlier = _normal_cdf(gap / wide) if wide > 0.0 else float(gap >= 0.0)
     total = 0.0
     for u, w in zip(nodes, weights, strict=True):
         out = base + params.detect_ar * u
@@ -357,7 +358,7 @@ def pass_probability(
             passes = 1.0 if math.sqrt(ar) * u >= need else 0.0
         else:
             passes = _normal_cdf((math.sqrt(ar) * u - need) / math.sqrt(1.0 - ar))
-        if share > 0.0:  # an outlier frame's wide noise, independent of u
+        if share > 0.0:
             passes = (1.0 - share) * passes + share * outlier
         total += w * _normal_cdf(out) * passes
     return keep * total
