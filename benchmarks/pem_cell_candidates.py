@@ -77,7 +77,7 @@ def pass_rates(fit: fm.FrameFit, params: Any, t: fm.Tracks, theta: float) -> np.
     for i, f in enumerate(t.feats):
         p = params
         if offset[i] != 0.0 or det[i] != 0.0 or (fit.noise.kn != 0.0 and near[i]):
-            sig = params.noise_sigma * (math.exp(fit.noise.kn) if near[i] else 1.0)
+            sig = params.noise_sigma * math.exp(fit.noise.kn * near[i])
             p = replace(params, bias=params.bias + float(offset[i]), noise_sigma=sig,
                         detect_bias=params.detect_bias + float(det[i]))  # fmt: skip
         out[i] = pass_probability(f, p, theta)
@@ -167,7 +167,7 @@ def run_kind(
                "options": {k: v for k, v in opts.items() if v},
                "noise": {k: round(float(getattr(full.noise, k)), 4)
                          for k in ("sigma", "up", "share", "rho", "lam", "d0", "d1", "dt",
-                                   "df", "k", "po", "ro", "ku")},
+                                   "df", "k", "po", "ro", "ku", "tl")},
                "wall_s": round(time.perf_counter() - clock, 1),
                "rows": rows}  # fmt: skip
         out.append(res)

@@ -13,7 +13,10 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
   (the scores on a large, close box spread more than on a small one; ``k`` = 0 without
   the term); optionally the upper scale with a size gain of its own (``ku``), and a
   share ``po`` of *outlier frames* whose logit score is ``m(x_t)`` plus ``ro`` times the
-  frame's scale times a fresh N(0, 1), independent of the AR state (:class:`Noise`);
+  frame's scale times a fresh N(0, 1), independent of the AR state (:class:`Noise`),
+  and a *lower tail*: below one standard unit under the median, ``g`` stretches the
+  latent noise to ``n - tl (n + 1) ** 2`` (``Noise.tl``: the detector's scores pile up
+  under a ceiling with a long tail of weak frames below it);
 - the detector outputs the road user with probability ``Phi(d0 + d1 m(x_t) - dt trunc_t -
   df fill_t + lam a_t)`` (its misses, which come in bursts with the same AR state), with
   ``trunc_t`` the share of the box outside the image and ``fill_t`` the box's width over
@@ -60,10 +63,11 @@ the log-likelihood of held-out tracks. :data:`EXTRA_SETS` are further terms (the
 distance band or offset, the lane, close-range terms, a cubic size term, bends of the size
 term at fixed heights, the size in the detection term alone) that
 ``benchmarks/pem_cell_candidates.py`` measures on each class's chosen model; of them only
-the cube of the log size, the outlier frames and the upper spread's size gain
-(:data:`CLASS_CANDIDATES`) and the bends at 40 and 80 px and the side-on bend
-(:data:`CAR_CANDIDATES`) are candidates of ``sitcov calibrate``, with PEM parameters
-(docs/pem.md, "Terms tried for the per-cell check", "Outlier frames").
+the cube of the log size, the outlier frames, the upper spread's size gain and the lower
+tail (:data:`CLASS_CANDIDATES`) and the bends at 40 and 80 px, the side-on bend and the
+lower tail (:data:`CAR_CANDIDATES`) are candidates of ``sitcov calibrate``, with PEM
+parameters (docs/pem.md, "Terms tried for the per-cell check", "Outlier frames", "The
+lower tail"). The lower tail is fitted from the optimum without it (:func:`_with_tail`).
 """
 
 from __future__ import annotations
@@ -78,7 +82,7 @@ import numpy as np
 from sitcov.calibration._calibrate import _LINEAR, EXTRA_TERM_PARAMS, _design, _jitter
 from sitcov.calibration._frames import KindFrames
 from sitcov.errors import SitcovError
-from sitcov.perception._pem import FRAME_DT, PEMFeatures, PEMParams
+from sitcov.perception._pem import FRAME_DT, LOW_TAIL_KNEE, PEMFeatures, PEMParams
 
 #: Scores below this count as censored (only "below" is used) [-]: the recording kept
 #: scores down to 0.05, but below ~0.2 the detector's box is a stray weak one (the frames
@@ -135,7 +139,8 @@ CANDIDATES = (
 #: the two classes chose before it with the cube of the log size (``size3_gain``), a size
 #: term of their own (docs/pem.md, "Terms tried for the per-cell check"), and with a share
 #: of outlier frames (``noise_outlier_share``/``_ratio``) or the upper spread's own size
-#: gain (``noise_up_size_gain``; docs/pem.md, "Outlier frames"). Not for cars: there the
+#: gain (``noise_up_size_gain``; docs/pem.md, "Outlier frames"), and with the lower tail
+#: (``noise_low_tail``, docs/pem.md, "The lower tail"). Not for cars: there the
 #: cube wins held out (-0.297 vs -0.337 per frame) but the check's car cells drop from 9
 #: to 5 of 15, and the side term and the upper size gain win on seed 2's 30 even runs but
 #: little on seed 3's 150, with the close cells no better, so they are measured
@@ -147,6 +152,12 @@ CLASS_CANDIDATES = (
     ("ar1_edge_scale_up", 1.0, True, True, 0.0, False, False, (), False, False, True),
     ("ar1_edge_scale_image_size3_outliers", 1.0, True, True, IMAGE_HEIGHT, False, False,
      ("size3",), False, True),
+    ("ar1_edge_scale_tail", 1.0, True, True, 0.0, False, False, (), False, False, False,
+     True),
+    ("ar1_edge_scale_image_size3_tail", 1.0, True, True, IMAGE_HEIGHT, False, False,
+     ("size3",), False, False, False, True),
+    ("ar1_edge_scale_image_size3_outliers_tail", 1.0, True, True, IMAGE_HEIGHT, False, False,
+     ("size3",), False, True, False, True),
 )  # fmt: skip
 
 
@@ -155,12 +166,15 @@ CLASS_CANDIDATES = (
 #: the car's scores rise faster through 40-80 px and flatten above, docs/pem.md, "The
 #: two-stage fit"), and with a bend at 40 px seen side-on (``view_hinge40_gain``: a close
 #: car crossing side-on scores higher than one seen end-on, docs/pem.md, "The side-on
-#: bend"); measured on cars only.
+#: bend"), and that with the lower tail (``noise_low_tail``, docs/pem.md, "The lower
+#: tail"); measured on cars only.
 CAR_CANDIDATES = (
     ("ar1_edge_scale_image_size_hinge", 1.0, True, True, IMAGE_HEIGHT, True, False,
      ("hinge40", "hinge80")),
     ("ar1_edge_scale_image_size_hinge_view", 1.0, True, True, IMAGE_HEIGHT, True, False,
      ("hinge40", "hinge80", "view_hinge40")),
+    ("ar1_edge_scale_image_size_hinge_view_tail", 1.0, True, True, IMAGE_HEIGHT, True, False,
+     ("hinge40", "hinge80", "view_hinge40"), False, False, False, True),
 )  # fmt: skip
 
 
@@ -176,7 +190,8 @@ def candidates_for(kind: str) -> tuple[tuple[Any, ...], ...]:
 #: held-out check and the left/right asymmetry (docs/pem.md, "Terms tried for the
 #: per-cell check"). Each is (name, extra logit terms of :data:`EXTRA_TERMS`, whether the
 #: score noise's scale gets a close-range factor ``exp(kn)``, ``Noise.kn``[, whether a
-#: share of frames are outliers, ``Noise.po``/``ro``]).
+#: share of frames are outliers, ``Noise.po``/``ro``[, whether the upper scale has its own
+#: size gain, ``Noise.ku``[, whether the noise has the lower tail, ``Noise.tl``]]]).
 EXTRA_SETS: tuple[tuple[Any, ...], ...] = (
     ("side", ("side",), False),
     ("side_band", ("side_near", "side_mid", "side_far"), False),
@@ -218,26 +233,30 @@ EXTRA_SETS: tuple[tuple[Any, ...], ...] = (
     ("hinge_view40_up_size", ("hinge40", "hinge80", "view_hinge40"), False, False, True),
     ("size3_up_size", ("size3",), False, False, True),
     ("hinge_view40_outliers", ("hinge40", "hinge80", "view_hinge40"), False, True),
-)
+    ("tail", (), False, False, False, True),
+    ("hinge_view40_tail", ("hinge40", "hinge80", "view_hinge40"), False, False, False, True),
+    ("hinge_view40_cut_tail", ("hinge40", "hinge80", "view_hinge40", "cut"), False, False,
+     False, True),
+)  # fmt: skip
 
 
 def extended(
     candidate: Sequence[Any], name: str, extras: Sequence[str], near: bool,
-    outliers: bool = False, up_size: bool = False,
+    outliers: bool = False, up_size: bool = False, low_tail: bool = False,
 ) -> tuple:  # fmt: skip
     """``candidate`` (:data:`CANDIDATES`) with the set's extra logit terms (in place of
-    its own), close-range noise factor, outlier frames and upper scale's size gain, named
-    ``<candidate>+<name>``."""
+    its own), close-range noise factor, outlier frames, upper scale's size gain and lower
+    tail, named ``<candidate>+<name>``."""
     full = [*candidate[:7], *(None, False, False)[min(3, len(candidate) - 4) :]]
-    return (f"{candidate[0]}+{name}", *full[1:7], tuple(extras), near, outliers, up_size)
+    return (f"{candidate[0]}+{name}", *full[1:7], tuple(extras), near, outliers, up_size, low_tail)
 
 
-def _extras(candidate: Sequence[Any]) -> tuple[tuple[str, ...], bool, bool, bool]:
+def _extras(candidate: Sequence[Any]) -> tuple[tuple[str, ...], bool, bool, bool, bool]:
     """(extra logit terms, close-range noise scale, outlier frames, the upper scale's
-    size gain) of a candidate (values 8 to 11 of its tuple)."""
+    size gain, the lower tail) of a candidate (values 8 to 12 of its tuple)."""
     names = tuple(candidate[7]) if len(candidate) > 7 else ()
-    flags = [bool(candidate[i]) if len(candidate) > i else False for i in (8, 9, 10)]
-    return names, flags[0], flags[1], flags[2]
+    flags = [bool(candidate[i]) if len(candidate) > i else False for i in (8, 9, 10, 11)]
+    return names, flags[0], flags[1], flags[2], flags[3]
 
 
 def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None, bool, bool]:
@@ -368,7 +387,9 @@ NEAR_M = 10.0
 #: :data:`NEAR_M`, ``offset_near``/``trunc_near`` the offset and the truncation there
 #: (their gain at close range apart from the one at every range); ``trunc_side`` the
 #: truncation times ``side`` (a road user cut by the image's left edge from one cut by
-#: its right); ``size3`` the cube of
+#: its right); ``cut`` a ramp from 0 to 1 over the first :data:`CUT_RAMP` of truncation (a
+#: road user cut by the image edge at all: its detected scores sit higher than the
+#: truncation's linear term says, docs/pem.md, "The lower tail"); ``size3`` the cube of
 #: the log apparent size; ``hinge<N>`` (any whole ``N`` px, e.g. ``hinge40``) the hinge
 #: ``max(0, ln(h / N))`` of the box height ``h`` [px] (unclamped: a piecewise-linear
 #: bend of the size term at ``N`` px, which the quadratic in the clamped log size cannot
@@ -380,8 +401,12 @@ NEAR_M = 10.0
 #: chance of giving a box at all need not follow the box size as its score does.
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
-               "trunc_side", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
+               "trunc_side", "cut", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
                "det_<term>")  # fmt: skip
+
+
+#: Truncation over which the ``cut`` term ramps from 0 to 1 [-].
+CUT_RAMP = 0.1
 
 
 def is_detection_term(name: str) -> bool:
@@ -417,6 +442,7 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         "offset_near": lambda: -x[:, 13] * near,
         "trunc_near": lambda: -x[:, 8] * near,
         "trunc_side": lambda: -x[:, 8] * side,
+        "cut": lambda: np.minimum(1.0, -x[:, 8] / CUT_RAMP),
         "size3": lambda: x[:, 1] ** 3,
         "size": lambda: x[:, 1],
         "size2": lambda: x[:, 2],
@@ -514,6 +540,17 @@ class Noise:
     po: float = 0.0
     ro: float = 1.0
     ku: float = 0.0
+    tl: float = 0.0
+
+
+#: Where the lower tail's stretch starts (``Noise.tl``, PEM ``noise_low_tail``).
+TAIL_KNEE = LOW_TAIL_KNEE
+#: The log curvature at or below which the tail is off (0): its value while the rest of
+#: the model is fitted first (:func:`_with_tail`).
+TAIL_OFF = -12.0
+#: Most evaluations of the derivative-free polish after the tail's profile (Powell: the
+#: frames-alone likelihood's steps stop L-BFGS-B's first line search there).
+TAIL_POLISH_EVALS = 3000
 
 
 def _scale(
@@ -547,7 +584,20 @@ def _ginv(
     the scale below the median per frame, :func:`_scale`; ``noise.sigma`` if None;
     ``upper`` the scale above it, :func:`_upper`; ``sigma * noise.up`` if None)."""
     sig = noise.sigma if sigma is None else sigma
-    return np.where(v < 0.0, v / sig, v / (sig * noise.up if upper is None else upper))
+    n = np.where(v < 0.0, v / sig, v / (sig * noise.up if upper is None else upper))
+    if noise.tl != 0.0:  # beyond the knee, x - tl x**2 of the standard units x past it
+        w = np.minimum(n + TAIL_KNEE, 0.0)
+        x = (1.0 - np.sqrt(1.0 - 4.0 * noise.tl * w)) / (2.0 * noise.tl)
+        n = np.where(w < 0.0, x - TAIL_KNEE, n)
+    return n
+
+
+def _slope(v: np.ndarray, n: np.ndarray, noise: Noise, sig: Any, upper: Any) -> Any:
+    """d g(n) / d n per frame at the latent noise ``n`` of the logit offset ``v``."""
+    slope = np.where(v < 0.0, sig, upper)
+    if noise.tl != 0.0:
+        slope = slope * (1.0 - 2.0 * noise.tl * np.minimum(n + TAIL_KNEE, 0.0))
+    return slope
 
 
 def frames_alone_loglik(
@@ -590,7 +640,7 @@ def frame_logliks(
     sig = _scale(noise, size, near)
     upper = _upper(noise, sig, size)
     n = _ginv(v, noise, sig, upper)
-    slope = np.where(v < 0.0, sig, upper)
+    slope = _slope(v, n, noise, sig, upper)
     r = (n[:, None] - ra * u[None, :]) / re
     nc = _ginv(c - m, noise, sig, upper)
     below = log_ndtr((nc[:, None] - ra * u[None, :]) / re)
@@ -749,7 +799,7 @@ def fit_tracks(
     scale: float | None = None, free_size: bool = False, side: bool = False,
     extras: Sequence[str] = (), near_noise: bool = False, extras_from_zero: bool = False,
     restarts: int = 0, starts: int = 1, stages: int = 1, outliers: bool = False,
-    up_size: bool = False,
+    up_size: bool = False, low_tail: bool = False,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
@@ -773,8 +823,10 @@ def fit_tracks(
     with the per-frame marginal held; ``starts`` and ``restarts`` then act on stage 1);
     ``outliers``: with a share of outlier frames and their noise's scale ratio
     (``Noise.po``, ``Noise.ro``; started at 5 % and 3); ``up_size``: with the upper
-    scale's own size gain (``Noise.ku``, started at 0; needs ``scale``).
-    The defaults give the same bits as before these options."""
+    scale's own size gain (``Noise.ku``, started at 0; needs ``scale``); ``low_tail``: with
+    the lower tail's curvature (``Noise.tl``), fitted after the rest has converged
+    without it (:func:`_with_tail`). The defaults give the same bits as before these
+    options."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -848,6 +900,7 @@ def fit_tracks(
 
     at_out = at_kn + (1 if near_noise else 0)
     at_ku = at_out + (2 if outliers else 0)
+    at_tl = at_ku + (1 if up_size else 0)
     if up_size and scale is None:
         raise SitcovError("the upper scale's size gain needs the noise's size term (scale)")
 
@@ -860,6 +913,9 @@ def fit_tracks(
             noise = replace(noise, po=logistic(p[at_out], OUTLIER_MAX), ro=ratio)
         if up_size:
             noise = replace(noise, ku=float(min(3.0, max(-3.0, p[at_ku]))))
+        if low_tail:
+            tl = math.exp(min(3.0, p[at_tl])) if p[at_tl] > TAIL_OFF else 0.0
+            noise = replace(noise, tl=tl)
         return noise
 
     def nll(p: np.ndarray) -> float:
@@ -883,6 +939,7 @@ def fit_tracks(
     start += [0.0] if near_noise else []
     start += [math.log(0.05 / (OUTLIER_MAX - 0.05)), math.log(2.0)] if outliers else []
     start += [0.0] if up_size else []
+    start += [TAIL_OFF] if low_tail else []
 
     def frames_nll(p: np.ndarray) -> float:  # every frame alone (stage 1)
         b0, kappa, noise = unpack(p)
@@ -899,6 +956,8 @@ def fit_tracks(
     fixed = np.zeros(len(start), dtype=bool)
     if two:
         fixed[6:8] = True
+    if low_tail:  # first without the tail (it starts where the nested model ends)
+        fixed[at_tl] = True
     full0 = np.asarray(start, dtype=float)
 
     def embed(q: np.ndarray) -> np.ndarray:
@@ -922,6 +981,8 @@ def fit_tracks(
         if again.fun < res.fun:
             res = again
     px = embed(res.x)
+    if low_tail:  # the tail profiled from the optimum without it, then all freed
+        px = _with_tail(px, at_tl, first, embed, fixed, res.fun)
     if two:
         det_at = [3, 4] + ([9, 10] if edge else [])
         det_at += [at_side + i for i in np.flatnonzero(in_det)]
@@ -934,6 +995,35 @@ def fit_tracks(
     gains = [float(g) for g in px[at_side:at_kn]]
     gain = gains.pop(0) if side_col is not None else 0.0
     return FrameFit(coef, size_max, size_ref, noise, gain, tuple(extras), tuple(gains))
+
+
+def _with_tail(
+    px: np.ndarray, at: int, first: Any, embed: Any, fixed: np.ndarray, without: float
+) -> np.ndarray:
+    """The lower tail's fit (:func:`fit_tracks` with ``low_tail``): from ``px``, the
+    optimum with the tail off (objective ``without``), the log curvature (entry ``at``)
+    alone on a bounded scalar search, then every free parameter from there by Powell's
+    derivative-free search (``first``, ``embed`` and ``fixed`` as :func:`fit_tracks` made
+    them): the frames-alone likelihood's steps stop L-BFGS-B's first line search when
+    the tail is freed, and a gradient search with the tail from the start stalls short
+    of the model without it (the pedestrian's seed-1 frames: 8 iterations, -376 against
+    -445). The best of the three."""
+    from scipy.optimize import minimize, minimize_scalar
+
+    def at_tail(a: float) -> np.ndarray:
+        p = px.copy()
+        p[at] = a
+        return p
+
+    fixed[at] = False  # ``first`` now takes the tail among the free entries
+    profile = minimize_scalar(lambda a: first(at_tail(a)[~fixed]), bounds=(-6.0, 1.0),
+                              method="bounded", options={"xatol": 0.05})  # fmt: skip
+    best, value = px, without
+    if profile.fun < value:
+        best, value = at_tail(float(profile.x)), float(profile.fun)
+    again = minimize(first, best[~fixed], method="Powell",
+                     options={"maxfev": TAIL_POLISH_EVALS, "xtol": 1e-3, "ftol": 1e-7})  # fmt: skip
+    return embed(again.x) if again.fun < value else best
 
 
 def _two_stage(p: np.ndarray, nll: Any, det_at: Sequence[int]) -> np.ndarray:
@@ -984,10 +1074,11 @@ def fit_candidate(t: Tracks, candidate: Sequence[Any], size_ref: float, **opts: 
     :data:`EXTRA_SETS`) says; ``opts`` are :func:`fit_tracks`'s optimiser options
     (``extras_from_zero``, ``restarts``, ``starts``, ``stages``)."""
     ridge, ar, edge, scale, free, side = _flags(candidate)
-    extras, near_noise, outliers, up_size = _extras(candidate)
+    extras, near_noise, outliers, up_size, low_tail = _extras(candidate)
     return fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
                       free_size=free, side=side, extras=extras, near_noise=near_noise,
-                      outliers=outliers, up_size=up_size, **opts)  # fmt: skip
+                      outliers=outliers, up_size=up_size, low_tail=low_tail,
+                      **opts)  # fmt: skip
 
 
 def start_of(ar: bool, edge: bool, scale: float | None) -> list[int]:
@@ -1159,6 +1250,7 @@ def to_params(
         noise_outlier_share=round(nz.po, 4),
         noise_outlier_ratio=round(nz.ro, 4),
         noise_up_size_gain=round(nz.ku, 4),
+        noise_low_tail=round(nz.tl, 4),
         side_gain=round(fit.side_gain, 4),
         **{param: round(gains.get(term, 0.0), 4) for term, param in EXTRA_TERM_PARAMS.items()},
         rain_sigma=0.0,

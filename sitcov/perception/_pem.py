@@ -140,6 +140,9 @@ class PEMFeatures(NamedTuple):
 _TINY = 1e-9  # floor inside logarithms [-]
 #: Box width over image width below which the detection term's ``fill`` is 0 [-].
 FILL_MIN = 0.05
+#: Where the score noise's lower tail widens (``noise_low_tail``), in standard units of
+#: the latent noise below the median [-].
+LOW_TAIL_KNEE = 1.0
 
 
 def fill_of(width_px: float, image_width: float) -> float:
@@ -345,6 +348,8 @@ def pass_probability(
         need = -math.inf if gap >= 0.0 else math.inf
     else:
         need = -gap / sigma if gap > 0.0 else -gap / upper
+        if need < -LOW_TAIL_KNEE and params.noise_low_tail != 0.0:  # the lower tail
+            need = low_tail_inverse(need, params.noise_low_tail)
     base = params.detect_bias + params.detect_gain * z
     base += detect_offset(features, params, image_width)
     share, outlier = params.noise_outlier_share, 0.0
@@ -416,6 +421,21 @@ def _heading_sine(
     cam_x = ex + mount_x * math.cos(eyaw)
     cam_y = ey + mount_x * math.sin(eyaw)
     return math.sin(ayaw - math.atan2(ay - cam_y, ax - cam_x))
+
+
+def low_tail(n: float, curvature: float) -> float:
+    """The lower tail's stretch of a latent unit noise ``n`` (``noise_low_tail``):
+    ``n - curvature * (n + 1)**2`` below the knee (:data:`LOW_TAIL_KNEE`), ``n`` above."""
+    x = n + LOW_TAIL_KNEE
+    return n - curvature * x * x if x < 0.0 else n
+
+
+def low_tail_inverse(v: float, curvature: float) -> float:
+    """The latent unit noise ``n`` with :func:`low_tail` ``(n, curvature)`` = ``v``."""
+    w = v + LOW_TAIL_KNEE
+    if w >= 0.0 or curvature <= 0.0:
+        return v
+    return (1.0 - math.sqrt(1.0 - 4.0 * curvature * w)) / (2.0 * curvature) - LOW_TAIL_KNEE
 
 
 def _normal_cdf(x: float) -> float:
@@ -516,17 +536,18 @@ def _view_kernel() -> Any:
 #: the box's mean edge offsets (``box_dx0``, ``box_dy0``, ``box_dx1``, ``box_dy1``) and its
 #: vertical corner noise (``PEMParams.jitter_vertical``), then the outlier frames' cut of
 #: a standard normal (:func:`outlier_cut`) and their noise's scale ratio, then the upper
-#: scale's size exponent over the noise's (:func:`up_size_power`).
+#: scale's size exponent over the noise's (:func:`up_size_power`), then the lower tail's
+#: curvature (``noise_low_tail``).
 _F_PHI, _F_SHARE, _F_FRESH, _F_SIGMA, _F_RAIN_SIGMA, _F_UP, _F_GAIN, _F_AR, _F_BIAS = range(9)
 _F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(9, 15)
-_F_BOX, _F_JITTER_Y, _F_OUT_CUT, _F_OUT_RATIO, _F_UP_POWER = 15, 19, 20, 21, 22
+_F_BOX, _F_JITTER_Y, _F_OUT_CUT, _F_OUT_RATIO, _F_UP_POWER, _F_LOW_TAIL = 15, 19, 20, 21, 22, 23
 #: Most normals :func:`_pem_frame` takes for one actor and frame.
 FRAME_NORMALS = 11
 
 
 #: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
 #: ``track``'s 5, then the view array ``q``).
-_F_N = 23
+_F_N = 24
 
 
 def _pem_frame(
@@ -595,6 +616,9 @@ def _pem_frame(
             sig *= c[_F_UP]
         if c[_F_UP_POWER] != 0.0:  # the upper scale's own size gain: s ** (ku / k)
             sig *= s ** c[_F_UP_POWER]
+    elif n < -LOW_TAIL_KNEE and c[_F_LOW_TAIL] != 0.0 and not outlier:  # the lower tail
+        x = n + LOW_TAIL_KNEE
+        n = n - c[_F_LOW_TAIL] * x * x
     score = _sigmoid(z + sig * n)
     if (
         c[_F_GAIN] != 0.0
@@ -652,7 +676,7 @@ def _frame_kernel() -> Any:
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
                       450.0])  # fmt: skip
         c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
-        c = np.append(c, [800.0, 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5])
+        c = np.append(c, [800.0, 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2])
         state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
         helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid)
@@ -964,6 +988,7 @@ class PEMSensor(Sensor):
             float(self.camera.width), float(self.camera.height),
             p.box_dx0, p.box_dy0, p.box_dx1, p.box_dy1, p.jitter_vertical,
             outlier_cut(p.noise_outlier_share), p.noise_outlier_ratio, up_size_power(p),
+            p.noise_low_tail,
         ]  # fmt: skip
         return np.array(values, dtype=np.float64)
 
@@ -1126,6 +1151,8 @@ class PEMSensor(Sensor):
                     sig *= p.noise_up_ratio  # the scores' narrower upper spread
                 if p.noise_up_size_gain != 0.0:  # narrower still on a large box
                     sig *= s ** up_size_power(p)
+            elif n < -LOW_TAIL_KNEE and p.noise_low_tail != 0.0 and not outlier:
+                n = low_tail(n, p.noise_low_tail)  # the lower tail's stretch
             score = _sigmoid(z + sig * n)
             if (
                 p.detect_gain != 0.0

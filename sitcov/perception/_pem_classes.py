@@ -36,7 +36,7 @@ PEM_CLASSES_FILE = Path(__file__).parent / "data" / "pem_classes.yaml"
 OWN_TERMS = (
     "noise_size_gain", "noise_size_max_px", "box_dx0", "box_dy0", "box_dx1", "box_dy1",
     "jitter_y", "size_hinge40_gain", "size_hinge80_gain", "view_hinge40_gain",
-    "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain",
+    "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain", "noise_low_tail",
 )  # fmt: skip
 #: Kinds scored by the car PEM (``data/pem.yaml``), reported as ``car``.
 VEHICLE_KINDS = ("car", "truck")

@@ -129,6 +129,14 @@ class PEMParams:
             ``noise_size_gain``): negative, the scores on a close road user reach a
             ceiling the ones on a small box do not (docs/pem.md); 0 (the default, files
             written before it) changes nothing [-].
+        noise_low_tail: the score noise's lower tail beyond one standard unit below the
+            median widens with its depth: a latent noise ``n = -1 + x``, ``x < 0``, moves
+            the logit by ``sigma (n - noise_low_tail x**2)`` instead of ``sigma n``
+            (outlier frames apart; slope and density stay continuous). The detector's
+            scores on a close road user pile up under a ceiling with a long tail of weak
+            frames below it; one normal scale spreads both ways and puts too few frames
+            just under the ceiling (docs/pem.md, "The lower tail"). 0 (the default, files
+            written before it) changes nothing [-].
     """
 
     bias: float = 0.5
@@ -183,6 +191,7 @@ class PEMParams:
     noise_outlier_share: float = 0.0
     noise_outlier_ratio: float = 1.0
     noise_up_size_gain: float = 0.0
+    noise_low_tail: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -229,6 +238,10 @@ class PEMParams:
                 expected="0 when noise_size_gain is 0 (the upper scale's own size gain "
                 "goes with the noise's)",
             )  # fmt: skip
+        if self.noise_low_tail < 0:
+            raise ConfigError(
+                file=file, field="noise_low_tail", value=self.noise_low_tail, expected=">= 0"
+            )
         if self.noise_outlier_ratio <= 0:
             raise ConfigError(
                 file=file, field="noise_outlier_ratio", value=self.noise_outlier_ratio,

@@ -22,6 +22,7 @@ def _draw(
     rho: float = 0.9, bias: float = -0.6, gain: float = 0.6, stop_at: float | None = None,
     fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
     near_gain: float = 0.0, hinge_gain: float = 0.0, outliers: tuple[float, float] = (0.0, 1.0),
+    tail: float = 0.0,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -36,7 +37,9 @@ def _draw(
     than 10 m (the recorded distance ``1.45 * 336 / h``). ``hinge_gain``: times
     ``max(0, ln(h / 40))`` added to the logit (a bend of the size term at 40 px).
     ``outliers``: (share, ratio): that share of frames draws its noise as ``ratio *
-    sigma * N(0, 1)`` instead, independent of the AR state (no draw with share 0)."""
+    sigma * N(0, 1)`` instead, independent of the AR state (no draw with share 0).
+    ``tail``: the unit noise ``n`` below -1 moves to ``n - tail (n + 1) ** 2`` (a long
+    lower tail, written out here, not with the PEM's helper)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -57,6 +60,9 @@ def _draw(
             z += near_gain * (1.45 * 336 / h < 10.0)
             z += hinge_gain * max(0.0, math.log(h / 40.0))
             noise = s_a * a + s_e * rng.standard_normal()
+            if tail and noise < -sigma:
+                unit = noise / sigma
+                noise = sigma * (unit - tail * (unit + 1.0) ** 2)
             if outliers[0] > 0.0 and rng.random() < outliers[0]:
                 noise = outliers[1] * sigma * rng.standard_normal()
             z += widen * noise
@@ -199,7 +205,8 @@ def test_an_extra_term_is_recovered_and_chosen_only_when_it_is_there() -> None:
     extra term (the PEM has no parameter for it)."""
     base = ("ar1", 1.0, True, False)
     cands = (base, fm.extended(base, "near", ("near",), False))
-    assert cands[1][0] == "ar1+near" and fm._extras(cands[1]) == (("near",), False, False, False)
+    assert cands[1][0] == "ar1+near"
+    assert fm._extras(cands[1]) == (("near",), False, False, False, False)
     t, held = (fm.tracks_of(_draw(s, runs=60, near_gain=-0.6)) for s in (21, 22))
     chosen, table, fits = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
     assert chosen == "ar1+near", table
@@ -512,6 +519,31 @@ def test_the_outlier_frames_are_recovered_and_written_to_the_pem() -> None:
     params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, data.runs)
     assert params.noise_outlier_share == round(fit.noise.po, 4)
     assert params.noise_outlier_ratio == round(fit.noise.ro, 4)
+
+
+def test_the_lower_tail_is_recovered_and_written_to_the_pem() -> None:
+    """Frames whose unit noise below -1 stretches by ``0.3 (n + 1) ** 2`` (a long lower
+    tail under a narrow body, as the detector's close scores have): the fit with
+    ``low_tail`` recovers the curvature and sigma, its frames-alone likelihood beats the
+    model without it, the model without it widens sigma to reach the tail, and
+    ``to_params`` writes the curvature as the PEM's ``noise_low_tail``, whose
+    ``pass_probability`` gives the drawn frames' rates."""
+    data = _draw(23, runs=150, tail=0.3, bias=0.4)
+    t = fm.tracks_of(data)
+    fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, edge=True, stages=2,
+                        low_tail=True)  # fmt: skip
+    assert fit.noise.tl == pytest.approx(0.3, abs=0.1)
+    assert fit.noise.sigma == pytest.approx(0.8, abs=0.08)
+    plain = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0, edge=True, stages=2)
+    assert fit.marginal_loglik(t) > plain.marginal_loglik(t) + 0.0015 * len(t.score)
+    assert plain.noise.sigma > fit.noise.sigma + 0.015
+    params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, data.runs)
+    assert params.noise_low_tail == round(fit.noise.tl, 4)
+    feats = [f.features for r in data.runs for f in r.frames]
+    scores = np.asarray([f.score for r in data.runs for f in r.frames])
+    for theta in (0.3, 0.5):
+        pem = np.mean([fc.pass_probability(params, f, theta) for f in feats])
+        assert pem == pytest.approx(np.mean(scores >= theta), abs=0.03)
 
 
 def test_the_run_interval_covers_a_true_pem_and_widens_with_run_effects() -> None:

@@ -90,9 +90,10 @@ def _check_rows() -> list[dict]:
 
 def test_held_out_check_from_10_m_on() -> None:
     """On the held-out runs (seed 3, 300 per kind), from 10 m on: every judged cell within
-    ±0.05 of the detector (20 of 20 with the shipped files, the largest gap -0.050, car at
-    θ = 0.4, 10-20 m; `sitcov calibrate --check docs/data/pem-frames-top-seed3.jsonl.gz
-    --kinds car` and the two class files, docs/pem.md, "Held-out check") and none
+    ±0.05 of the detector (20 of 20 with the shipped files, the largest gap +0.039, the
+    cyclist at θ = 0.4, 10-20 m; `sitcov calibrate --check
+    docs/data/pem-frames-top-seed3.jsonl.gz --kinds car` and the two class files,
+    docs/pem.md, "Held-out check") and none
     significantly off (its run-bootstrap interval wholly outside ±0.05). On seed 2's 30
     odd runs, the check before, 15 of these 20 cells passed, the largest gap +0.114: its
     cells' intervals were up to 0.2 wide."""
@@ -104,20 +105,25 @@ def test_held_out_check_from_10_m_on() -> None:
 
 def test_held_out_misses_are_below_10_m_and_the_pem_under_the_detector() -> None:
     """What is not met yet, stated as it is measured: the misses are below 10 m, at θ =
-    0.5 for every class (and 0.6 for cars), and there the PEM says a score >= θ less
-    often than the detector gives one (docs/pem.md, "Held-out check": a close car cut by
-    the image edge, a close pedestrian or rider seen whole, score higher and tighter than
-    the PEM's law); every cell around them (θ 0.3, 0.4 and 0.7) passes."""
+    0.5 (and 0.6 for cars), and there the PEM says a score >= θ less often than the
+    detector gives one (docs/pem.md, "The lower tail": the close car cut by the image
+    edge scores higher than the PEM's law, missed or 0.5-0.7; the close rider seen whole
+    tighter); every cell around them (θ 0.3, 0.4 and 0.7) passes, and since the lower
+    tail no cell of any class is significantly off (its run-bootstrap interval reaches
+    inside ±0.05): 32 of 35 within, none significant (before it 31, three)."""
     rows = [r for r in _check_rows() if "ok" in r]
     misses = [r for r in rows if not r["ok"]]
     assert misses and all(r["band"] == "0-10 m" and r["difference"] < 0 for r in misses)
     assert {r["theta"] for r in misses} <= {0.5, 0.6}
     assert all(r["ok"] for r in rows if r["theta"] in (0.3, 0.4, 0.7))
+    assert not any(r["significant"] for r in rows), [r for r in rows if r["significant"]]
+    assert len(misses) <= 3
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet: 31 of 35 cells on seed 3's 300 "
-                   "held-out runs per kind (below 10 m: car at 0.5 and 0.6, person and "
-                   "cyclist (its rider) at 0.5; docs/pem.md, held-out check)")  # fmt: skip
+@pytest.mark.xfail(strict=True, reason="not met yet: 32 of 35 cells on seed 3's 300 "
+                   "held-out runs per kind (below 10 m: car at 0.5 and 0.6, the cyclist "
+                   "(its rider) at 0.5, none significantly off; docs/pem.md, held-out "
+                   "check)")  # fmt: skip
 def test_held_out_check_done_when() -> None:
     """The done-when check: P(score >= θ), θ = 0.3..0.7, within ±0.05 of the detector's
     per class and distance band, on the held-out runs."""

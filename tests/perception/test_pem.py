@@ -441,6 +441,17 @@ def test_detections_are_valid(name):
 N_FRAMES, TOLERANCE = 1500, 0.06
 
 
+def _sampled_rate(sensor: PEMSensor, actor: ActorView, theta: float, rng) -> float:
+    """The share of :data:`N_FRAMES` independent frames (a fresh noise track each) in
+    which ``sensor`` reports ``actor`` with a score >= ``theta``."""
+    hits = sum(
+        any(d.score >= theta for d in sensor.detect(
+            EGO, (actor,), CLEAR, np.random.default_rng(rng.integers(1 << 62))))
+        for _ in range(N_FRAMES)
+    )  # fmt: skip
+    return hits / N_FRAMES
+
+
 @params_ids
 def test_sampled_frames_reach_the_aeb_threshold_as_often_as_the_model_says(name):
     """P(score >= 0.5) in dry weather as the frame model says (``pass_probability``: the
@@ -484,12 +495,8 @@ def test_outlier_frames_and_the_upper_size_gain_are_sampled_as_the_model_says():
         for sensor in (plain, wide, capped):
             for theta in (0.5, 0.7):
                 expected = pass_probability(f, sensor.params, theta)
-                hits = sum(
-                    any(d.score >= theta for d in sensor.detect(
-                        EGO, (actor,), CLEAR, np.random.default_rng(rng.integers(1 << 62))))
-                    for _ in range(N_FRAMES)
-                )  # fmt: skip
-                assert hits / N_FRAMES == pytest.approx(expected, abs=TOLERANCE)
+                rate = _sampled_rate(sensor, actor, theta, rng)
+                assert rate == pytest.approx(expected, abs=TOLERANCE)
     f_near = plain.features(EGO, near, CLEAR)
     assert pem_logit(f_near, plain.params) > 0.5  # noise-free score above 0.62
     assert pass_probability(f_near, wide.params, 0.5) < pass_probability(f_near, plain.params, 0.5)
@@ -504,6 +511,44 @@ def test_outlier_frames_and_the_upper_size_gain_are_sampled_as_the_model_says():
         PEMParams.from_mapping({"noise_size_gain": 0.0, "noise_up_size_gain": -0.3})
     with pytest.raises(ConfigError, match="noise_outlier_share"):
         PEMParams.from_mapping({"noise_outlier_share": 1.5})
+
+
+def test_the_lower_tail_is_sampled_as_the_model_says():
+    """``noise_low_tail``: sampled frames of a close and a far car reach θ = 0.3 and 0.5
+    as often as ``pass_probability`` says; the tail lowers P(score >= θ) for a θ more than
+    one scale below the noise-free score and leaves it for a θ above it; 0 is the model
+    without it, and a negative curvature is refused."""
+    # one scale at every size; a frame share: P(score >= θ) smooth in θ (40 nodes)
+    base = {"bias": 1.0, "noise_sigma": 0.5, "noise_tau": 0.0, "noise_frame_share": 0.3,
+            "noise_run_share": 0.0, "noise_up_ratio": 0.8, "rain_miss": 0.0,
+            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0,
+            "noise_size_gain": 0.0, "noise_low_tail": 0.0}  # fmt: skip
+    plain = PEMSensor(base)  # (the shipped car PEM has a tail of its own)
+    tail = PEMSensor({**base, "noise_low_tail": 0.5})
+    near, far = car(8.0, 0.0, math.pi / 2), car(25.0, -2.0, 0.3)
+    rng = np.random.default_rng(19)
+    for actor in (near, far):
+        f = tail.features(EGO, actor, CLEAR)
+        for theta in (0.3, 0.5):
+            expected = pass_probability(f, tail.params, theta)
+            assert _sampled_rate(tail, actor, theta, rng) == pytest.approx(expected, abs=TOLERANCE)
+    f_near = plain.features(EGO, near, CLEAR)
+    z = pem_logit(f_near, plain.params)
+    deep = 1.0 / (1.0 + math.exp(-(z - 1.5 * 0.5)))  # 1.5 scales below the mean
+    above = 1.0 / (1.0 + math.exp(-(z + 0.2)))
+    assert (
+        pass_probability(f_near, tail.params, deep)
+        < pass_probability(f_near, plain.params, deep) - 0.01
+    )
+    assert pass_probability(f_near, tail.params, above) == pass_probability(
+        f_near, plain.params, above
+    )
+    zero = PEMSensor({**base, "noise_low_tail": 0.0})
+    assert pass_probability(f_near, zero.params, deep) == pass_probability(
+        f_near, plain.params, deep
+    )
+    with pytest.raises(ConfigError, match="noise_low_tail"):
+        PEMParams.from_mapping({"noise_low_tail": -0.2})
 
 
 def test_rain_noise_and_misses_when_the_model_has_them():
