@@ -27,7 +27,7 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
 In ``pem.yaml``: ``noise_sigma`` = sigma, ``noise_up_ratio`` = up, ``noise_frame_share`` =
 1 - s, ``noise_tau`` = -frame_dt / ln(rho), ``detect_bias/gain/ar`` = d0, d1, lam,
 ``detect_trunc_gain``/``detect_fill_gain`` = dt, df, ``noise_size_gain`` = k,
-``noise_size_max_px`` = cap. It is
+``noise_size_max_px`` = cap, ``noise_low_tail`` = tl. It is
 the same model for every stack: no term is chosen on any stack's verdicts.
 
 The data are recorded frames of the real detector (:mod:`sitcov.calibration._frames`):
@@ -523,7 +523,9 @@ class Noise:
     score is the mean plus ``ro`` times the frame's scale times a fresh N(0, 1)
     (independent of the AR state; PEM ``noise_outlier_share``/``_ratio``); the scale
     above the median is ``sigma * up * (h / size_ref) ** (k + ku)`` (``ku`` the upper
-    side's own size gain, PEM ``noise_up_size_gain``)."""
+    side's own size gain, PEM ``noise_up_size_gain``); below :data:`TAIL_KNEE` standard
+    units under the median the latent noise ``n`` acts as ``n - tl (n + TAIL_KNEE) ** 2``
+    (``tl`` the lower tail's curvature, PEM ``noise_low_tail``; :func:`_ginv`)."""
 
     sigma: float
     share: float
