@@ -206,6 +206,7 @@ EXTRA_TERM_PARAMS = {
     "hinge40": "size_hinge40_gain",
     "hinge80": "size_hinge80_gain",
     "view_hinge40": "view_hinge40_gain",
+    "cut": "cut_gain",
 }
 #: The gains of the frame model's candidate terms (:mod:`sitcov.calibration._frame_model`):
 #: the side's and the extra terms'.

@@ -82,7 +82,7 @@ import numpy as np
 from sitcov.calibration._calibrate import _LINEAR, EXTRA_TERM_PARAMS, _design, _jitter
 from sitcov.calibration._frames import KindFrames
 from sitcov.errors import SitcovError
-from sitcov.perception._pem import FRAME_DT, LOW_TAIL_KNEE, PEMFeatures, PEMParams
+from sitcov.perception._pem import CUT_RAMP, FRAME_DT, LOW_TAIL_KNEE, PEMFeatures, PEMParams
 
 #: Scores below this count as censored (only "below" is used) [-]: the recording kept
 #: scores down to 0.05, but below ~0.2 the detector's box is a stray weak one (the frames
@@ -403,10 +403,6 @@ EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
                "trunc_side", "cut", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
                "det_<term>")  # fmt: skip
-
-
-#: Truncation over which the ``cut`` term ramps from 0 to 1 [-].
-CUT_RAMP = 0.1
 
 
 def is_detection_term(name: str) -> bool:

@@ -140,6 +140,8 @@ class PEMFeatures(NamedTuple):
 _TINY = 1e-9  # floor inside logarithms [-]
 #: Box width over image width below which the detection term's ``fill`` is 0 [-].
 FILL_MIN = 0.05
+#: Truncation over which ``cut_gain``'s step ramps from 0 to 1 [-].
+CUT_RAMP = 0.1
 #: Where the score noise's lower tail widens (``noise_low_tail``), in standard units of
 #: the latent noise below the median [-].
 LOW_TAIL_KNEE = 1.0
@@ -207,6 +209,7 @@ COEFFICIENTS = (
     "size_hinge40_gain",
     "size_hinge80_gain",
     "view_hinge40_gain",
+    "cut_gain",
 )
 (
     _BIAS,
@@ -236,6 +239,7 @@ COEFFICIENTS = (
     _HINGE40,
     _HINGE80,
     _VIEW_HINGE40,
+    _CUT,
 ) = range(len(COEFFICIENTS))
 
 
@@ -287,6 +291,8 @@ def _logit(
         bend += c[_HINGE80] * math.log(height_px / 80.0)
     if c[_VIEW_HINGE40] != 0.0 and height_px > 40.0:
         bend += c[_VIEW_HINGE40] * side * math.log(height_px / 40.0)
+    if c[_CUT] != 0.0 and truncation > 0.0:  # cut by the image edge (0 without: same bits)
+        bend += c[_CUT] * (1.0 if truncation > CUT_RAMP else truncation / CUT_RAMP)
     return (
         c[_BIAS]
         + (c[_SIZE] + c[_SIZE2] * size + c[_SIDE_SIZE] * side) * size

@@ -137,6 +137,11 @@ class PEMParams:
             frames below it; one normal scale spreads both ways and puts too few frames
             just under the ceiling (docs/pem.md, "The lower tail"). 0 (the default, files
             written before it) changes nothing [-].
+        cut_gain: added to the logit of a box cut by the image edge, ramping from 0 to 1
+            over the first ``CUT_RAMP`` (0.1) of truncation: the detector scores a close
+            car partly out of the image higher than the truncation's linear term says
+            (docs/pem.md, "The lower tail"). Measured, not fitted in the shipped files:
+            0 (the default) changes nothing [-].
     """
 
     bias: float = 0.5
@@ -192,6 +197,7 @@ class PEMParams:
     noise_outlier_ratio: float = 1.0
     noise_up_size_gain: float = 0.0
     noise_low_tail: float = 0.0
+    cut_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

@@ -38,7 +38,7 @@ EGO = Pose(0.0, 0.0, 0.0)
 #: only (docs/pem.md, "The cyclist's detection is its rider").
 NOT_IN_SHIPPED_FIT: tuple[str, ...] = (
     "box_dx0", "box_dy0", "box_dx1", "box_dy1", "jitter_y",
-    "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain",
+    "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain", "cut_gain",
 )  # fmt: skip
 CLEAR = conditions_from_values({})
 N_RANDOM_SETS = 8
