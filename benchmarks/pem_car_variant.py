@@ -1,8 +1,9 @@
 """A car PEM file for one frame-model candidate, by the shipped command's protocol.
 
 `sitcov calibrate --frames-from FIT --heldout HELD --kinds car` chooses among every car
-candidate; this fits one: the shipped car model (``meta``'s ``model_choice.chosen``)
-with the extra logit terms, outlier frames and lower tail named here, fitted on ``FIT``,
+candidate; this fits one: a car candidate (``--model``, by default the side-on-bend
+model the lower tail was offered on) with the extra logit terms, outlier frames and
+lower tail named here, fitted on ``FIT``,
 scored on ``HELD``'s even runs, refitted on both (``fit_kind`` with that one candidate)
 and written as a ``pem.yaml`` for ``sitcov experiment agreement --pem FILE`` or
 ``sitcov calibrate --check ... --pem FILE``: what a term would change in verdicts,
@@ -18,6 +19,8 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+from pem_fit_check import candidate
 
 from sitcov.calibration import _frame_model as fm
 from sitcov.calibration._frames import read_frames
@@ -40,14 +43,13 @@ def main() -> None:
     parser.add_argument("--starts", type=int, default=1, help="stage 1's starts")
     parser.add_argument("--out", required=True, help="the pem.yaml to write")
     args = parser.parse_args()
-    base = next(c for c in fm.candidates_for("car") if c[0] == args.model)
-    extras = tuple(x for x in args.extras.split(",") if x)
-    cand = fm.extended(base, "variant", extras, False, args.outliers, False, args.tail)
+    cand = candidate("car", args.extras, args.outliers, args.tail, args.model)
     data, held = read_frames(args.fit)["car"], read_frames(args.held)["car"]
     params, summary = fm.fit_kind(data, load_pem_params(), held=held, candidates=[cand],
                                   starts=args.starts)  # fmt: skip
     command = "python benchmarks/pem_car_variant.py " + " ".join(
-        [args.fit, args.held, "--model", args.model, "--extras", args.extras]
+        [args.fit, args.held, "--model", args.model]
+        + ["--extras", args.extras] * (args.extras is not None)
         + ["--outliers"] * args.outliers + ["--tail"] * args.tail
         + ["--starts", str(args.starts), "--out", args.out]
     )  # fmt: skip

@@ -354,7 +354,7 @@ def pass_probability(
         need = -math.inf if gap >= 0.0 else math.inf
     else:
         need = -gap / sigma if gap > 0.0 else -gap / upper
-        if need < -LOW_TAIL_KNEE and params.noise_low_tail != 0.0:  # the lower tail
+        if params.noise_low_tail != 0.0:  # the lower tail (below its knee only)
             need = low_tail_inverse(need, params.noise_low_tail)
     base = params.detect_bias + params.detect_gain * z
     base += detect_offset(features, params, image_width)
@@ -623,8 +623,7 @@ def _pem_frame(
         if c[_F_UP_POWER] != 0.0:  # the upper scale's own size gain: s ** (ku / k)
             sig *= s ** c[_F_UP_POWER]
     elif n < -LOW_TAIL_KNEE and c[_F_LOW_TAIL] != 0.0 and not outlier:  # the lower tail
-        x = n + LOW_TAIL_KNEE
-        n = n - c[_F_LOW_TAIL] * x * x
+        n = low_tail(n, c[_F_LOW_TAIL])
     score = _sigmoid(z + sig * n)
     if (
         c[_F_GAIN] != 0.0
@@ -685,7 +684,7 @@ def _frame_kernel() -> Any:
         c = np.append(c, [800.0, 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2])
         state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
-        helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid)
+        helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid, low_tail)
         example = (state, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
         _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
     return _FRAME_FN
