@@ -1,4 +1,4 @@
-"""Three decision rules besides the reference AEB, for measuring how PEM verdicts carry over.
+"""Four decision rules besides the reference AEB, for measuring how PEM verdicts carry over.
 
 Each is the reference stack (route following, the paper's three AEB tests on a detection)
 with one change in how it decides to brake:
@@ -7,7 +7,9 @@ with one change in how it decides to brake:
 - :class:`ThreeFrames`: brakes only when the tests pass in three consecutive camera frames;
 - :class:`RightBlind`: ignores every detection whose box centre is right of 40 % of the
   image width (blind in the right 60 % of its image), so it brakes late or not at all for
-  road users coming from its right.
+  road users coming from its right;
+- :class:`NoPersons`: ignores ``person`` boxes (fault f4's classes), so it brakes for a
+  cyclist only on its bicycle's box and never for a pedestrian.
 
 They work in PEM mode (they read the detections) and in camera mode (the reference stack's
 detector, :class:`sitcov.perception.SSDDetector`, unless one is given). The agreement
@@ -92,3 +94,16 @@ class RightBlind(ReferenceStack):
         edge = self.blind_from * self.camera.width
         left = tuple(d for d in detections if 0.5 * (d.box[0] + d.box[2]) < edge)
         return super()._perceive(left, None)
+
+
+class NoPersons(ReferenceStack):
+    """The reference stack that ignores ``person`` boxes (its ``classes`` are ``car`` and
+    ``bicycle``, as with fault f4): blind to pedestrians and to a cyclist's rider, it
+    brakes for a cyclist on the bicycle's box alone, which the detector scores lower and
+    draws shorter than the rider's (docs/pem.md, "The cyclist's two detections"). The
+    PEM serves it only since it gives a cyclist its bicycle's detection too."""
+
+    name: ClassVar[str] = "no-persons"
+
+    def __init__(self, fault: str | None = None, params: Mapping[str, Any] | None = None) -> None:
+        super().__init__(fault=fault, params={"classes": ("car", "bicycle"), **(params or {})})

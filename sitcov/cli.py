@@ -1192,7 +1192,7 @@ def calibrate_cmd(
         "no detections, so every frame to each run's end is recorded.",
     ),
     kinds: str = typer.Option(
-        "car,pedestrian,cyclist",
+        "car,pedestrian,cyclist,bicycle",
         "--kinds",
         help="Kinds for --record-frames / --check / --frames-from (there: only these fitted).",
     ),
@@ -1335,7 +1335,7 @@ def calibrate_cmd(
 def _frame_model_cmd(
     paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
     workers: int = 1, heldout: list[Path] | None = None, stages: int = 2, starts: int = 1,
-    kinds: str = "car,pedestrian,cyclist",
+    kinds: str = "car,pedestrian,cyclist,bicycle",
 ) -> None:  # fmt: skip
     """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
     import shlex
@@ -1420,6 +1420,12 @@ def _check_frames_cmd(
         raise ConfigError(field="--check-runs", value=part, expected="all | odd | even")
     frames = {k: split_runs(v, part) for k, v in read_frames(path).items() if k in names}
     classes = load_class_params(pem_classes)
+    lacking = sorted(k for k in frames if k != "car" and k not in classes)
+    if lacking:
+        raise ConfigError(
+            file=str(pem_classes or "sitcov/perception/data/pem_classes.yaml"),
+            field="classes", value=",".join(lacking), expected="an entry for every kind checked",
+        )  # fmt: skip
     params = {k: load_pem_params(pem) if k == "car" else classes[k][1] for k in frames}
     rows = fc.check_frames(frames, params, rng=np.random.default_rng(seed))
     for line in fc.table_lines(rows):

@@ -47,9 +47,11 @@ _COLUMNS = (
 
 def _frame(kind: str, rng: np.random.Generator, ego: Pose, camera: CameraSpec):
     """One random actor of ``kind`` and weather values (see the module doc)."""
+    from sitcov.perception._detector import PART_KIND
     from sitcov.perception._person import SHIRTS
     from sitcov.weather._conditions import WEATHER_ELEMENTS
 
+    kind = PART_KIND.get(kind, kind)  # a cyclist's bicycle: a cyclist's frame
     length, width, heights, speed = SHAPES[kind]
     lo, hi = (math.log(d) for d in DISTANCE_RANGE)
     dist = math.exp(rng.uniform(lo, hi))

@@ -97,18 +97,20 @@ def _restrict_constraints(constraints: list[Any], axes: list[dict[str, Any]]) ->
 class ClassRecorder(_Recorder):
     """A camera-mode backend + reference stack over one kind's situations, recording the
     frames of the actors of that kind (detections of the labels its PEM detection stands
-    for only: :data:`~sitcov.perception._detector.PEM_LABELS`)."""
+    for only: :data:`~sitcov.perception._detector.PEM_LABELS`). ``kind`` is a per-class
+    entry: ``bicycle`` records the cyclists' situations scoring their bicycle boxes
+    (:data:`~sitcov.perception._detector.PART_KIND`)."""
 
     def __init__(
         self, kind: str, model: str | None, map_name: str = DEFAULT_MAP, observe: bool = False
     ) -> None:
         from sitcov.generation import make_generator
-        from sitcov.perception._detector import PEM_LABELS
+        from sitcov.perception._detector import PART_KIND, PEM_LABELS
 
         super().__init__(model, observe)
-        self.kind = kind
+        self.kind = PART_KIND[kind]
         self.labels = PEM_LABELS[kind]
-        self.generator = make_generator("random", class_hyperspace(kind, map_name))
+        self.generator = make_generator("random", class_hyperspace(self.kind, map_name))
 
     def _records(self, actor: Any) -> bool:
         return actor.kind == self.kind

@@ -1162,12 +1162,13 @@ def selector(stages: int) -> str:
 
 
 #: Kinds whose detection box is fitted with its mean edge offsets and a corner noise per
-#: axis (:func:`box_offsets`): the cyclist, whose detection is its rider's box, inside
-#: the cyclist's (docs/pem.md, "The cyclist's detection is its rider"), and the
+#: axis (:func:`box_offsets`): the cyclist, whose detections are its rider's box and its
+#: bicycle's, inside the cyclist's (docs/pem.md, "The cyclist's detection is its rider",
+#: "The cyclist's two detections"), and the
 #: pedestrian, whose detected box is narrower than its projected one and scattered far
 #: less up and down than across (docs/pem.md, "The pedestrian's box"). Cars keep the
 #: jitter from the horizontal errors alone, as their file was fitted.
-BOX_OFFSET_KINDS = ("pedestrian", "cyclist")
+BOX_OFFSET_KINDS = ("pedestrian", "cyclist", "bicycle")
 #: The PEM parameters of the box's mean edge offsets, in ``box_error``'s order.
 BOX_EDGES = ("box_dx0", "box_dy0", "box_dx1", "box_dy1")
 
@@ -1405,7 +1406,7 @@ def fit_files(
     other = _merged(held) if held else {}
     classes = load_class_params()
     jobs = [
-        (kind, data, load_pem_params() if kind == "car" else classes[kind][1], folds,
+        (kind, data, load_pem_params() if kind == "car" else _start(classes, kind), folds,
          other.get(kind) if held else None, candidates_for(kind), stages, starts)
         for kind, data in merged.items()
     ]  # fmt: skip
@@ -1415,6 +1416,16 @@ def fit_files(
 
     with mp.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
         return dict(zip([j[0] for j in jobs], pool.map(_fit_job, jobs), strict=True))
+
+
+def _start(classes: dict[str, tuple[str, PEMParams]], kind: str) -> PEMParams:
+    """A class's starting parameters: its shipped entry, or for a part the file does not
+    have yet (a cyclist's bicycle) its road user's (:data:`~sitcov.perception._detector.
+    PART_KIND`)."""
+    from sitcov.perception._detector import PART_KIND
+
+    entry = classes.get(kind) or classes[PART_KIND.get(kind, kind)]
+    return entry[1]
 
 
 def frame_yaml(

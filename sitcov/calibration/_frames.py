@@ -21,8 +21,10 @@ from sitcov.calibration._camera_runs import CameraRun
 from sitcov.errors import ConfigError
 from sitcov.perception._pem import PEMFeatures
 
-#: The kinds a frames file can hold, and the detector class each is reported as.
-KIND_LABEL = {"car": "car", "pedestrian": "person", "cyclist": "bicycle"}
+#: The kinds a frames file can hold, and the name each is reported as: the detector's
+#: class, and for a cyclist its two detections, the rider (``person`` boxes) and the
+#: bicycle (``bicycle`` boxes; docs/pem.md, "The cyclist's two detections").
+KIND_LABEL = {"car": "car", "pedestrian": "person", "cyclist": "rider", "bicycle": "bicycle"}
 
 
 @dataclass
@@ -38,7 +40,9 @@ def parse_kinds(text: str) -> list[str]:
     """``--kinds``: comma-separated kinds among :data:`KIND_LABEL`, each once."""
     kinds = [k.strip() for k in text.split(",") if k.strip()]
     if not kinds or any(k not in KIND_LABEL for k in kinds) or len(set(kinds)) != len(kinds):
-        raise ConfigError(field="--kinds", value=text, expected="car, pedestrian and/or cyclist")
+        raise ConfigError(
+            field="--kinds", value=text, expected="car, pedestrian, cyclist and/or bicycle"
+        )
     return kinds
 
 

@@ -66,6 +66,22 @@ PEM_LABELS: Mapping[str, tuple[str, ...]] = {
     "truck": ("car",),
     "pedestrian": ("person",),
     "cyclist": ("person",),
+    "bicycle": ("bicycle",),
+}
+#: The detections the PEM gives a road user of each kind, each scored by its own entry of
+#: the per-class file (``pem_classes.yaml``): a cyclist's rider (entry ``cyclist``) and its
+#: bicycle (entry ``bicycle``), as the SSD reports both (docs/pem.md, "The cyclist's two
+#: detections"). A part the file has no entry for is not given (a file written before the
+#: bicycle's entry gives the rider alone, as before). Kinds not listed give one detection.
+PEM_PARTS: Mapping[str, tuple[str, ...]] = {
+    "pedestrian": ("pedestrian",),
+    "cyclist": ("cyclist", "bicycle"),
+}
+#: The road-user kind of each per-class entry (the situations its frames are recorded in).
+PART_KIND: Mapping[str, str] = {
+    "pedestrian": "pedestrian",
+    "cyclist": "cyclist",
+    "bicycle": "cyclist",
 }
 
 

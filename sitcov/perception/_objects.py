@@ -226,7 +226,9 @@ def pem_miss_processes() -> dict[str, tuple[float, float, float]]:
     kinds += [(kind, params) for kind, (_, params) in load_class_params().items()]
     out = {}
     for kind, params in kinds:
-        label = OBJECT_CLASS.get(kind, kind)
+        if kind not in OBJECT_CLASS:
+            continue  # a part's own law (a cyclist's bicycle), not a road user's
+        label = OBJECT_CLASS[kind]
         out.setdefault(label, (params.noise_tau, params.noise_frame_share, params.noise_run_share))
     return out
 

@@ -81,6 +81,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 from sitcov.perception._base import ActorView, CameraSpec, Detection, Pose, Sensor
 from sitcov.perception._camera import _clip_near, _project, _view_angle, project_raw
 from sitcov.perception._colors import chroma_features, color_features
+from sitcov.perception._detector import PEM_PARTS
 from sitcov.perception._pem_params import DETECT_ALWAYS, PEMParams, load_pem_params
 from sitcov.weather._conditions import fog_transmittance
 
@@ -858,12 +859,26 @@ class PEMSensor(Sensor):
         :mod:`sitcov.perception._pem_classes`)."""
         if kind in ("car", "truck"):
             return self.params, "car"
+        label, params = self._class_entries().get(kind, ("car", self.params))
+        return params, label
+
+    def _class_entries(self) -> dict[str, tuple[str, PEMParams]]:
+        """The per-class file's entries (loaded at the first call)."""
         if self._classes is None:
             from sitcov.perception._pem_classes import load_class_params
 
             self._classes = load_class_params(self._classes_file)
-        label, params = self._classes.get(kind, ("car", self.params))
-        return params, label
+        return self._classes
+
+    def parts(self, kind: str) -> tuple[str, ...]:
+        """The detections a road user of ``kind`` gives, as the per-class entries that
+        score them (:data:`~sitcov.perception._detector.PEM_PARTS`: a cyclist's rider and,
+        when the per-class file has its entry, its bicycle); ``(kind,)`` for the rest."""
+        names = PEM_PARTS.get(kind)
+        if names is None or len(names) == 1:
+            return (kind,)
+        entries = self._class_entries()
+        return (names[0], *(n for n in names[1:] if n in entries))
 
     def _phi(self) -> float:
         tau = self.params.noise_tau
@@ -910,24 +925,24 @@ class PEMSensor(Sensor):
         return self._views
 
     def _view_array(
-        self, views: dict[Any, Any], actor: ActorView, conditions: Conditions
+        self, views: dict[Any, Any], actor: ActorView, conditions: Conditions, part: str
     ) -> tuple[Any, PEMParams, str]:
-        """What :func:`_pem_view` takes for ``actor`` (layout at ``_CAMERA``), its class's
-        parameters and label; cached in ``views`` per kind, size and colour (a run's
-        actors repeat every frame)."""
-        key = (actor.kind, actor.color, actor.length, actor.width, actor.height)
+        """What :func:`_pem_view` takes for the detection ``part`` of ``actor`` (layout at
+        ``_CAMERA``), its class's parameters and label; cached in ``views`` per part,
+        size and colour (a run's actors repeat every frame)."""
+        key = (part, actor.color, actor.length, actor.width, actor.height)
         try:
             return views[key]
         except KeyError:
-            value = views[key] = self._make_view_array(actor, conditions)
+            value = views[key] = self._make_view_array(actor, conditions, part)
         except TypeError:  # an unhashable colour (a list): not cached
-            value = self._make_view_array(actor, conditions)
+            value = self._make_view_array(actor, conditions, part)
         return value
 
     def _make_view_array(
-        self, actor: ActorView, conditions: Conditions
+        self, actor: ActorView, conditions: Conditions, part: str
     ) -> tuple[Any, PEMParams, str]:
-        params, label = self._class_params(actor.kind)
+        params, label = self._class_params(part)
         cam = self.camera
         values = [
             *coefficients(params),
@@ -949,12 +964,22 @@ class PEMSensor(Sensor):
             return np.array(values, dtype=np.float64), params, label
         return values, params, label
 
-    def prepare(self, actor: ActorView, conditions: Conditions) -> tuple[Any, PEMParams, str]:
+    def prepare(
+        self, actor: ActorView, conditions: Conditions, part: str | None = None
+    ) -> tuple[Any, PEMParams, str]:
         """What :meth:`detect_prepared` needs of ``actor`` besides its pose (its size,
         colour and kind with the camera, ``conditions`` and parameters; ``actor.pose`` is
-        not read): made once per run and actor by a backend that calls the sensor every
+        not read) for one of its detections (``part``, one of :meth:`parts`; None: the
+        first): made once per run and actor by a backend that calls the sensor every
         frame. Valid while the sensor's ``camera`` and ``params`` stay the same."""
-        return self._view_array(self._view_arrays(conditions), actor, conditions)
+        part = self.parts(actor.kind)[0] if part is None else part
+        return self._view_array(self._view_arrays(conditions), actor, conditions, part)
+
+    def prepare_parts(self, actor: ActorView, conditions: Conditions) -> tuple[Any, ...]:
+        """:meth:`prepare` for each of ``actor``'s detections (:meth:`parts`), in order:
+        a backend passes :meth:`detect_prepared` one pair (prepared, pose) per part, each
+        with a noise track of its own."""
+        return tuple(self.prepare(actor, conditions, part) for part in self.parts(actor.kind))
 
     def detect(
         self,
@@ -965,7 +990,11 @@ class PEMSensor(Sensor):
     ) -> tuple[Detection, ...]:
         """Detections of the actors in view whose noisy score reaches the floor."""
         views = self._view_arrays(conditions)
-        seen = [(self._view_array(views, a, conditions), a.pose) for a in actors]
+        seen = [
+            (self._view_array(views, a, conditions, part), a.pose)
+            for a in actors
+            for part in self.parts(a.kind)
+        ]
         return self.detect_prepared(ego.x, ego.y, ego.yaw, seen, conditions, rng)
 
     def _frame_ready(self, conditions: Conditions) -> bool:
@@ -976,8 +1005,7 @@ class PEMSensor(Sensor):
         rain = conditions.rain_noise
         misses = [self.params.rain_miss]
         if rain > 0.0:
-            self._class_params("pedestrian")  # loads every class
-            misses += [p.rain_miss for _, p in (self._classes or {}).values()]
+            misses += [p.rain_miss for _, p in self._class_entries().values()]
         compiled_view = (_VIEW_FN or _view_kernel()) is not _pem_view
         return compiled_view and (rain == 0.0 or all(m == 0.0 for m in misses))
 

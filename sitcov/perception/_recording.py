@@ -19,8 +19,8 @@ from sitcov.perception._pem import PEMSensor
 class FrameTruth:
     """One run's record, filled frame by frame: ``truth`` (ego pose, the road users' views
     at this frame, the conditions; taken and cleared by the consumer), ``views`` (the
-    PEM's prepared actors, in order) and ``raw`` (the frame's detections below the usual
-    floor too, camera; the PEM's detections, PEM)."""
+    PEM's prepared actors, in order, each by its first detection) and ``raw`` (the
+    frame's detections below the usual floor too, camera; the PEM's detections, PEM)."""
 
     def __init__(self) -> None:
         self.truth: tuple[Any, ...] | None = None
@@ -54,9 +54,9 @@ class RecordingPEM(PEMSensor):
         super().__init__(*args, **kwargs)
         self.log_of = log_of
 
-    def prepare(self, actor, conditions):  # type: ignore[no-untyped-def]
-        out = super().prepare(actor, conditions)
-        self.log_of().views.append((actor, out))
+    def prepare_parts(self, actor, conditions):  # type: ignore[no-untyped-def]
+        out = super().prepare_parts(actor, conditions)
+        self.log_of().views.append((actor, out[0]))  # a road user's first detection
         return out
 
     def frame_detector(self, conditions, rng):  # type: ignore[no-untyped-def]
@@ -66,7 +66,10 @@ class RecordingPEM(PEMSensor):
             log = self.log_of()
             out = inner(ex, ey, eyaw, actors)
             views, k = [], 0
-            for look, body in actors:  # the active actors, in prepare's order
+            firsts = {id(look) for _, look in log.views}
+            for look, body in actors:  # the active actors' parts, in prepare's order
+                if id(look) not in firsts:
+                    continue  # a road user's second detection (a cyclist's bicycle)
                 while log.views[k][1] is not look:
                     k += 1
                 pose = Pose(float(body.x), float(body.y), float(body.yaw))

@@ -4,6 +4,7 @@ shift chosen on verdicts, the stored file and the held-out seed check."""
 from __future__ import annotations
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -145,7 +146,8 @@ def test_a_file_without_calibration_seeds_is_refused(tmp_path) -> None:
 def test_a_cyclists_frames_are_scored_by_its_riders_person_boxes(monkeypatch) -> None:
     """The class recorder scores a cyclist by the boxes its PEM detection stands for
     (``PEM_LABELS``: the rider's ``person`` boxes, not the bicycle's), a pedestrian by
-    ``person`` boxes; the PEM's label and the recorded score are of the same box."""
+    ``person`` boxes; the PEM's label and the recorded score are of the same box. The
+    ``bicycle`` entry records the cyclists' situations by their ``bicycle`` boxes."""
     from sitcov.calibration import _camera_runs
     from sitcov.calibration._class_runs import ClassRecorder
     from sitcov.perception._base import Detection
@@ -160,3 +162,8 @@ def test_a_cyclists_frames_are_scored_by_its_riders_person_boxes(monkeypatch) ->
         rec = ClassRecorder(kind, None)
         assert rec.labels == ("person",)
         assert rec._candidates(dets) == [dets[0]]
+    bike = ClassRecorder("bicycle", None)  # the cyclist's second detection
+    assert bike.kind == "cyclist" and bike.labels == ("bicycle",)
+    assert bike._candidates(dets) == [dets[1]]
+    assert bike._records(SimpleNamespace(kind="cyclist"))
+    assert not bike._records(SimpleNamespace(kind="bicycle"))  # no road user of that kind

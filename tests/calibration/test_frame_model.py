@@ -649,7 +649,7 @@ def _boxed_frames(n: int, mid: tuple[float, ...], spread: tuple[float, float], s
 
 
 def test_box_offsets_recover_the_edges_median_and_each_axis_noise() -> None:
-    """The cyclist's and pedestrian's box (``BOX_OFFSET_KINDS``): per edge the median box
+    """The cyclist's two boxes and the pedestrian's (``BOX_OFFSET_KINDS``): per edge the median box
     error, per axis the robust spread around it, on the wide boxes not cut by the edge
     (what the horizontal-error jitter uses); the odd wild box does not move them."""
     mid, spread = (0.13, 0.02, -0.2, -0.06), (0.12, 0.05)
@@ -660,7 +660,7 @@ def test_box_offsets_recover_the_edges_median_and_each_axis_noise() -> None:
     assert got["jitter"] == pytest.approx(0.12, rel=0.08)
     assert got["jitter_y"] == pytest.approx(0.05, rel=0.08)
     assert fm.box_offsets(_boxed_frames(19, mid, spread, seed=2)[:19]) is None
-    assert fm.BOX_OFFSET_KINDS == ("pedestrian", "cyclist")
+    assert fm.BOX_OFFSET_KINDS == ("pedestrian", "cyclist", "bicycle")
 
 
 def test_to_params_takes_the_box_offsets_only_when_asked() -> None:
@@ -689,7 +689,8 @@ def test_the_class_file_labels_a_cyclist_as_its_rider() -> None:
     from sitcov.perception._detector import PEM_LABELS
 
     assert PEM_LABELS["cyclist"] == ("person",) and PEM_LABELS["pedestrian"] == ("person",)
-    results = {k: (PEMParams(), {"frames": 1}) for k in ("pedestrian", "cyclist")}
+    results = {k: (PEMParams(), {"frames": 1}) for k in ("pedestrian", "cyclist", "bicycle")}
     doc = yaml.safe_load(fm.frame_yaml(results, "sitcov calibrate ...", [1], classes=True))
     assert doc["classes"]["cyclist"]["label"] == "person"
     assert doc["classes"]["pedestrian"]["label"] == "person"
+    assert doc["classes"]["bicycle"]["label"] == "bicycle"  # the cyclist's second detection

@@ -15,13 +15,14 @@ from sitcov.perception._pem_params import PEM_PARAMS_FILE, load_pem_params
 ROOT = Path(__file__).resolve().parents[2]
 #: The check's held-out recordings per kind: 300 runs of seed 3, a seed neither the fit
 #: (seed 1) nor the model choice (seed 2's even runs) read; the car's; the pedestrian's;
-#: the cyclist's scored by its rider's person boxes (what its PEM detection stands for,
-#: docs/pem.md). Seed 2's odd runs (30 per kind), the check before them, leave each cell
+#: the cyclist's scored by its rider's person boxes and by its bicycle boxes (its two PEM
+#: detections, docs/pem.md). Seed 2's odd runs (30 per kind), the check before them, leave each cell
 #: a run-bootstrap interval about +-0.08 wide below 10 m: too wide to judge +-0.05.
 HELD_OUT = {
     "car": ROOT / "docs" / "data" / "pem-frames-top-seed3.jsonl.gz",
     "pedestrian": ROOT / "docs" / "data" / "pem-frames-pedestrian-seed3.jsonl.gz",
     "cyclist": ROOT / "docs" / "data" / "pem-frames-rider-seed3.jsonl.gz",
+    "bicycle": ROOT / "docs" / "data" / "pem-frames-bicycle-seed3.jsonl.gz",
 }
 
 
@@ -44,7 +45,7 @@ def test_shipped_file_is_the_frame_model_with_its_provenance(path: Path) -> None
         assert "--classes-out sitcov/perception/data/pem_classes.yaml" in command
     assert meta["calibration_seeds"] == [1] and len(meta["date"]) == 10
     assert all(p.is_file() for p in _files(command, "--frames-from") + _files(command, "--heldout"))
-    kinds = ["car"] if path == PEM_PARAMS_FILE else ["pedestrian", "cyclist"]
+    kinds = ["car"] if path == PEM_PARAMS_FILE else ["pedestrian", "cyclist", "bicycle"]
     for kind in kinds:
         summary = meta[kind]
         table = summary["model_choice"]["table"]
@@ -90,15 +91,16 @@ def _check_rows() -> list[dict]:
 
 def test_held_out_check_from_10_m_on() -> None:
     """On the held-out runs (seed 3, 300 per kind), from 10 m on: every judged cell within
-    ±0.05 of the detector (20 of 20 with the shipped files, the largest gap +0.039, the
-    cyclist at θ = 0.4, 10-20 m; `sitcov calibrate --check
-    docs/data/pem-frames-top-seed3.jsonl.gz --kinds car` and the two class files,
+    ±0.05 of the detector (25 of 25 with the shipped files, the bicycle's 5 at 10-20 m
+    among them: there every bicycle box of the detector scores under 0.3; the largest gap
+    +0.039, the rider at θ = 0.4, 10-20 m; `sitcov calibrate --check
+    docs/data/pem-frames-top-seed3.jsonl.gz --kinds car` and the three class recordings,
     docs/pem.md, "Held-out check") and none
     significantly off (its run-bootstrap interval wholly outside ±0.05). On seed 2's 30
     odd runs, the check before, 15 of these 20 cells passed, the largest gap +0.114: its
     cells' intervals were up to 0.2 wide."""
     rows = [r for r in _check_rows() if "ok" in r and not r["band"].startswith("0-")]
-    assert len(rows) == 20  # person and cyclist: too few frames beyond 20 m to judge
+    assert len(rows) == 25  # person, rider, bicycle: too few frames beyond 20 m to judge
     assert all(r["ok"] and not r["significant"] for r in rows), rows
     assert all(r["runs"] >= 200 for r in rows)
 
@@ -110,7 +112,8 @@ def test_held_out_misses_are_below_10_m_and_the_pem_under_the_detector() -> None
     edge scores higher than the PEM's law, missed or 0.5-0.7; the close rider seen whole
     tighter); every cell around them (θ 0.3, 0.4 and 0.7) passes, and since the lower
     tail no cell of any class is significantly off (its run-bootstrap interval reaches
-    inside ±0.05): 32 of 35 within, none significant (before it 31, three)."""
+    inside ±0.05): 42 of 45 within, none significant (the cyclist's bicycle, since 27 Nov
+    2026, all 10 of its cells; before the lower tail 31 of 35, three significant)."""
     rows = [r for r in _check_rows() if "ok" in r]
     misses = [r for r in rows if not r["ok"]]
     assert misses and all(r["band"] == "0-10 m" and r["difference"] < 0 for r in misses)
@@ -120,9 +123,9 @@ def test_held_out_misses_are_below_10_m_and_the_pem_under_the_detector() -> None
     assert len(misses) <= 3
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet: 32 of 35 cells on seed 3's 300 "
-                   "held-out runs per kind (below 10 m: car at 0.5 and 0.6, the cyclist "
-                   "(its rider) at 0.5, none significantly off; docs/pem.md, held-out "
+@pytest.mark.xfail(strict=True, reason="not met yet: 42 of 45 cells on seed 3's 300 "
+                   "held-out runs per kind (below 10 m: car at 0.5 and 0.6, the cyclist's "
+                   "rider at 0.5, none significantly off; docs/pem.md, held-out "
                    "check)")  # fmt: skip
 def test_held_out_check_done_when() -> None:
     """The done-when check: P(score >= θ), θ = 0.3..0.7, within ±0.05 of the detector's

@@ -315,9 +315,10 @@ def test_noise_is_deterministic_per_rng_and_reset_between_runs(name):
 
 @params_ids
 def test_prepared_actors_give_detects_detections(name):
-    """``prepare`` once per run and ``detect_prepared`` with bare poses (what the embedded
-    backend does) give ``detect``'s detections draw for draw: cars, a pedestrian and a
-    cyclist in rain and fog, an actor leaving the list mid-run (the keys shift)."""
+    """``prepare_parts`` once per run and ``detect_prepared`` with bare poses (what the
+    embedded backend does) give ``detect``'s detections draw for draw: cars, a pedestrian
+    and a cyclist (its rider and its bicycle) in rain and fog, an actor leaving the list
+    mid-run (the keys shift)."""
     params = replace(PARAM_SETS[name], rain_miss=0.3, rain_jitter=0.05)
     cond = conditions_from_values({"precipitation": 70, "fog_density": 30})
     plain, prepared = PEMSensor(params), PEMSensor(params)
@@ -325,9 +326,10 @@ def test_prepared_actors_give_detects_detections(name):
     kinds = ("car", "pedestrian", "cyclist", "car")
     sizes = ((4.7, 1.85, 1.5), (0.5, 0.5, 1.75), (1.8, 0.6, 1.7), (4.2, 1.8, 1.4))
     looks = [
-        prepared.prepare(ActorView(EGO, *size, kind=kind, color=(20 * i, 90, 200)), cond)
+        prepared.prepare_parts(ActorView(EGO, *size, kind=kind, color=(20 * i, 90, 200)), cond)
         for i, (kind, size) in enumerate(zip(kinds, sizes, strict=True))
     ]
+    assert [len(parts) for parts in looks] == [1, 1, 2, 1]
     detections = 0
     for frame in range(60):
         ego = Pose(0.3 * frame, 0.01 * frame, 0.002 * frame)
@@ -338,7 +340,12 @@ def test_prepared_actors_give_detects_detections(name):
         )
         want = plain.detect(ego, actors, cond, rng_a)
         got = prepared.detect_prepared(
-            ego.x, ego.y, ego.yaw, [(looks[i], poses[i]) for i in keep], cond, rng_b
+            ego.x,
+            ego.y,
+            ego.yaw,
+            [(look, poses[i]) for i in keep for look in looks[i]],
+            cond,
+            rng_b,
         )
         assert got == want, frame
         detections += len(want)

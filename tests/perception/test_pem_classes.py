@@ -33,19 +33,22 @@ def test_shipped_file_maps_kinds_to_labels() -> None:
 
 def test_detections_carry_the_class_of_each_kind() -> None:
     """A car is reported as ``car``, a pedestrian as ``person`` and a cyclist as its rider,
-    ``person`` (``PEM_LABELS``), each in at least half the frames."""
+    ``person``, and its bicycle, ``bicycle`` (``PEM_LABELS``, ``PEM_PARTS``), each in at
+    least a quarter of the frames (the rider and the others in at least half)."""
     sensor = PEMSensor()
     actors = {"car": _actor("car", 12.0, 4.0), "pedestrian": _actor("pedestrian", 8.0, 0.0, 1.5),
-              "cyclist": _actor("cyclist", 9.0, -2.0)}  # fmt: skip
-    want = {"car": "car", "pedestrian": "person", "cyclist": "person"}
+              "cyclist": _actor("cyclist", 7.0, -1.0)}  # fmt: skip
+    want = {"car": {"car"}, "pedestrian": {"person"}, "cyclist": {"person", "bicycle"}}
     for kind, actor in actors.items():
         labels = []
         for seed in range(60):
             labels += [
                 d.label for d in sensor.detect(EGO, (actor,), CLEAR, np.random.default_rng(seed))
             ]
-        assert set(labels) == {want[kind]}, kind
-        assert len(labels) >= 30, (kind, len(labels))  # found in at least half the frames
+        assert set(labels) == want[kind], kind
+        counts = {label: labels.count(label) for label in want[kind]}
+        assert all(n >= 15 for n in counts.values()), (kind, counts)
+        assert max(counts.values()) >= 30, (kind, counts)
 
 
 def test_pedestrian_detection_falls_with_distance_and_fog() -> None:
@@ -209,3 +212,69 @@ def test_the_shipped_person_boxes_are_the_detectors() -> None:
         assert 0.0 <= p.jitter_y < p.jitter, kind
     car = load_pem_params()
     assert (car.box_dx0, car.box_dx1, car.jitter_y) == (0.0, 0.0, -1.0)
+
+
+def _with_bicycle(tmp_path: Path, bicycle: dict | None) -> Path:
+    """The shipped per-class file with the cyclist's ``bicycle`` entry set (None: none)."""
+    import yaml
+
+    from sitcov.perception._pem_classes import PEM_CLASSES_FILE
+
+    data = yaml.safe_load(PEM_CLASSES_FILE.read_text())
+    data["classes"].pop("bicycle", None)
+    if bicycle is not None:
+        params = {**data["classes"]["cyclist"]["params"], **bicycle}
+        data["classes"]["bicycle"] = {"label": "bicycle", "params": params}
+    path = tmp_path / "classes.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_a_cyclist_gives_its_rider_and_its_bicycle(tmp_path: Path) -> None:
+    """With a ``bicycle`` entry a cyclist gives two detections a frame (``PEM_PARTS``): the
+    rider (``person``) and the bicycle (``bicycle``), each by its own law and box (here the
+    bicycle's box offsets move its top edge 40 % of the height down, so its boxes are lower
+    and shorter than the rider's), on independent noise tracks; a file without the entry
+    (every file before it) gives the rider alone. Cars and pedestrians are untouched."""
+    bike = {"box_dy0": 0.4, "box_dy1": 0.0, "bias": 0.5}
+    both = PEMSensor(classes=_with_bicycle(tmp_path, bike))
+    assert both.parts("cyclist") == ("cyclist", "bicycle")
+    assert both.parts("pedestrian") == ("pedestrian",) and both.parts("car") == ("car",)
+    cyclist = (_actor("cyclist", 9.0, -1.0),)
+    tops: dict[str, list[float]] = {"person": [], "bicycle": []}
+    heights: dict[str, list[float]] = {"person": [], "bicycle": []}
+    for seed in range(80):
+        dets = both.detect(EGO, cyclist, CLEAR, np.random.default_rng(seed))
+        assert len(dets) <= 2
+        for d in dets:
+            tops[d.label].append(d.box[1])
+            heights[d.label].append(d.box[3] - d.box[1])
+    assert len(tops["person"]) >= 40 and len(tops["bicycle"]) >= 40
+    assert np.median(tops["bicycle"]) > np.median(tops["person"]) + 20.0
+    assert np.median(heights["bicycle"]) < 0.75 * np.median(heights["person"])
+    alone = PEMSensor(classes=_with_bicycle(tmp_path, None))
+    assert alone.parts("cyclist") == ("cyclist",)
+    cyclist = (_actor("cyclist", 9.0, -1.0),)
+    for seed in range(20):
+        dets = alone.detect(EGO, cyclist, CLEAR, np.random.default_rng(seed))
+        assert {d.label for d in dets} <= {"person"}
+
+
+def test_the_embedded_backend_gives_a_cyclists_two_detections(tmp_path: Path) -> None:
+    """The embedded backend's prepared path (``prepare_parts``) gives what ``detect`` gives:
+    per frame the rider's and the bicycle's detections, the same draws in the same order."""
+    from types import SimpleNamespace
+
+    path = _with_bicycle(tmp_path, {"box_dy0": 0.4, "box_dy1": 0.0})
+    a, b = PEMSensor(classes=path), PEMSensor(classes=path)
+    actor = _actor("cyclist", 14.0, -1.0)
+    looks = a.prepare_parts(actor, CLEAR)
+    assert [look[2] for look in looks] == ["person", "bicycle"]
+    body = SimpleNamespace(x=actor.pose.x, y=actor.pose.y, yaw=actor.pose.yaw)
+    rng_a, rng_b = np.random.default_rng(3), np.random.default_rng(3)
+    labels = set()
+    for _ in range(30):
+        got = a.detect_prepared(0.0, 0.0, 0.0, [(look, body) for look in looks], CLEAR, rng_a)
+        assert got == b.detect(EGO, (actor,), CLEAR, rng_b)
+        labels |= {d.label for d in got}
+    assert labels == {"person", "bicycle"}

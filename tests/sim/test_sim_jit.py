@@ -707,9 +707,12 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
             monkeypatch.setattr(_pem, "_FRAME_FN", frame_fn)
             sensor = PEMSensor(car_params)
             sensor.reset(frame_dt=0.1)
-            looks = [
-                sensor.prepare(ActorView(Pose(0, 0, 0), ln, w, h, 0.0, (90, 90, 200), k), cond)
+            looks = [  # one per detection: a cyclist gives its rider and its bicycle
+                look
                 for k, ln, w, h in kinds
+                for look in sensor.prepare_parts(
+                    ActorView(Pose(0, 0, 0), ln, w, h, 0.0, (90, 90, 200), k), cond
+                )
             ]
             normals = _pem.NormalStream(np.random.default_rng(4), 128)
             walk = random.Random(5)

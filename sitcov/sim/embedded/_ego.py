@@ -108,8 +108,10 @@ class EgoDriver:
         """The PEM's detections for this frame through ``PEMSensor.detect_prepared``."""
         looks = self._looks
         if looks is None:
-            prepare, cond = self.sensor.prepare, self.cond
-            looks = self._looks = [(a, prepare(a.view(), cond)) for a in world.actors]
+            prepare, cond = self.sensor.prepare_parts, self.cond
+            looks = self._looks = [
+                (a, look) for a in world.actors for look in prepare(a.view(), cond)
+            ]  # one per detection the road user gives (a cyclist's rider and bicycle)
             self._seen_all = [(look, a.body) for a, look in looks]
         ego = world.ego.body
         seen = self._seen_all  # every actor active (none comes back once it left)
