@@ -880,21 +880,23 @@ class PEMSensor(Sensor):
         entries = self._class_entries()
         return (names[0], *(n for n in names[1:] if n in entries))
 
-    def _phi(self) -> float:
-        tau = self.params.noise_tau
+    def _phi(self, p: PEMParams | None = None) -> float:
+        """The AR(1) coefficient per frame of the noise of a class with parameters ``p``
+        (None: the car's)."""
+        tau = (self.params if p is None else p).noise_tau
         return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
 
-    def _noise(self, key: int, normals: NormalStream) -> tuple[float, float]:
+    def _noise(self, key: int, normals: NormalStream, p: PEMParams) -> tuple[float, float]:
         """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1)
-        each (the AR(1) part stays in ``self._tracks[key].u``)."""
-        p = self.params
+        each (the AR(1) part stays in ``self._tracks[key].u``), by the noise process of its
+        class's parameters ``p`` (its ``noise_tau``, run share and frame share)."""
         track = self._tracks.get(key)
         if track is None:
             a, u, m = normals.take(3)
             track = self._tracks[key] = _Track(a, u, m, self._frame)
         else:
             e_u, e_m = normals.take(2)
-            phi = self._phi() ** (self._frame - track.frame)
+            phi = self._phi(p) ** (self._frame - track.frame)
             keep = math.sqrt(max(0.0, 1.0 - phi * phi))
             track.u = phi * track.u + keep * e_u
             track.m = phi * track.m + keep * e_m
@@ -1013,9 +1015,8 @@ class PEMSensor(Sensor):
         """:func:`_pem_frame`'s constants for an actor class with parameters ``p``."""
         import numpy as np
 
-        car = self.params
         values = [
-            self._phi(), car.noise_run_share, car.noise_frame_share, p.noise_sigma,
+            self._phi(p), p.noise_run_share, p.noise_frame_share, p.noise_sigma,
             p.rain_sigma, p.noise_up_ratio, p.detect_gain, p.detect_ar, p.detect_bias,
             p.floor, p.jitter, p.rain_jitter, conditions.rain_noise,
             float(self.camera.width), float(self.camera.height),
@@ -1169,7 +1170,7 @@ class PEMSensor(Sensor):
             seen, x0, y0, x1, y1, z, d, s = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
             if not seen:
                 continue
-            n, m = self._noise(key, normals)
+            n, m = self._noise(key, normals, p)
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
             sig = p.noise_sigma + p.rain_sigma * rain

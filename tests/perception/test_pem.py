@@ -374,9 +374,9 @@ def _check_frame_detector(name, rain):
     kinds = ("car", "pedestrian", "cyclist", "car")
     sizes = ((4.7, 1.85, 1.5), (0.5, 0.5, 1.75), (1.8, 0.6, 1.7), (4.2, 1.8, 1.4))
 
-    def looks(sensor):
+    def looks(sensor):  # per road user its detections' looks (a cyclist: two)
         return [
-            sensor.prepare(ActorView(EGO, *size, kind=kind, color=(20 * i, 90, 200)), cond)
+            sensor.prepare_parts(ActorView(EGO, *size, kind=kind, color=(20 * i, 90, 200)), cond)
             for i, (kind, size) in enumerate(zip(kinds, sizes, strict=True))
         ]
 
@@ -395,10 +395,10 @@ def _check_frame_detector(name, rain):
         ego = Pose(0.3 * frame, 0.01 * frame, 0.002 * frame)
         poses = [Pose(4.0 + 0.5 * frame + 6.0 * i, 3.0 - 2.0 * i, 0.4 * i) for i in range(4)]
         keep = range(4) if frame < 30 else (0, 2, 3)
-        want = plain.detect_prepared(
-            ego.x, ego.y, ego.yaw, [(looks_a[i], poses[i]) for i in keep], cond, normals_a
-        )
-        got = detect(ego.x, ego.y, ego.yaw, [(looks_b[i], poses[i]) for i in keep])
+        seen_a = [(look, poses[i]) for i in keep for look in looks_a[i]]
+        seen_b = [(look, poses[i]) for i in keep for look in looks_b[i]]
+        want = plain.detect_prepared(ego.x, ego.y, ego.yaw, seen_a, cond, normals_a)
+        got = detect(ego.x, ego.y, ego.yaw, seen_b)
         assert got == want, frame
         detections += len(want)
     assert detections > 20

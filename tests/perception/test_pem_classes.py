@@ -278,3 +278,39 @@ def test_the_embedded_backend_gives_a_cyclists_two_detections(tmp_path: Path) ->
         assert got == b.detect(EGO, (actor,), CLEAR, rng_b)
         labels |= {d.label for d in got}
     assert labels == {"person", "bicycle"}
+
+
+def _class_file(tmp_path: Path, kind: str, **params: float) -> Path:
+    """The shipped per-class file with ``params`` set in ``kind``'s entry."""
+    import yaml
+
+    from sitcov.perception._pem_classes import PEM_CLASSES_FILE
+
+    data = yaml.safe_load(PEM_CLASSES_FILE.read_text())
+    data["classes"][kind]["params"].update(params)
+    path = tmp_path / f"classes-{kind}.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+@pytest.mark.parametrize("tau, low, high", [(0.0, -0.2, 0.2), (3.0, 0.8, 1.0)])
+def test_a_class_draws_its_own_noise_process(tmp_path: Path, tau, low, high) -> None:
+    """A pedestrian's score noise runs by its class's ``noise_tau`` and shares, not the
+    car PEM's (0.53 s): with ``noise_tau`` 0 its consecutive frames are independent, with
+    3 s (an AR coefficient of 0.97 per frame) they move together. Lag-1 correlation of the
+    score's logit over 600 frames of a static pedestrian, one run."""
+    path = _class_file(
+        tmp_path, "pedestrian", noise_tau=tau, noise_frame_share=0.0, noise_run_share=0.0,
+        detect_bias=9.0, floor=0.0,
+    )  # fmt: skip
+    sensor = PEMSensor(classes=path)
+    sensor.reset(frame_dt=0.1)
+    rng = np.random.default_rng(7)
+    actor = (_actor("pedestrian", 12.0, 0.0, 1.5),)
+    logits = []
+    for _ in range(600):
+        (det,) = sensor.detect(EGO, actor, CLEAR, rng)
+        logits.append(math.log(det.score / (1.0 - det.score)))
+    x = np.asarray(logits)
+    lag1 = float(np.corrcoef(x[:-1], x[1:])[0, 1])
+    assert low <= lag1 <= high, lag1
