@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -214,20 +215,32 @@ def test_the_shipped_person_boxes_are_the_detectors() -> None:
     assert (car.box_dx0, car.box_dx1, car.jitter_y) == (0.0, 0.0, -1.0)
 
 
-def _with_bicycle(tmp_path: Path, bicycle: dict | None) -> Path:
-    """The shipped per-class file with the cyclist's ``bicycle`` entry set (None: none)."""
+def _edited_classes(
+    tmp_path: Path, edit: Callable[[dict], object], name: str = "classes.yaml"
+) -> Path:
+    """The shipped per-class file with ``edit`` applied to its ``classes`` mapping, written
+    to ``tmp_path / name``."""
     import yaml
 
     from sitcov.perception._pem_classes import PEM_CLASSES_FILE
 
     data = yaml.safe_load(PEM_CLASSES_FILE.read_text())
-    data["classes"].pop("bicycle", None)
-    if bicycle is not None:
-        params = {**data["classes"]["cyclist"]["params"], **bicycle}
-        data["classes"]["bicycle"] = {"label": "bicycle", "params": params}
-    path = tmp_path / "classes.yaml"
+    edit(data["classes"])
+    path = tmp_path / name
     path.write_text(yaml.safe_dump(data))
     return path
+
+
+def _with_bicycle(tmp_path: Path, bicycle: dict | None) -> Path:
+    """The shipped per-class file with the cyclist's ``bicycle`` entry set (None: none)."""
+
+    def edit(classes: dict) -> None:
+        classes.pop("bicycle", None)
+        if bicycle is not None:
+            params = {**classes["cyclist"]["params"], **bicycle}
+            classes["bicycle"] = {"label": "bicycle", "params": params}
+
+    return _edited_classes(tmp_path, edit, "rider.yaml" if bicycle is None else "both.yaml")
 
 
 def test_a_cyclist_gives_its_rider_and_its_bicycle(tmp_path: Path) -> None:
@@ -254,7 +267,6 @@ def test_a_cyclist_gives_its_rider_and_its_bicycle(tmp_path: Path) -> None:
     assert np.median(heights["bicycle"]) < 0.75 * np.median(heights["person"])
     alone = PEMSensor(classes=_with_bicycle(tmp_path, None))
     assert alone.parts("cyclist") == ("cyclist",)
-    cyclist = (_actor("cyclist", 9.0, -1.0),)
     for seed in range(20):
         dets = alone.detect(EGO, cyclist, CLEAR, np.random.default_rng(seed))
         assert {d.label for d in dets} <= {"person"}
@@ -280,29 +292,15 @@ def test_the_embedded_backend_gives_a_cyclists_two_detections(tmp_path: Path) ->
     assert labels == {"person", "bicycle"}
 
 
-def _class_file(tmp_path: Path, kind: str, **params: float) -> Path:
-    """The shipped per-class file with ``params`` set in ``kind``'s entry."""
-    import yaml
-
-    from sitcov.perception._pem_classes import PEM_CLASSES_FILE
-
-    data = yaml.safe_load(PEM_CLASSES_FILE.read_text())
-    data["classes"][kind]["params"].update(params)
-    path = tmp_path / f"classes-{kind}.yaml"
-    path.write_text(yaml.safe_dump(data))
-    return path
-
-
 @pytest.mark.parametrize("tau, low, high", [(0.0, -0.2, 0.2), (3.0, 0.8, 1.0)])
 def test_a_class_draws_its_own_noise_process(tmp_path: Path, tau, low, high) -> None:
     """A pedestrian's score noise runs by its class's ``noise_tau`` and shares, not the
     car PEM's (0.53 s): with ``noise_tau`` 0 its consecutive frames are independent, with
     3 s (an AR coefficient of 0.97 per frame) they move together. Lag-1 correlation of the
     score's logit over 600 frames of a static pedestrian, one run."""
-    path = _class_file(
-        tmp_path, "pedestrian", noise_tau=tau, noise_frame_share=0.0, noise_run_share=0.0,
-        detect_bias=9.0, floor=0.0,
-    )  # fmt: skip
+    own = {"noise_tau": tau, "noise_frame_share": 0.0, "noise_run_share": 0.0,
+           "detect_bias": 9.0, "floor": 0.0}  # fmt: skip
+    path = _edited_classes(tmp_path, lambda classes: classes["pedestrian"]["params"].update(own))
     sensor = PEMSensor(classes=path)
     sensor.reset(frame_dt=0.1)
     rng = np.random.default_rng(7)
