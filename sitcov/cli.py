@@ -1422,8 +1422,10 @@ def _check_frames_cmd(
     classes = load_class_params(pem_classes)
     lacking = sorted(k for k in frames if k != "car" and k not in classes)
     if lacking:
+        from sitcov.perception._pem_classes import PEM_CLASSES_FILE
+
         raise ConfigError(
-            file=str(pem_classes or "sitcov/perception/data/pem_classes.yaml"),
+            file=str(pem_classes or PEM_CLASSES_FILE),
             field="classes", value=",".join(lacking), expected="an entry for every kind checked",
         )  # fmt: skip
     params = {k: load_pem_params(pem) if k == "car" else classes[k][1] for k in frames}

@@ -47,11 +47,9 @@ _COLUMNS = (
 
 def _frame(kind: str, rng: np.random.Generator, ego: Pose, camera: CameraSpec):
     """One random actor of ``kind`` and weather values (see the module doc)."""
-    from sitcov.perception._detector import PART_KIND
     from sitcov.perception._person import SHIRTS
     from sitcov.weather._conditions import WEATHER_ELEMENTS
 
-    kind = PART_KIND.get(kind, kind)  # a cyclist's bicycle: a cyclist's frame
     length, width, heights, speed = SHAPES[kind]
     lo, hi = (math.log(d) for d in DISTANCE_RANGE)
     dist = math.exp(rng.uniform(lo, hi))
@@ -84,7 +82,7 @@ def class_sweep(
     (the score as recorded runs take it: :func:`sitcov.calibration._camera_runs.match`)."""
     from sitcov.calibration._camera_runs import match
     from sitcov.perception._camera import project_box
-    from sitcov.perception._detector import PEM_LABELS
+    from sitcov.perception._detector import PART_KIND, PEM_LABELS
     from sitcov.perception._pem import PEMSensor
     from sitcov.perception._renderer import render_frame
     from sitcov.sim.embedded._map import load_map
@@ -98,7 +96,7 @@ def class_sweep(
     rng = np.random.default_rng([seed, len(kind)])
     out = []
     for i in range(frames):
-        actor, values = _frame(kind, rng, ego, camera)
+        actor, values = _frame(PART_KIND.get(kind, kind), rng, ego, camera)  # a road user
         cond = conditions_from_values(values)
         feats = sensor.features(ego, actor, cond)
         if feats is None:

@@ -519,8 +519,8 @@ class Noise:
     score is the mean plus ``ro`` times the frame's scale times a fresh N(0, 1)
     (independent of the AR state; PEM ``noise_outlier_share``/``_ratio``); the scale
     above the median is ``sigma * up * (h / size_ref) ** (k + ku)`` (``ku`` the upper
-    side's own size gain, PEM ``noise_up_size_gain``); below :data:`TAIL_KNEE` standard
-    units under the median the latent noise ``n`` acts as ``n - tl (n + TAIL_KNEE) ** 2``
+    side's own size gain, PEM ``noise_up_size_gain``); below ``LOW_TAIL_KNEE`` standard
+    units under the median the latent noise ``n`` acts as ``n - tl (n + LOW_TAIL_KNEE) ** 2``
     (``tl`` the lower tail's curvature, PEM ``noise_low_tail``; :func:`_ginv`)."""
 
     sigma: float
@@ -541,8 +541,6 @@ class Noise:
     tl: float = 0.0
 
 
-#: Where the lower tail's stretch starts (``Noise.tl``, PEM ``noise_low_tail``).
-TAIL_KNEE = LOW_TAIL_KNEE
 #: The log curvature at or below which the tail is off (0): its value while the rest of
 #: the model is fitted first (:func:`_with_tail`).
 TAIL_OFF = -12.0
@@ -584,9 +582,9 @@ def _ginv(
     sig = noise.sigma if sigma is None else sigma
     n = np.where(v < 0.0, v / sig, v / (sig * noise.up if upper is None else upper))
     if noise.tl != 0.0:  # beyond the knee, x - tl x**2 of the standard units x past it
-        w = np.minimum(n + TAIL_KNEE, 0.0)
+        w = np.minimum(n + LOW_TAIL_KNEE, 0.0)
         x = (1.0 - np.sqrt(1.0 - 4.0 * noise.tl * w)) / (2.0 * noise.tl)
-        n = np.where(w < 0.0, x - TAIL_KNEE, n)
+        n = np.where(w < 0.0, x - LOW_TAIL_KNEE, n)
     return n
 
 
@@ -594,7 +592,7 @@ def _slope(v: np.ndarray, n: np.ndarray, noise: Noise, sig: Any, upper: Any) -> 
     """d g(n) / d n per frame at the latent noise ``n`` of the logit offset ``v``."""
     slope = np.where(v < 0.0, sig, upper)
     if noise.tl != 0.0:
-        slope = slope * (1.0 - 2.0 * noise.tl * np.minimum(n + TAIL_KNEE, 0.0))
+        slope = slope * (1.0 - 2.0 * noise.tl * np.minimum(n + LOW_TAIL_KNEE, 0.0))
     return slope
 
 

@@ -25,6 +25,7 @@ class FrameTruth:
     def __init__(self) -> None:
         self.truth: tuple[Any, ...] | None = None
         self.views: list[tuple[Any, Any]] = []
+        self.firsts: set[int] = set()  # ids of the views' looks (each road user's first)
         self.raw: tuple[Detection, ...] = ()
 
 
@@ -56,7 +57,9 @@ class RecordingPEM(PEMSensor):
 
     def prepare_parts(self, actor, conditions):  # type: ignore[no-untyped-def]
         out = super().prepare_parts(actor, conditions)
-        self.log_of().views.append((actor, out[0]))  # a road user's first detection
+        log = self.log_of()
+        log.views.append((actor, out[0]))  # a road user's first detection
+        log.firsts.add(id(out[0]))
         return out
 
     def frame_detector(self, conditions, rng):  # type: ignore[no-untyped-def]
@@ -66,9 +69,8 @@ class RecordingPEM(PEMSensor):
             log = self.log_of()
             out = inner(ex, ey, eyaw, actors)
             views, k = [], 0
-            firsts = {id(look) for _, look in log.views}
             for look, body in actors:  # the active actors' parts, in prepare's order
-                if id(look) not in firsts:
+                if id(look) not in log.firsts:
                     continue  # a road user's second detection (a cyclist's bicycle)
                 while log.views[k][1] is not look:
                     k += 1
