@@ -48,7 +48,7 @@ def candidate(
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("fit", help="fit frames file (.jsonl.gz)")
+    parser.add_argument("fit", help="fit frames file (.jsonl.gz); several: comma-separated")
     parser.add_argument("held", help="held-out frames file: every run is checked")
     parser.add_argument("--kind", default="car", choices=("car", "pedestrian", "cyclist"))
     parser.add_argument(
@@ -64,7 +64,7 @@ def main() -> None:
     args = parser.parse_args()
     params0, _ = shipped(args.kind)
     cand = candidate(args.kind, args.extras, args.outliers, args.tail, args.model)
-    fit_data = read_frames(args.fit)[args.kind]
+    fit_data = fm._merged(args.fit.split(","))[args.kind]
     t, held = fm.tracks_of(fit_data), fm.tracks_of(read_frames(args.held)[args.kind])
     clock = time.perf_counter()
     fit = fm.fit_candidate(t, cand, params0.size_ref_px, stages=2)

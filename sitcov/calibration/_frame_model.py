@@ -237,6 +237,8 @@ EXTRA_SETS: tuple[tuple[Any, ...], ...] = (
     ("hinge_view40_tail", ("hinge40", "hinge80", "view_hinge40"), False, False, False, True),
     ("hinge_view40_cut_tail", ("hinge40", "hinge80", "view_hinge40", "cut"), False, False,
      False, True),
+    ("hinge_view40_cut_trunc20_tail", ("hinge40", "hinge80", "view_hinge40", "cut",
+     "trunc_hinge20"), False, False, False, True),
 )  # fmt: skip
 
 
@@ -389,7 +391,10 @@ NEAR_M = 10.0
 #: truncation times ``side`` (a road user cut by the image's left edge from one cut by
 #: its right); ``cut`` a ramp from 0 to 1 over the first :data:`CUT_RAMP` of truncation (a
 #: road user cut by the image edge at all: its detected scores sit higher than the
-#: truncation's linear term says, docs/pem.md, "The lower tail"); ``size3`` the cube of
+#: truncation's linear term says, docs/pem.md, "The lower tail"); ``trunc_hinge<N>`` the
+#: truncation past ``N`` % (``max(0, trunc - N / 100)``: a bend of the truncation term,
+#: measured, no PEM parameter; docs/pem.md, "The car cut by the image edge, again");
+#: ``size3`` the cube of
 #: the log apparent size; ``hinge<N>`` (any whole ``N`` px, e.g. ``hinge40``) the hinge
 #: ``max(0, ln(h / N))`` of the box height ``h`` [px] (unclamped: a piecewise-linear
 #: bend of the size term at ``N`` px, which the quadratic in the clamped log size cannot
@@ -401,8 +406,8 @@ NEAR_M = 10.0
 #: chance of giving a box at all need not follow the box size as its score does.
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
-               "trunc_side", "cut", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
-               "det_<term>")  # fmt: skip
+               "trunc_side", "cut", "trunc_hinge<N>", "size3", "hinge<N>", "view_hinge<N>",
+               "size", "size2", "det_<term>")  # fmt: skip
 
 
 def is_detection_term(name: str) -> bool:
@@ -446,6 +451,9 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
     for name in names:
         if name.startswith("det_"):  # the same column, in the detection term only
             cols[name] = lambda n=name[4:]: extra_columns(t, x, (n,))[:, 0]
+            continue
+        if name.startswith("trunc_hinge") and name[11:].isdigit():
+            cols[name] = lambda k=int(name[11:]) / 100.0: np.maximum(0.0, -x[:, 8] - k)
             continue
         view = name.startswith("view_hinge")
         knot = name[10 if view else 5 :] if name.startswith(("hinge", "view_hinge")) else ""

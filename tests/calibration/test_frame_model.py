@@ -254,6 +254,21 @@ def test_the_size_hinge_is_recovered_and_chosen_only_when_it_is_there() -> None:
             fm.extra_columns(t, np.zeros((len(h), 14)), (bad,))
 
 
+def test_the_truncation_hinge_is_the_truncation_past_its_knot() -> None:
+    """``trunc_hinge<N>`` (a measured term, not a candidate): ``max(0, trunc - N / 100)``
+    of the design's truncation column (its 9th, minus the truncation), 0 up to the knot
+    and rising one for one past it; a knot that is not a whole number is refused."""
+    t = fm.tracks_of(_draw(41, runs=4))
+    trunc = np.array([0.0, 0.1, 0.2, 0.25, 0.9] * (len(t.score) // 5 + 1))[: len(t.score)]
+    x = np.zeros((len(trunc), 14))
+    x[:, 8] = -trunc
+    col = fm.extra_columns(t, x, ("trunc_hinge20",))[:, 0]
+    assert np.allclose(col, np.maximum(0.0, trunc - 0.2))
+    assert col[trunc <= 0.2].max() == 0.0 and col[trunc == 0.9].min() == pytest.approx(0.7)
+    with pytest.raises(SitcovError, match="unknown extra term"):
+        fm.extra_columns(t, x, ("trunc_hinge2.5",))
+
+
 def test_a_detection_term_enters_the_detection_probit_only() -> None:
     """``det_size`` (the log size in the detection term only): drawn with a detector that
     gives fewer boxes the more of the image the road user fills (``fill_miss``, a size
