@@ -589,7 +589,7 @@ def _object_noise(value: Any) -> Any:
 def run_loop(world: World, monitors: list[Any], n_max: int, record: bool) -> str:
     """Step the world until a monitor ends the run or ``n_max`` steps passed; the end reason."""
     fused, rest = fused_update(world, monitors)  # the built-in list's work in one call
-    step = world.step
+    step = world.stepper()  # World.step with the run's fixed parts bound
     if fused is not None and not rest:
         while True:
             if record:

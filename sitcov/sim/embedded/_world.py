@@ -14,7 +14,7 @@ alternates the two.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from sitcov.sim.embedded import _dynamics
@@ -95,6 +95,8 @@ class World:
         self._drives = [(a, getattr(a.controller, "drive", None)) for a in self.actors]
         #: the ego's move (``_ego_move_setup``), made at the first step
         self._ego_move: Any = None
+        #: :meth:`stepper`'s function, made at the first :meth:`step`
+        self._stepper: Callable[[], None] | None = None
 
     def bodies_except(self, actor: Actor) -> Iterator[Actor]:
         """Every active actor (the ego included) but ``actor``."""
@@ -114,58 +116,78 @@ class World:
 
     def step(self) -> None:
         """One control period for every actor (see the module docstring)."""
-        ego, wind, dt = self.ego, self.wind, self.dt
+        stepper = self._stepper
+        if stepper is None:
+            stepper = self._stepper = self.stepper()
+        stepper()
+
+    def stepper(self) -> Callable[[], None]:
+        """:meth:`step` as a function of no arguments, with what stays fixed for the run
+        bound once: the ego, its body and move, the wind, friction, control period, the
+        driver's ``command`` and the actors' drives. The run loop calls it every step
+        (``_backend.run_loop``): looking these up again on every step cost more than
+        some of the work they serve. The same operations in the same order as before
+        (the same bits); what changes during a run (``k``, ``t``, the ego's speed, the
+        bodies, the actors' ``active`` and ``crashed``) is read every call."""
+        ego, wind, dt, mu = self.ego, self.wind, self.dt, self.mu
         eb = ego.body
-        speed = math.hypot(eb.vx, eb.vy)  # the ego's body is a Vehicle: its speed
-        self.ego_decel = (self.ego_speed - speed) / dt
-        self.ego_speed = speed
-        k = self.k
-        throttle, brake, steer = self.driver.command(self, k, self.t)
-        mu = self.mu
-        if wind.mean > 0.0:
-            wind.update(k)
-            lateral = wind.lateral
-            lat_e = lateral(ego)
-        else:
-            lateral = None
-            lat_e = 0.0
-        for a, drive in self._drives:
-            if a.active:
-                lat = 0.0 if lateral is None else lateral(a)
-                if a.crashed:
-                    a.move(0.0, 1.0, 0.0, mu, lat, dt)
-                elif drive is not None:
-                    drive(a, self, mu, lat, dt)
-                else:
-                    thr, brk, st = a.controller.command(a, self)
-                    a.move(thr, brk, st, mu, lat, dt)
+        command = self.driver.command
+        drives, actors = self._drives, self.actors
+        windy = wind.mean > 0.0  # Wind.update and Wind.lateral act only then
+        lateral = wind.lateral if windy else None
+        update_wind = wind.update
         em = self._ego_move
         if em is None:
             em = self._ego_move = self._ego_move_setup()
-        if em:  # Actor.move then Vehicle.step of a car, written out
-            move, kc, steer_max, points = em
-            moved, delta, x, y, yaw, vx, vy, r, s, i = move(
-                kc, steer_max, eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r,
-                throttle, brake, steer, mu, lat_e, dt, SUBSTEPS, points, ego.hint,
-            )  # fmt: skip
-            if moved:
-                eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r = x, y, yaw, vx, vy, r
-                eb.steer = delta
-            ego.s, ego.hint = s, i
-        else:
-            ego.move(throttle, brake, steer, mu, lat_e, dt)
-        self.k = k = k + 1
-        self.t = k * dt
-        ex, ey = eb.x, eb.y
-        hypot = math.hypot
-        for a in self.actors:
-            a.prev_gap = a.gap
-            if a.active:
-                b = a.body
-                a.dx, a.dy = dx, dy = b.x - ex, b.y - ey
-                a.gap = hypot(dx, dy)
+        # Actor.move then Vehicle.step of a car, written out (() for Actor.move)
+        move, kc, steer_max, points = em if em else (None, None, 0.0, None)
+        hypot, inf = math.hypot, math.inf
+
+        def step() -> None:
+            speed = hypot(eb.vx, eb.vy)  # the ego's body is a Vehicle: its speed
+            self.ego_decel = (self.ego_speed - speed) / dt
+            self.ego_speed = speed
+            k = self.k
+            throttle, brake, steer = command(self, k, self.t)
+            if windy:
+                update_wind(k)
+                lat_e = lateral(ego)
             else:
-                a.gap = math.inf
+                lat_e = 0.0
+            for a, drive in drives:
+                if a.active:
+                    lat = 0.0 if lateral is None else lateral(a)
+                    if a.crashed:
+                        a.move(0.0, 1.0, 0.0, mu, lat, dt)
+                    elif drive is not None:
+                        drive(a, self, mu, lat, dt)
+                    else:
+                        thr, brk, st = a.controller.command(a, self)
+                        a.move(thr, brk, st, mu, lat, dt)
+            if move is not None:
+                moved, delta, x, y, yaw, vx, vy, r, s, i = move(
+                    kc, steer_max, eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r,
+                    throttle, brake, steer, mu, lat_e, dt, SUBSTEPS, points, ego.hint,
+                )  # fmt: skip
+                if moved:
+                    eb.x, eb.y, eb.yaw, eb.vx, eb.vy, eb.r = x, y, yaw, vx, vy, r
+                    eb.steer = delta
+                ego.s, ego.hint = s, i
+            else:
+                ego.move(throttle, brake, steer, mu, lat_e, dt)
+            self.k = k = k + 1
+            self.t = k * dt
+            ex, ey = eb.x, eb.y
+            for a in actors:
+                a.prev_gap = a.gap
+                if a.active:
+                    b = a.body
+                    a.dx, a.dy = dx, dy = b.x - ex, b.y - ey
+                    a.gap = hypot(dx, dy)
+                else:
+                    a.gap = inf
+
+        return step
 
     def _ego_move_setup(self) -> tuple[Any, Any, float, Any] | tuple[()]:
         """What :meth:`step` needs to move a car ego on its route in one compiled call
