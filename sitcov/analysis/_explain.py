@@ -58,6 +58,19 @@ MIN_CELL = 5
 Progress = Callable[[str, int, int], None]
 #: parametric-bootstrap replicates calibrating the pair tests (adjusted p >= 1/(B+1))
 BOOTSTRAP = 99
+#: parametric-bootstrap replicates measuring the element tests' Bartlett factor (0: none)
+ELEMENT_BOOTSTRAP = 39
+#: fewest judged runs per main-effects parameter for the model-based tests: below it even
+#: the model-based tests call null elements and pairs significant far more often than
+#: alpha (200 runs of the default hyperspace's 52 parameters, before this rule: a null
+#: element in 49 %, a pair in 73 % of simulated campaigns; docs/explain.md, "Calibration"),
+#: so the element tests fall back on exact per-bin tests and the pair tests are not run
+MIN_RUNS_PER_PARAMETER = 6
+#: judged runs per main-effects parameter from which the element tests' Bartlett factor is
+#: taken as 1 (not measured): it shrinks as parameters / runs (1.50 at 6 runs per
+#: parameter, 1.08 at 19; docs/explain.md, "Calibration"), while its bootstrap's cost grows
+#: with the runs (a 100,000-run report would spend minutes on it)
+BARTLETT_RUNS_PER_PARAMETER = 40
 
 
 def _field(run: Any, name: str) -> Any:
@@ -121,13 +134,6 @@ class _Design:
         if not cols:
             return np.zeros((len(ca), 0)), 0
         return np.stack(cols, axis=1), len(cols)
-
-
-def _lr_test(dev_small: float, dev_big: float, df: int) -> tuple[float, float | None]:
-    from scipy.stats import chi2
-
-    lr = max(0.0, dev_small - dev_big)
-    return lr, (float(chi2.sf(lr, df)) if df > 0 else None)
 
 
 def _rate_row(k: int, n: int) -> dict[str, Any]:
@@ -293,6 +299,33 @@ def _pair_text(test: dict[str, Any]) -> str:
     )
 
 
+def _method_text(exact_params: int | None, element_bootstrap: int, bootstrap: int) -> str:
+    """How the findings were tested, as the output's header says it; ``exact_params``: the
+    main-effects model's parameters when the runs were too few for the model-based tests
+    (None: they were run)."""
+    if exact_params is not None:
+        return (
+            f"too few runs for the model-based tests (>= {MIN_RUNS_PER_PARAMETER} judged runs "
+            f"per parameter of the main-effects model: "
+            f"{MIN_RUNS_PER_PARAMETER * exact_params} here; docs/explain.md, Calibration); "
+            "elements: the smallest Fisher exact p of their bins, Bonferroni over the bins, "
+            "Holm over elements; pairs not tested"
+        )
+    scaled = (
+        f" divided by its Bartlett factor from a {element_bootstrap}-replicate parametric "
+        "bootstrap" if element_bootstrap > 0 else ""
+    )  # fmt: skip
+    pairs = (
+        "likelihood-ratio test of the interaction cells and a largest-cell-residual test, "
+        f"family-wise min-p adjusted over pairs by a {bootstrap}-replicate parametric "
+        "bootstrap under the main-effects model" if bootstrap > 0 else "not tested"
+    )  # fmt: skip
+    return (
+        "ridge logistic regression on bin indicators; elements: likelihood-ratio test vs "
+        f"the model without the element{scaled}, Holm over elements; pairs: {pairs}"
+    )
+
+
 def _not_enough(n: int, k: int, min_runs: int) -> str | None:
     if n < min_runs or k < MIN_EACH or n - k < MIN_EACH:
         return (
@@ -311,6 +344,7 @@ def interaction_analysis(
     min_runs: int = MIN_RUNS,
     min_cell: int = MIN_CELL,
     bootstrap: int = BOOTSTRAP,
+    element_bootstrap: int = ELEMENT_BOOTSTRAP,
     seed: int = 0,
     progress: Progress | None = None,
 ) -> dict[str, Any]:
@@ -325,6 +359,8 @@ def interaction_analysis(
         min_cell: fewest judged runs for a cell to get its own interaction column.
         bootstrap: parametric-bootstrap replicates calibrating the pair tests; 0 skips
             the pair tests (the report does: they take most of the time).
+        element_bootstrap: parametric-bootstrap replicates measuring the element tests'
+            Bartlett factor (:func:`_bartlett_factor`); 0 uses the chi-square as it is.
         seed: seed of the bootstrap's numpy Generator.
         progress: called as ``progress(stage, done, total)`` (e.g. after each bootstrap
             replicate: the pair tests take most of the time).
@@ -341,14 +377,10 @@ def interaction_analysis(
         "failures": k,
         "excluded": excluded,
         "alpha": alpha,
-        "method": (
-            "ridge logistic regression on bin indicators; elements: likelihood-ratio test "
-            "vs the model without the element, Holm over elements; pairs: likelihood-ratio "
-            "test of the interaction cells and a largest-cell-residual test, family-wise "
-            f"min-p adjusted over pairs by a {bootstrap}-replicate parametric bootstrap "
-            "under the main-effects model"
-        ),
+        "method": _method_text(None, element_bootstrap, bootstrap),
         "bootstrap": bootstrap,
+        "element_bootstrap": element_bootstrap,
+        "element_lr_scale": None,
         "seed": seed,
         "message": _not_enough(n, k, min_runs),
         "elements": [],
@@ -361,15 +393,23 @@ def interaction_analysis(
     with single_thread():
         tick("element tests", 0, 1)
         design = _Design(codes, hyperspace.sizes)
-        main = fit_logit(design.matrix(), y)
-        out["elements"] = _element_tests(hyperspace, design, codes, y, main, alpha)
+        x_main = design.matrix()
+        main = fit_logit(x_main, y)
+        reduced = _reduced_fits(design, y)
+        params = x_main.shape[1]
+        exact = n < MIN_RUNS_PER_PARAMETER * params
+        replicates = element_bootstrap if n < BARTLETT_RUNS_PER_PARAMETER * params else 0
+        scale = 1.0 if exact else _bartlett_factor(design, main, reduced, replicates, seed)
+        out["element_lr_scale"] = None if exact else round(scale, 4)
+        out["method"] = _method_text(None if not exact else params, replicates, bootstrap)
+        out["elements"] = _element_tests(
+            hyperspace, design, codes, y, main, alpha, scale, reduced, exact
+        )
         tick("element tests", 1, 1)
-        if bootstrap > 0:
+        if bootstrap > 0 and not exact:
             out["pairs"] = _pair_tests(
                 hyperspace, design, y, main, min_cell, bootstrap, seed, alpha, tick
             )
-        else:
-            out["method"] = out["method"].split("; pairs:")[0] + "; pairs not tested"
     for t in out["pairs"]:
         a, b = t.pop("ab")
         if t["significant"]:
@@ -379,20 +419,67 @@ def interaction_analysis(
 
 
 def _element_tests(
-    hs: Hyperspace, design: _Design, codes: np.ndarray, y: np.ndarray, main: Any, alpha: float
-) -> list[dict[str, Any]]:
+    hs: Hyperspace, design: _Design, codes: np.ndarray, y: np.ndarray, main: Any, alpha: float,
+    scale: float = 1.0, reduced: Sequence[Any] | None = None, exact: bool = False,
+) -> list[dict[str, Any]]:  # fmt: skip
+    """Per element, the LR test against the model without it (``reduced``: those fits),
+    the statistic divided by ``scale`` (:func:`_bartlett_factor`), Holm over elements;
+    ``exact``: the element's p is its smallest per-bin Fisher exact p times its number of
+    bins instead (valid at any size; the LR still ranks the findings)."""
+    from scipy.stats import chi2
+
+    reduced = reduced or _reduced_fits(design, y)
     tests = []
     for e, name in enumerate(hs.element_names):
         df = len(design.levels[e])
-        lr, p = _lr_test(fit_logit(design.matrix(drop=e), y).deviance, main.deviance, df)
-        tests.append({"element": name, "df": df, "lr": lr, "p": p})
+        lr = max(0.0, reduced[e].deviance - main.deviance)
+        bins = _bin_effects(hs, codes, y, e, alpha)
+        if exact:  # the smallest exact bin p, Bonferroni over the bins
+            p = min(1.0, len(bins) * min(b["p"] for b in bins)) if df > 0 else None
+        else:
+            p = float(chi2.sf(lr / scale, df)) if df > 0 else None
+        tests.append({"element": name, "df": df, "lr": lr, "p": p, "bins": bins})
     tested = [t for t in tests if t["p"] is not None]
     for t, adj in zip(tested, holm([t["p"] for t in tested]), strict=True):
         t["p_adjusted"] = adj
-    for e, t in enumerate(tests):
+    for t in tests:
         _mark(t, t.get("p_adjusted"), alpha)
-        t["bins"] = _bin_effects(hs, codes, y, e, alpha)
     return tests
+
+
+def _reduced_fits(design: _Design, y: np.ndarray) -> list[Any]:
+    """The main-effects model without each element in turn, fitted to ``y``."""
+    return [fit_logit(design.matrix(drop=e), y) for e in range(len(design.levels))]
+
+
+def _bartlett_factor(
+    design: _Design, main: Any, reduced: Sequence[Any], replicates: int, seed: int
+) -> float:
+    """How much the element LR statistics exceed their degrees of freedom under the null:
+    per replicate and element, outcomes are drawn from the fit without the element, both
+    models refitted and the LR recomputed; the factor is the sum of those LRs over the sum
+    of their df (1 without replicates). With tens of bins per element and a few hundred
+    runs the chi-square approximation is anti-conservative (docs/explain.md, "Calibration":
+    the null LR statistics average 1.08 times their df at 1,000 runs), and dividing
+    by the measured factor (a bootstrap Bartlett correction, Rocke 1989) gives it back its
+    nominal level; pooled over elements, a few tens of replicates measure it to a few %."""
+    if replicates <= 0:
+        return 1.0
+    rng = np.random.default_rng([seed, 1])  # not the pair tests' stream
+    x_main = design.matrix()
+    x_small = [design.matrix(drop=e) for e in range(len(design.levels))]
+    total_lr = total_df = 0.0
+    for _ in range(replicates):
+        for e, fit in enumerate(reduced):
+            df = len(design.levels[e])
+            if not df:
+                continue
+            y_star = (rng.random(len(fit.prob)) < fit.prob).astype(float)
+            small = fit_logit(x_small[e], y_star, start=fit.coef)
+            big = fit_logit(x_main, y_star, start=main.coef)
+            total_lr += max(0.0, small.deviance - big.deviance)
+            total_df += df
+    return total_lr / total_df if total_df else 1.0
 
 
 def _pair_lr(x_main: np.ndarray, cols: np.ndarray, y: np.ndarray, main: Any) -> float:
