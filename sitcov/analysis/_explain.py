@@ -15,7 +15,11 @@ Method (docs/explain.md):
    Because one deviating cell is diluted in a 25-55 df omnibus test, each pair also gets a
    focused test: its largest standardised cell residual under the main-effects fit.
 3. Multiple comparisons, family-wise error rate ``alpha`` per family: Holm over the
-   element tests; over the pair tests (the smaller of each pair's two p-values), the
+   element tests, each LR statistic divided by its Bartlett factor measured by a
+   parametric bootstrap (the chi-square alone is anti-conservative with tens of
+   parameters and hundreds of runs); under ``MIN_RUNS_PER_PARAMETER`` judged runs per
+   parameter, each element's smallest exact per-bin p (Bonferroni over its bins) instead,
+   and no pair test; over the pair tests (the smaller of each pair's two p-values), the
    single-step min-p adjustment (Westfall-Young) calibrated by a parametric bootstrap
    under the main-effects fit, because the chi-square
    approximation of a 25-55 df test on cells of 5-20 runs is anti-conservative (a null
@@ -60,14 +64,14 @@ Progress = Callable[[str, int, int], None]
 BOOTSTRAP = 99
 #: parametric-bootstrap replicates measuring the element tests' Bartlett factor (0: none)
 ELEMENT_BOOTSTRAP = 39
-#: fewest judged runs per main-effects parameter for the model-based tests: below it even
-#: the model-based tests call null elements and pairs significant far more often than
-#: alpha (200 runs of the default hyperspace's 52 parameters, before this rule: a null
-#: element in 49 %, a pair in 73 % of simulated campaigns; docs/explain.md, "Calibration"),
-#: so the element tests fall back on exact per-bin tests and the pair tests are not run
+#: fewest judged runs per main-effects parameter for the model-based tests: below it they
+#: call null elements and pairs significant far more often than alpha (200 runs of the
+#: default hyperspace's 52 parameters, before this rule: a null element in 49 %, a pair in
+#: 73 % of simulated campaigns; docs/explain.md, "Calibration"), so the element tests fall
+#: back on exact per-bin tests and the pair tests are not run
 MIN_RUNS_PER_PARAMETER = 6
 #: judged runs per main-effects parameter from which the element tests' Bartlett factor is
-#: taken as 1 (not measured): it shrinks as parameters / runs (1.50 at 6 runs per
+#: taken as 1 (not measured): it shrinks as parameters / runs (1.27 at 7.7 runs per
 #: parameter, 1.08 at 19; docs/explain.md, "Calibration"), while its bootstrap's cost grows
 #: with the runs (a 100,000-run report would spend minutes on it)
 BARTLETT_RUNS_PER_PARAMETER = 40
