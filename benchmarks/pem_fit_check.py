@@ -31,19 +31,20 @@ THETAS = (0.2, 0.3, 0.5, 0.6, 0.7)
 
 
 def candidate(
-    kind: str, extras: str | None, outliers: bool, tail: bool, model: str | None = None
-) -> tuple:
+    kind: str, extras: str | None, outliers: bool, tail: bool, model: str | None = None,
+    near_noise: bool = False,
+) -> tuple:  # fmt: skip
     """The shipped model of ``kind`` (or the candidate named ``model``), or it with
-    ``extras`` (comma-separated, in place of its own), the outlier frames and the lower
-    tail."""
+    ``extras`` (comma-separated, in place of its own), the outlier frames, the lower tail
+    and the noise scale's close-range factor (``Noise.kn``: below 10 m)."""
     chosen = model or shipped(kind)[1]
     base = next(c for c in fm.candidates_for(kind) if c[0] == chosen)
-    if extras is None and not outliers and not tail:
+    if extras is None and not outliers and not tail and not near_noise:
         return base
     names = tuple(x for x in (extras or "").split(",") if x)
     if extras is None:
         names, *_ = fm._extras(base)
-    return fm.extended(base, "x", names, False, outliers, False, tail)
+    return fm.extended(base, "x", names, near_noise, outliers, False, tail)
 
 
 def main() -> None:
@@ -59,11 +60,14 @@ def main() -> None:
     parser.add_argument("--outliers", action="store_true", help="with outlier frames")
     parser.add_argument("--tail", action="store_true", help="with the lower tail")
     parser.add_argument(
+        "--near-noise", action="store_true", help="with the noise scale's close-range factor"
+    )
+    parser.add_argument(
         "--model", default=None, help="the candidate to start from (default: the shipped one)"
     )
     args = parser.parse_args()
     params0, _ = shipped(args.kind)
-    cand = candidate(args.kind, args.extras, args.outliers, args.tail, args.model)
+    cand = candidate(args.kind, args.extras, args.outliers, args.tail, args.model, args.near_noise)
     fit_data = fm._merged(args.fit.split(","))[args.kind]
     t, held = fm.tracks_of(fit_data), fm.tracks_of(read_frames(args.held)[args.kind])
     clock = time.perf_counter()
@@ -78,7 +82,8 @@ def main() -> None:
     )
     print("  extras", dict(zip(fit.extras, [round(g, 3) for g in fit.gains], strict=True)),
           {k: round(float(getattr(fit.noise, k)), 3)
-           for k in ("sigma", "up", "d0", "d1", "dt", "df", "k", "po", "ro", "tl")})  # fmt: skip
+           for k in ("sigma", "up", "d0", "d1", "dt", "df", "k", "kn", "po", "ro",
+                     "tl")})  # fmt: skip
     for r in rows:
         print(
             f"  {r['band']:>8} θ{r['theta']} detector {r['detector']:.3f} PEM {r['pem']:.3f}"
