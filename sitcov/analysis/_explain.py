@@ -399,15 +399,15 @@ def interaction_analysis(
         design = _Design(codes, hyperspace.sizes)
         x_main = design.matrix()
         main = fit_logit(x_main, y)
-        reduced = _reduced_fits(design, y)
+        reduced = _reduced_models(design, y)
         params = x_main.shape[1]
         exact = n < MIN_RUNS_PER_PARAMETER * params
         replicates = element_bootstrap if n < BARTLETT_RUNS_PER_PARAMETER * params else 0
-        scale = 1.0 if exact else _bartlett_factor(design, main, reduced, replicates, seed)
+        scale = 1.0 if exact else _bartlett_factor(x_main, main, reduced, replicates, seed)
         out["element_lr_scale"] = None if exact else round(scale, 4)
         out["method"] = _method_text(None if not exact else params, replicates, bootstrap)
         out["elements"] = _element_tests(
-            hyperspace, design, codes, y, main, alpha, scale, reduced, exact
+            hyperspace, design, codes, y, main, reduced, alpha, scale, exact
         )
         tick("element tests", 1, 1)
         if bootstrap > 0 and not exact:
@@ -423,20 +423,21 @@ def interaction_analysis(
 
 
 def _element_tests(
-    hs: Hyperspace, design: _Design, codes: np.ndarray, y: np.ndarray, main: Any, alpha: float,
-    scale: float = 1.0, reduced: Sequence[Any] | None = None, exact: bool = False,
+    hs: Hyperspace, design: _Design, codes: np.ndarray, y: np.ndarray, main: Any,
+    reduced: Sequence[tuple[np.ndarray, Any]], alpha: float, scale: float = 1.0,
+    exact: bool = False,
 ) -> list[dict[str, Any]]:  # fmt: skip
-    """Per element, the LR test against the model without it (``reduced``: those fits),
+    """Per element, the LR test against the model without it (``reduced``,
+    :func:`_reduced_models`),
     the statistic divided by ``scale`` (:func:`_bartlett_factor`), Holm over elements;
     ``exact``: the element's p is its smallest per-bin Fisher exact p times its number of
     bins instead (valid at any size; the LR still ranks the findings)."""
     from scipy.stats import chi2
 
-    reduced = reduced or _reduced_fits(design, y)
     tests = []
     for e, name in enumerate(hs.element_names):
         df = len(design.levels[e])
-        lr = max(0.0, reduced[e].deviance - main.deviance)
+        lr = max(0.0, reduced[e][1].deviance - main.deviance)
         bins = _bin_effects(hs, codes, y, e, alpha)
         if exact:  # the smallest exact bin p, Bonferroni over the bins
             p = min(1.0, len(bins) * min(b["p"] for b in bins)) if df > 0 else None
@@ -451,13 +452,21 @@ def _element_tests(
     return tests
 
 
-def _reduced_fits(design: _Design, y: np.ndarray) -> list[Any]:
-    """The main-effects model without each element in turn, fitted to ``y``."""
-    return [fit_logit(design.matrix(drop=e), y) for e in range(len(design.levels))]
+def _reduced_models(design: _Design, y: np.ndarray) -> list[tuple[np.ndarray, Any]]:
+    """The main-effects model without each element in turn: (its design, its fit to ``y``)."""
+    models = []
+    for e in range(len(design.levels)):
+        x = design.matrix(drop=e)
+        models.append((x, fit_logit(x, y)))
+    return models
 
 
 def _bartlett_factor(
-    design: _Design, main: Any, reduced: Sequence[Any], replicates: int, seed: int
+    x_main: np.ndarray,
+    main: Any,
+    reduced: Sequence[tuple[np.ndarray, Any]],
+    replicates: int,
+    seed: int,
 ) -> float:
     """How much the element LR statistics exceed their degrees of freedom under the null:
     per replicate and element, outcomes are drawn from the fit without the element, both
@@ -470,16 +479,14 @@ def _bartlett_factor(
     if replicates <= 0:
         return 1.0
     rng = np.random.default_rng([seed, 1])  # not the pair tests' stream
-    x_main = design.matrix()
-    x_small = [design.matrix(drop=e) for e in range(len(design.levels))]
     total_lr = total_df = 0.0
     for _ in range(replicates):
-        for e, fit in enumerate(reduced):
-            df = len(design.levels[e])
+        for x_small, fit in reduced:
+            df = x_main.shape[1] - x_small.shape[1]  # the element's columns
             if not df:
                 continue
             y_star = (rng.random(len(fit.prob)) < fit.prob).astype(float)
-            small = fit_logit(x_small[e], y_star, start=fit.coef)
+            small = fit_logit(x_small, y_star, start=fit.coef)
             big = fit_logit(x_main, y_star, start=main.coef)
             total_lr += max(0.0, small.deviance - big.deviance)
             total_df += df
