@@ -32,19 +32,20 @@ THETAS = (0.2, 0.3, 0.5, 0.6, 0.7)
 
 def candidate(
     kind: str, extras: str | None, outliers: bool, tail: bool, model: str | None = None,
-    near_noise: bool = False,
+    near_noise: bool = False, noise_bend: float | None = None,
 ) -> tuple:  # fmt: skip
     """The shipped model of ``kind`` (or the candidate named ``model``), or it with
-    ``extras`` (comma-separated, in place of its own), the outlier frames, the lower tail
-    and the noise scale's close-range factor (``Noise.kn``: below 10 m)."""
+    ``extras`` (comma-separated, in place of its own), the outlier frames, the lower tail,
+    the noise scale's close-range factor (``Noise.kn``: below 10 m) and the noise's size
+    bend (``Noise.kb``: at ``noise_bend`` px)."""
     chosen = model or shipped(kind)[1]
     base = next(c for c in fm.candidates_for(kind) if c[0] == chosen)
-    if extras is None and not outliers and not tail and not near_noise:
+    if extras is None and not outliers and not tail and not near_noise and noise_bend is None:
         return base
     names = tuple(x for x in (extras or "").split(",") if x)
     if extras is None:
         names, *_ = fm._extras(base)
-    return fm.extended(base, "x", names, near_noise, outliers, False, tail)
+    return fm.extended(base, "x", names, near_noise, outliers, False, tail, noise_bend)
 
 
 def main() -> None:
@@ -63,11 +64,26 @@ def main() -> None:
         "--near-noise", action="store_true", help="with the noise scale's close-range factor"
     )
     parser.add_argument(
+        "--noise-bend",
+        type=float,
+        default=None,
+        metavar="PX",
+        help="with the noise's size bend at PX px (Noise.kb)",
+    )
+    parser.add_argument(
         "--model", default=None, help="the candidate to start from (default: the shipped one)"
     )
     args = parser.parse_args()
     params0, _ = shipped(args.kind)
-    cand = candidate(args.kind, args.extras, args.outliers, args.tail, args.model, args.near_noise)
+    cand = candidate(
+        args.kind,
+        args.extras,
+        args.outliers,
+        args.tail,
+        args.model,
+        args.near_noise,
+        args.noise_bend,
+    )
     fit_data = fm._merged(args.fit.split(","))[args.kind]
     t, held = fm.tracks_of(fit_data), fm.tracks_of(read_frames(args.held)[args.kind])
     clock = time.perf_counter()
@@ -82,8 +98,8 @@ def main() -> None:
     )
     print("  extras", dict(zip(fit.extras, [round(g, 3) for g in fit.gains], strict=True)),
           {k: round(float(getattr(fit.noise, k)), 3)
-           for k in ("sigma", "up", "d0", "d1", "dt", "df", "k", "kn", "po", "ro",
-                     "tl")})  # fmt: skip
+           for k in ("sigma", "up", "d0", "d1", "dt", "df", "k", "kn", "kb", "po",
+                     "ro", "tl")})  # fmt: skip
     for r in rows:
         print(
             f"  {r['band']:>8} θ{r['theta']} detector {r['detector']:.3f} PEM {r['pem']:.3f}"

@@ -11,7 +11,9 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
   ``sigma_t * up * n`` above (a split normal: the detector's scores spread less upwards),
   ``sigma_t = sigma (h_t / size_ref) ** k`` with the box height ``h_t`` capped at ``cap``
   (the scores on a large, close box spread more than on a small one; ``k`` = 0 without
-  the term); optionally the upper scale with a size gain of its own (``ku``), and a
+  the term), its gain changing by ``kb`` above a fixed knot (``Noise.kb``: the rider's
+  and the person's scores narrow up to 150 px and spread on the larger, mostly cut
+  boxes); optionally the upper scale with a size gain of its own (``ku``), and a
   share ``po`` of *outlier frames* whose logit score is ``m(x_t)`` plus ``ro`` times the
   frame's scale times a fresh N(0, 1), independent of the AR state (:class:`Noise`),
   and a *lower tail*: below one standard unit under the median, ``g`` stretches the
@@ -27,7 +29,8 @@ features ``x_t`` (class, size, view, truncation, fog transmittance, light, rain,
 In ``pem.yaml``: ``noise_sigma`` = sigma, ``noise_up_ratio`` = up, ``noise_frame_share`` =
 1 - s, ``noise_tau`` = -frame_dt / ln(rho), ``detect_bias/gain/ar`` = d0, d1, lam,
 ``detect_trunc_gain``/``detect_fill_gain`` = dt, df, ``noise_size_gain`` = k,
-``noise_size_max_px`` = cap, ``noise_low_tail`` = tl. It is
+``noise_size_max_px`` = cap, ``noise_low_tail`` = tl, ``noise_bend_gain`` = kb,
+``noise_bend_px`` = the knot. It is
 the same model for every stack: no term is chosen on any stack's verdicts.
 
 The data are recorded frames of the real detector (:mod:`sitcov.calibration._frames`):
@@ -140,7 +143,9 @@ CANDIDATES = (
 #: term of their own (docs/pem.md, "Terms tried for the per-cell check"), and with a share
 #: of outlier frames (``noise_outlier_share``/``_ratio``) or the upper spread's own size
 #: gain (``noise_up_size_gain``; docs/pem.md, "Outlier frames"), and with the lower tail
-#: (``noise_low_tail``, docs/pem.md, "The lower tail"). Not for cars: there the
+#: (``noise_low_tail``, docs/pem.md, "The lower tail"), and those with a bend of the
+#: noise's size gain at 150 px (``noise_bend_gain``, ``noise_bend_px``: a 13th value, the
+#: knot [px]; docs/pem.md, "The close rider"). Not for cars: there the
 #: cube wins held out (-0.297 vs -0.337 per frame) but the check's car cells drop from 9
 #: to 5 of 15, and the side term and the upper size gain win on seed 2's 30 even runs but
 #: little on seed 3's 150, with the close cells no better, so they are measured
@@ -158,6 +163,10 @@ CLASS_CANDIDATES = (
      ("size3",), False, False, False, True),
     ("ar1_edge_scale_image_size3_outliers_tail", 1.0, True, True, IMAGE_HEIGHT, False, False,
      ("size3",), False, True, False, True),
+    ("ar1_edge_scale_image_size3_bend_tail", 1.0, True, True, IMAGE_HEIGHT, False, False,
+     ("size3",), False, False, False, True, 150.0),
+    ("ar1_edge_scale_image_size3_outliers_bend_tail", 1.0, True, True, IMAGE_HEIGHT, False,
+     False, ("size3",), False, True, False, True, 150.0),
 )  # fmt: skip
 
 
@@ -245,20 +254,27 @@ EXTRA_SETS: tuple[tuple[Any, ...], ...] = (
 def extended(
     candidate: Sequence[Any], name: str, extras: Sequence[str], near: bool,
     outliers: bool = False, up_size: bool = False, low_tail: bool = False,
+    noise_bend: float | None = None,
 ) -> tuple:  # fmt: skip
     """``candidate`` (:data:`CANDIDATES`) with the set's extra logit terms (in place of
-    its own), close-range noise factor, outlier frames, upper scale's size gain and lower
-    tail, named ``<candidate>+<name>``."""
+    its own), close-range noise factor, outlier frames, upper scale's size gain, lower
+    tail and the noise's size bend at ``noise_bend`` px (None: none), named
+    ``<candidate>+<name>``."""
     full = [*candidate[:7], *(None, False, False)[min(3, len(candidate) - 4) :]]
-    return (f"{candidate[0]}+{name}", *full[1:7], tuple(extras), near, outliers, up_size, low_tail)
+    return (f"{candidate[0]}+{name}", *full[1:7], tuple(extras), near, outliers, up_size,
+            low_tail, noise_bend)  # fmt: skip
 
 
-def _extras(candidate: Sequence[Any]) -> tuple[tuple[str, ...], bool, bool, bool, bool]:
+def _extras(
+    candidate: Sequence[Any],
+) -> tuple[tuple[str, ...], bool, bool, bool, bool, float | None]:
     """(extra logit terms, close-range noise scale, outlier frames, the upper scale's
-    size gain, the lower tail) of a candidate (values 8 to 12 of its tuple)."""
+    size gain, the lower tail, the noise's size bend's knot [px] or None) of a candidate
+    (values 8 to 13 of its tuple)."""
     names = tuple(candidate[7]) if len(candidate) > 7 else ()
     flags = [bool(candidate[i]) if len(candidate) > i else False for i in (8, 9, 10, 11)]
-    return names, flags[0], flags[1], flags[2], flags[3]
+    knot = float(candidate[12]) if len(candidate) > 12 and candidate[12] else None
+    return names, flags[0], flags[1], flags[2], flags[3], knot
 
 
 def _flags(candidate: Sequence[Any]) -> tuple[float, bool, bool, float | None, bool, bool]:
@@ -529,7 +545,9 @@ class Noise:
     above the median is ``sigma * up * (h / size_ref) ** (k + ku)`` (``ku`` the upper
     side's own size gain, PEM ``noise_up_size_gain``); below ``LOW_TAIL_KNEE`` standard
     units under the median the latent noise ``n`` acts as ``n - tl (n + LOW_TAIL_KNEE) ** 2``
-    (``tl`` the lower tail's curvature, PEM ``noise_low_tail``; :func:`_ginv`)."""
+    (``tl`` the lower tail's curvature, PEM ``noise_low_tail``; :func:`_ginv`); above
+    the knot ``kb_at`` (on the axis of :func:`scale_size`: ``ln(knot_px / size_ref)``)
+    the size gain ``k`` becomes ``k + kb`` (PEM ``noise_bend_gain``, ``noise_bend_px``)."""
 
     sigma: float
     share: float
@@ -547,6 +565,8 @@ class Noise:
     ro: float = 1.0
     ku: float = 0.0
     tl: float = 0.0
+    kb: float = 0.0
+    kb_at: float = 0.0
 
 
 #: The log curvature at or below which the tail is off (0): its value while the rest of
@@ -560,13 +580,15 @@ TAIL_POLISH_EVALS = 3000
 def _scale(
     noise: Noise, size: np.ndarray | None, near: np.ndarray | None = None
 ) -> np.ndarray | float:
-    """The score noise's scale below the median per frame: ``sigma * exp(k * size + kn *
-    near)``, ``size`` the frames' log box height (:func:`scale_size`), ``near`` 1 at close
-    range (:func:`near_of`); ``sigma`` alone when ``k`` and ``kn`` are 0 or their arrays
-    not given."""
+    """The score noise's scale below the median per frame: ``sigma * exp(k * size + kb *
+    max(0, size - kb_at) + kn * near)``, ``size`` the frames' log box height
+    (:func:`scale_size`), ``near`` 1 at close range (:func:`near_of`); ``sigma`` alone
+    when ``k``, ``kb`` and ``kn`` are 0 or their arrays not given."""
     sig: np.ndarray | float = noise.sigma
     if noise.k != 0.0 and size is not None:
         sig = sig * np.exp(noise.k * size)
+    if noise.kb != 0.0 and size is not None:
+        sig = sig * np.exp(noise.kb * np.maximum(0.0, size - noise.kb_at))
     if noise.kn != 0.0 and near is not None:
         sig = sig * np.exp(noise.kn * near)
     return sig
@@ -764,7 +786,8 @@ class FrameFit:
         frame when the fit has detection-only terms) of ``t``: what both likelihoods pass
         to the frame law besides the logit."""
         nz = self.noise
-        size = scale_size(t, self.size_ref, nz.cap) if nz.k != 0.0 or nz.ku != 0.0 else None
+        needs_size = nz.k != 0.0 or nz.ku != 0.0 or nz.kb != 0.0
+        size = scale_size(t, self.size_ref, nz.cap) if needs_size else None
         det = self.extra(t, detection=True)
         return size, None if np.isscalar(det) else np.asarray(det)
 
@@ -803,7 +826,7 @@ def fit_tracks(
     scale: float | None = None, free_size: bool = False, side: bool = False,
     extras: Sequence[str] = (), near_noise: bool = False, extras_from_zero: bool = False,
     restarts: int = 0, starts: int = 1, stages: int = 1, outliers: bool = False,
-    up_size: bool = False, low_tail: bool = False,
+    up_size: bool = False, low_tail: bool = False, noise_bend: float | None = None,
 ) -> FrameFit:  # fmt: skip
     """Steps 1 and 2 of the module docstring on ``t`` (``edge``: with the detection
     term's geometry gains dt and df; ``scale``: with the score noise's size gain k, the
@@ -829,8 +852,10 @@ def fit_tracks(
     (``Noise.po``, ``Noise.ro``; started at 5 % and 3); ``up_size``: with the upper
     scale's own size gain (``Noise.ku``, started at 0; needs ``scale``); ``low_tail``: with
     the lower tail's curvature (``Noise.tl``), fitted after the rest has converged
-    without it (:func:`_with_tail`). The defaults give the same bits as before these
-    options."""
+    without it (:func:`_with_tail`); ``noise_bend``: with a change of the noise's size
+    gain (``Noise.kb``, started at 0; needs ``scale``) above that many px (a fixed knot,
+    as the size hinges' are; None: none).
+    The defaults give the same bits as before these options."""
     from scipy.optimize import minimize
 
     y, obs = _observed(t)
@@ -902,16 +927,25 @@ def fit_tracks(
     def det_shift(p: np.ndarray) -> np.ndarray | None:
         return ex[:, in_det] @ p[at_side:at_kn][in_det] if in_det.any() else None
 
-    at_out = at_kn + (1 if near_noise else 0)
+    at_kb = at_kn + (1 if near_noise else 0)
+    bend = noise_bend is not None
+    at_out = at_kb + (1 if bend else 0)
     at_ku = at_out + (2 if outliers else 0)
     at_tl = at_ku + (1 if up_size else 0)
     if up_size and scale is None:
         raise SitcovError("the upper scale's size gain needs the noise's size term (scale)")
+    if bend and (scale is None or up_size):
+        raise SitcovError(
+            "the noise's size bend needs the noise's size term (scale) and no upper size gain"
+        )
+    kb_at = math.log(noise_bend / size_ref) if noise_bend is not None else 0.0
 
     def with_kn(p: np.ndarray, noise: Noise) -> Noise:
         # the close-range factor and the outlier frames (shares capped at OUTLIER_MAX)
         if near_noise:
             noise = replace(noise, kn=float(min(3.0, max(-3.0, p[at_kn]))))
+        if bend:
+            noise = replace(noise, kb=float(min(3.0, max(-3.0, p[at_kb]))), kb_at=kb_at)
         if outliers:
             ratio = 1.0 + math.exp(min(4.0, max(-6.0, p[at_out + 1])))
             noise = replace(noise, po=logistic(p[at_out], OUTLIER_MAX), ro=ratio)
@@ -941,6 +975,7 @@ def fit_tracks(
     start += [0.0, 0.0, 0.0] if free_size else []
     start += ex0
     start += [0.0] if near_noise else []
+    start += [0.0] if bend else []
     start += [math.log(0.05 / (OUTLIER_MAX - 0.05)), math.log(2.0)] if outliers else []
     start += [0.0] if up_size else []
     start += [TAIL_OFF] if low_tail else []
@@ -1078,11 +1113,11 @@ def fit_candidate(t: Tracks, candidate: Sequence[Any], size_ref: float, **opts: 
     :data:`EXTRA_SETS`) says; ``opts`` are :func:`fit_tracks`'s optimiser options
     (``extras_from_zero``, ``restarts``, ``starts``, ``stages``)."""
     ridge, ar, edge, scale, free, side = _flags(candidate)
-    extras, near_noise, outliers, up_size, low_tail = _extras(candidate)
+    extras, near_noise, outliers, up_size, low_tail, bend = _extras(candidate)
     return fit_tracks(t, ridge=ridge, ar=ar, size_ref=size_ref, edge=edge, scale=scale,
                       free_size=free, side=side, extras=extras, near_noise=near_noise,
                       outliers=outliers, up_size=up_size, low_tail=low_tail,
-                      **opts)  # fmt: skip
+                      noise_bend=bend, **opts)  # fmt: skip
 
 
 def start_of(ar: bool, edge: bool, scale: float | None) -> list[int]:
@@ -1256,6 +1291,8 @@ def to_params(
         noise_outlier_ratio=round(nz.ro, 4),
         noise_up_size_gain=round(nz.ku, 4),
         noise_low_tail=round(nz.tl, 4),
+        noise_bend_gain=round(nz.kb, 4),
+        noise_bend_px=_bend_px(fit, base),
         side_gain=round(fit.side_gain, 4),
         **{param: round(gains.get(term, 0.0), 4) for term, param in EXTRA_TERM_PARAMS.items()},
         rain_sigma=0.0,
@@ -1265,6 +1302,13 @@ def to_params(
         floor=FLOOR,
         **offsets,
     )
+
+
+def _bend_px(fit: FrameFit, base: PEMParams) -> float:
+    """The noise's size bend's knot [px] of ``fit`` (``base``'s without a bend)."""
+    if fit.noise.kb == 0.0:
+        return base.noise_bend_px
+    return round(fit.size_ref * math.exp(fit.noise.kb_at), 2)
 
 
 def held_out_choice(

@@ -24,8 +24,9 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + side_gain * side                                                    left/right
     score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * s * r * n_t)
     r = noise_up_ratio if n_t > 0 else 1     (the scores spread less upwards)
-    s = (clamp(h, size_min_px, noise_size_max_px) / size_ref_px) ** noise_size_gain
-                                             (larger boxes, wider scores; 1 if the gain is 0)
+    s = (h' / size_ref_px) ** noise_size_gain * max(1, h' / noise_bend_px) ** noise_bend_gain
+    h' = clamp(h, size_min_px, noise_size_max_px)
+                                             (larger boxes, wider scores; 1 if the gains are 0)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
 actor's heading relative to the line of sight (+1 rear view, -1 front view), ``side`` its
@@ -159,17 +160,23 @@ def fill_of(width_px: float, image_width: float) -> float:
 
 
 def noise_scale(
-    gain: float, height_px: float, size_min: float, size_cap: float, size_ref: float
-) -> float:
+    gain: float, height_px: float, size_min: float, size_cap: float, size_ref: float,
+    bend_gain: float = 0.0, bend_px: float = 1.0,
+) -> float:  # fmt: skip
     """The score noise's scale factor for a box ``height_px`` high: ``exp(gain * ln(h /
-    size_ref))`` with ``h`` the height clamped to [``size_min``, ``size_cap``] [px]
-    (``noise_size_gain``, ``size_min_px``, ``noise_size_max_px``, ``size_ref_px``;
-    exactly 1 when ``gain`` is 0: files without it draw as before)."""
-    if gain == 0.0:
+    size_ref) + bend_gain * max(0, ln(h / bend_px)))`` with ``h`` the height clamped to
+    [``size_min``, ``size_cap``] [px] (``noise_size_gain``, ``size_min_px``,
+    ``noise_size_max_px``, ``size_ref_px``, ``noise_bend_gain``, ``noise_bend_px``: the
+    size gain changes by ``bend_gain`` above the knot); exactly 1 when both gains are 0
+    (files without them draw as before)."""
+    if gain == 0.0 and bend_gain == 0.0:
         return 1.0
     h = size_min if size_min > height_px else height_px
     h = size_cap if size_cap < h else h
-    return math.exp(gain * math.log(h / size_ref))
+    log_s = gain * math.log(h / size_ref)
+    if bend_gain != 0.0 and h > bend_px:
+        log_s += bend_gain * math.log(h / bend_px)
+    return math.exp(log_s)
 
 
 def detect_offset(features: PEMFeatures, params: PEMParams, image_width: float = 800.0) -> float:
@@ -340,7 +347,8 @@ def pass_probability(
     theta = min(max(threshold, params.floor, 1e-12), 1.0 - 1e-12)
     sigma = params.noise_sigma + params.rain_sigma * features.rain_noise
     sigma *= noise_scale(params.noise_size_gain, features.height_px, params.size_min_px,
-                         params.noise_size_max_px, params.size_ref_px)  # fmt: skip
+                         params.noise_size_max_px, params.size_ref_px,
+                         params.noise_bend_gain, params.noise_bend_px)  # fmt: skip
     z = pem_logit(features, params)
     gap = z - math.log(theta / (1.0 - theta))
     keep = 1.0 - params.rain_miss * features.rain_noise
@@ -475,8 +483,9 @@ def outlier_cut(share: float) -> float:
 #: (length, width, height), the scene (fog extinction and start, illumination, rain
 #: noise), the body colour's features (contrast, detail, chroma, red_green,
 #: yellow_blue), the detection term's geometry gains (detect_trunc_gain,
-#: detect_fill_gain) and the score noise's size gain and cap (noise_size_gain,
-#: noise_size_max_px). One array: each array argument costs a compiled call about 0.3 us.
+#: detect_fill_gain) and the score noise's size gain, cap and bend (noise_size_gain,
+#: noise_size_max_px, noise_bend_gain, noise_bend_px). One array: each array argument
+#: costs a compiled call about 0.3 us.
 _CAMERA = len(COEFFICIENTS)
 _BOX, _SCENE, _COLOR, _DETECT = _CAMERA + 5, _CAMERA + 8, _CAMERA + 12, _CAMERA + 17
 
@@ -510,7 +519,8 @@ def _pem_view(
         q[col], q[col + 1], q[col + 2], q[col + 3], q[col + 4], side,
     )  # fmt: skip
     d = -q[det] * trunc - q[det + 1] * fill_of(u1 - u0, q[cam + 3])
-    s = noise_scale(q[det + 2], height, q[_SIZE_MIN], q[det + 3], q[_SIZE_REF])
+    s = noise_scale(q[det + 2], height, q[_SIZE_MIN], q[det + 3], q[_SIZE_REF], q[det + 4],
+                    q[det + 5])  # fmt: skip
     return True, x0, y0, x1, y1, z, d, s
 
 
@@ -527,7 +537,7 @@ def _view_kernel() -> Any:
 
         q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
                       1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
-                      450.0])  # fmt: skip
+                      450.0, 0.0, 150.0])  # fmt: skip
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit,
                    fill_of, noise_scale, _heading_sine)  # fmt: skip
         _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
@@ -959,6 +969,8 @@ class PEMSensor(Sensor):
             params.detect_fill_gain,
             params.noise_size_gain,
             params.noise_size_max_px,
+            params.noise_bend_gain,
+            params.noise_bend_px,
         ]
         if (_VIEW_FN or _view_kernel()) is not _pem_view:
             import numpy as np

@@ -83,6 +83,14 @@ class PEMParams:
             for every size [-].
         noise_size_max_px: box heights above this count as this in the noise's scale
             (the default 450 is the default camera's image height) [px].
+        noise_bend_gain, noise_bend_px: the noise's size gain changes by
+            ``noise_bend_gain`` above ``noise_bend_px``: the scale is further times
+            ``(h / noise_bend_px) ** noise_bend_gain`` for ``h`` (clamped as for
+            ``noise_size_gain``) above the knot. The fit puts the knot where the score's
+            own size terms stop (``size_max_px``): the rider's close scores pile up in a
+            narrow band at 60-150 px and spread again on the largest, cut boxes (docs/
+            pem.md, "The close rider"). A gain of 0 (the default, files written before
+            it) changes nothing [-], [px].
         noise_up_ratio: the logit noise's scale above its median over the scale below
             (``noise_sigma``): the detector's scores spread less upwards than downwards
             (1 = a normal law) [-].
@@ -183,6 +191,8 @@ class PEMParams:
     detect_fill_gain: float = 0.0
     noise_size_gain: float = 0.0
     noise_size_max_px: float = 450.0
+    noise_bend_gain: float = 0.0
+    noise_bend_px: float = 150.0
     side_gain: float = 0.0
     size3_gain: float = 0.0
     size_hinge40_gain: float = 0.0
@@ -221,7 +231,8 @@ class PEMParams:
         return params
 
     def _check(self, file: str | None) -> None:
-        for name in ("size_ref_px", "size_min_px", "size_max_px", "noise_size_max_px"):
+        for name in ("size_ref_px", "size_min_px", "size_max_px", "noise_size_max_px",
+                     "noise_bend_px"):  # fmt: skip
             if getattr(self, name) <= 0:
                 raise ConfigError(file=file, field=name, value=getattr(self, name), expected="> 0")
         if self.size_max_px < self.size_min_px:
@@ -243,6 +254,12 @@ class PEMParams:
                 file=file, field="noise_up_size_gain", value=self.noise_up_size_gain,
                 expected="0 when noise_size_gain is 0 (the upper scale's own size gain "
                 "goes with the noise's)",
+            )  # fmt: skip
+        if self.noise_up_size_gain != 0.0 and self.noise_bend_gain != 0.0:
+            raise ConfigError(
+                file=file, field="noise_bend_gain", value=self.noise_bend_gain,
+                expected="0 when noise_up_size_gain is not 0 (the upper scale's size gain "
+                "is a power of the noise's whole size factor, which the bend would change)",
             )  # fmt: skip
         if self.noise_low_tail < 0:
             raise ConfigError(

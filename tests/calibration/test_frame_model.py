@@ -22,7 +22,7 @@ def _draw(
     rho: float = 0.9, bias: float = -0.6, gain: float = 0.6, stop_at: float | None = None,
     fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
     near_gain: float = 0.0, hinge_gain: float = 0.0, outliers: tuple[float, float] = (0.0, 1.0),
-    tail: float = 0.0,
+    tail: float = 0.0, bend: tuple[float, float] = (0.0, 60.0),
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -39,7 +39,9 @@ def _draw(
     ``outliers``: (share, ratio): that share of frames draws its noise as ``ratio *
     sigma * N(0, 1)`` instead, independent of the AR state (no draw with share 0).
     ``tail``: the unit noise ``n`` below -1 moves to ``n - tail (n + 1) ** 2`` (a long
-    lower tail, written out here, not with the PEM's helper)."""
+    lower tail, written out here, not with the PEM's helper). ``bend``: (gain, knot px):
+    the noise further scaled by ``max(1, h / knot) ** gain`` (its size gain changes at
+    the knot)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -55,7 +57,7 @@ def _draw(
             if k:
                 a = rho * a + math.sqrt(1 - rho * rho) * rng.standard_normal()
             h = h0 * 1.05**k
-            widen = (h / 25.0) ** spread
+            widen = (h / 25.0) ** spread * max(1.0, h / bend[1]) ** bend[0]
             z = bias + gain * math.log(min(h, 60.0) / 25.0) + (side_gain or 0.0) * side
             z += near_gain * (1.45 * 336 / h < 10.0)
             z += hinge_gain * max(0.0, math.log(h / 40.0))
@@ -206,7 +208,7 @@ def test_an_extra_term_is_recovered_and_chosen_only_when_it_is_there() -> None:
     base = ("ar1", 1.0, True, False)
     cands = (base, fm.extended(base, "near", ("near",), False))
     assert cands[1][0] == "ar1+near"
-    assert fm._extras(cands[1]) == (("near",), False, False, False, False)
+    assert fm._extras(cands[1]) == (("near",), False, False, False, False, None)
     t, held = (fm.tracks_of(_draw(s, runs=60, near_gain=-0.6)) for s in (21, 22))
     chosen, table, fits = fm.held_out_choice(t, held, size_ref=25.0, candidates=cands)
     assert chosen == "ar1+near", table
@@ -559,6 +561,35 @@ def test_the_lower_tail_is_recovered_and_written_to_the_pem() -> None:
     for theta in (0.3, 0.5):
         pem = np.mean([fc.pass_probability(params, f, theta) for f in feats])
         assert pem == pytest.approx(np.mean(scores >= theta), abs=0.03)
+
+
+def test_the_noises_size_bend_is_recovered_and_written_to_the_pem() -> None:
+    """Scores whose noise grows with the box up to 60 px and narrows above it (scale
+    ``(h / 25) ** 0.5`` times ``(h / 60) ** -0.9`` above 60 px, the knot where the
+    drawn score's size term stops): the fit with ``noise_bend`` there recovers both gains, its
+    frames-alone likelihood beats the scale model without the bend, and ``to_params``
+    writes the bend as the PEM's ``noise_bend_gain`` and ``noise_bend_px``,
+    whose ``pass_probability`` gives the drawn rates of the large boxes."""
+    data = _draw(25, runs=150, spread=0.5, bend=(-0.9, 60.0), bias=0.3)
+    t = fm.tracks_of(data)
+    opts = {"ridge": 1.0, "ar": True, "size_ref": 25.0, "edge": True, "scale": 450.0,
+            "stages": 2}  # fmt: skip
+    fit = fm.fit_tracks(t, noise_bend=60.0, **opts)
+    assert fit.noise.k == pytest.approx(0.5, abs=0.15)
+    assert fit.noise.kb == pytest.approx(-0.9, abs=0.25)
+    plain = fm.fit_tracks(t, **opts)
+    assert fit.marginal_loglik(t) > plain.marginal_loglik(t) + 0.005 * len(t.score)
+    params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, data.runs)
+    assert params.noise_bend_gain == round(fit.noise.kb, 4)
+    assert params.noise_bend_px == pytest.approx(60.0, abs=0.01)
+    large = [(f.features, f.score) for r in data.runs for f in r.frames
+             if f.features.height_px > 100.0]  # fmt: skip
+    scores = np.asarray([s for _, s in large])
+    for theta in (0.5, 0.7):
+        pem = np.mean([fc.pass_probability(params, f, theta) for f, _ in large])
+        assert pem == pytest.approx(np.mean(scores >= theta), abs=0.04)
+    with pytest.raises(SitcovError, match="size bend"):
+        fm.fit_tracks(t, noise_bend=60.0, up_size=True, **opts)
 
 
 def test_the_run_interval_covers_a_true_pem_and_widens_with_run_effects() -> None:

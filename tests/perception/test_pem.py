@@ -39,6 +39,7 @@ EGO = Pose(0.0, 0.0, 0.0)
 NOT_IN_SHIPPED_FIT: tuple[str, ...] = (
     "box_dx0", "box_dy0", "box_dx1", "box_dy1", "jitter_y",
     "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain", "cut_gain",
+    "noise_bend_gain", "noise_bend_px",
 )  # fmt: skip
 CLEAR = conditions_from_values({})
 N_RANDOM_SETS = 8
@@ -963,3 +964,52 @@ def test_the_score_noise_grows_with_the_box_height_as_noise_size_gain_says():
     assert p_grown > p_plain + 0.1
     capped = replace(grown.params, noise_size_max_px=25.0)  # no growth above the reference
     assert pass_probability(f_near, capped, 0.5) == pass_probability(f_near, plain.params, 0.5)
+
+
+def test_the_noises_size_bend_changes_its_gain_above_the_knot_only():
+    """``noise_bend_gain``/``noise_bend_px``: the scale's log slope in the box height is
+    ``noise_size_gain`` below the knot and that plus the bend's gain above it (continuous
+    at the knot, capped with the height); a box below the knot draws as without it;
+    sampled frames of a close car with a bend pass θ as ``pass_probability`` says; a bend
+    with the upper scale's own size gain is refused (its power of the whole factor would
+    change)."""
+    from sitcov.perception._pem import noise_scale
+
+    args = (10.0, 450.0, 25.0)
+    assert noise_scale(0.0, 300.0, *args, 0.0, 100.0) == 1.0
+    assert noise_scale(0.5, 80.0, *args, -1.0, 100.0) == noise_scale(0.5, 80.0, *args)
+    assert noise_scale(0.5, 100.0, *args, -1.0, 100.0) == pytest.approx(2.0)  # continuous
+    slope = math.log(noise_scale(0.5, 400.0, *args, -1.0, 100.0) / 2.0) / math.log(4.0)
+    assert slope == pytest.approx(-0.5)  # 0.5 - 1.0 above the knot
+    assert noise_scale(0.0, 200.0, *args, 1.0, 100.0) == pytest.approx(2.0)  # alone too
+    capped = noise_scale(0.5, 900.0, 10.0, 200.0, 25.0, -1.0, 100.0)  # h counts as 200 px
+    assert capped == pytest.approx(math.sqrt(200.0 / 25.0) / 2.0)
+    base = {"bias": 0.2, "size_gain": 0.0, "size2_gain": 0.0, "side_size_gain": 0.0,
+            "noise_sigma": 0.3, "noise_tau": 0.0, "noise_frame_share": 0.3,
+            "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
+            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "floor": 0.05,
+            "detect_trunc_gain": 0.0, "detect_fill_gain": 0.0, "noise_size_gain": 0.3,
+            "size_ref_px": 25.0, "size_max_px": 450.0, "size_hinge40_gain": 0.0,
+            "size_hinge80_gain": 0.0}  # fmt: skip
+    plain, bent = PEMSensor(base), PEMSensor({**base, "noise_bend_gain": 1.2,
+                                               "noise_bend_px": 60.0})  # fmt: skip
+    near, far = car(6.0), car(40.0)
+    f_near, f_far = bent.features(EGO, near, CLEAR), bent.features(EGO, far, CLEAR)
+    assert f_near.height_px > 60.0 > f_far.height_px
+    for theta in (0.5, 0.7):
+        assert pass_probability(f_far, bent.params, theta) == pass_probability(
+            f_far, plain.params, theta
+        )
+    above = 1.0 / (1.0 + math.exp(-(pem_logit(f_near, plain.params) + 0.3)))
+    assert pass_probability(f_near, bent.params, above) > (
+        pass_probability(f_near, plain.params, above) + 0.1
+    )
+    rng = np.random.default_rng(12)
+    for theta in (0.5, above):
+        rate = _sampled_rate(bent, near, theta, rng)
+        assert rate == pytest.approx(pass_probability(f_near, bent.params, theta), abs=TOLERANCE)
+    with pytest.raises(ConfigError, match="noise_bend_gain"):
+        PEMParams.from_mapping({"noise_size_gain": 0.3, "noise_up_size_gain": -0.3,
+                                "noise_bend_gain": 0.5})  # fmt: skip
+    with pytest.raises(ConfigError, match="noise_bend_px"):
+        PEMParams.from_mapping({"noise_bend_px": 0.0})

@@ -190,10 +190,10 @@ def test_a_class_file_without_the_noises_size_gain_keeps_none(tmp_path: Path) ->
         "noise_size_gain", "noise_size_max_px", "box_dx0", "box_dy0", "box_dx1", "box_dy1",
         "jitter_y", "size_hinge40_gain", "size_hinge80_gain", "view_hinge40_gain",
         "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain", "noise_low_tail",
-        "cut_gain",
+        "cut_gain", "noise_bend_gain", "noise_bend_px",
     }  # fmt: skip
     assert params.noise_outlier_share == params.noise_up_size_gain == 0.0  # none inherited
-    assert params.noise_low_tail == 0.0
+    assert params.noise_low_tail == params.noise_bend_gain == 0.0
     assert params.noise_outlier_ratio == 1.0
     assert params.noise_sigma == load_pem_params().noise_sigma  # the others: the car's
 
@@ -297,9 +297,10 @@ def test_a_class_draws_its_own_noise_process(tmp_path: Path, tau, low, high) -> 
     """A pedestrian's score noise runs by its class's ``noise_tau`` and shares, not the
     car PEM's (0.53 s): with ``noise_tau`` 0 its consecutive frames are independent, with
     3 s (an AR coefficient of 0.97 per frame) they move together. Lag-1 correlation of the
-    score's logit over 600 frames of a static pedestrian, one run."""
+    score's logit over 600 frames of a static pedestrian, one run; no outlier frames (each
+    draws a fresh noise of its own, independent of the process)."""
     own = {"noise_tau": tau, "noise_frame_share": 0.0, "noise_run_share": 0.0,
-           "detect_bias": 9.0, "floor": 0.0}  # fmt: skip
+           "detect_bias": 9.0, "floor": 0.0, "noise_outlier_share": 0.0}  # fmt: skip
     path = _edited_classes(tmp_path, lambda classes: classes["pedestrian"]["params"].update(own))
     sensor = PEMSensor(classes=path)
     sensor.reset(frame_dt=0.1)

@@ -342,7 +342,8 @@ def test_view_angle_equals_the_folded_math_remainder(monkeypatch) -> None:
 
 def _view_array(rnd: random.Random) -> list[float]:
     """A random array for ``_pem._pem_view``: coefficients (the side's gain 0 in half of
-    them), camera, box, scene, colour, detection gains, the score noise's size gain and cap."""
+    them), camera, box, scene, colour, detection gains, the score noise's size gain, cap and
+    bend."""
     coeffs = [rnd.uniform(-3.0, 3.0) for _ in _pem.COEFFICIENTS]
     size_min = rnd.choice([1.0, 6.0, 30.0])
     coeffs[_pem._SIZE_MIN], coeffs[_pem._SIZE_REF] = size_min, rnd.uniform(10.0, 40.0)
@@ -356,6 +357,8 @@ def _view_array(rnd: random.Random) -> list[float]:
     detect = [rnd.choice([0.0, rnd.uniform(-3.0, 3.0)]) for _ in range(2)]
     detect.append(rnd.choice([0.0, rnd.uniform(-1.0, 1.0)]))  # noise_size_gain
     detect.append(rnd.choice([60.0, 450.0]))  # noise_size_max_px
+    detect.append(rnd.choice([0.0, rnd.uniform(-1.5, 1.5)]))  # noise_bend_gain
+    detect.append(rnd.choice([40.0, 150.0]))  # noise_bend_px
     return coeffs + camera + [450.0] + box + scene + color + detect
 
 
