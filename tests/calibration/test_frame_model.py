@@ -563,6 +563,7 @@ def test_the_lower_tail_is_recovered_and_written_to_the_pem() -> None:
         assert pem == pytest.approx(np.mean(scores >= theta), abs=0.03)
 
 
+@pytest.mark.slow
 def test_the_noises_size_bend_is_recovered_and_written_to_the_pem() -> None:
     """Scores whose noise grows with the box up to 60 px and narrows above it (scale
     ``(h / 25) ** 0.5`` times ``(h / 60) ** -0.9`` above 60 px, the knot where the
