@@ -571,7 +571,7 @@ def test_the_noises_size_bend_is_recovered_and_written_to_the_pem() -> None:
     frames-alone likelihood beats the scale model without the bend, and ``to_params``
     writes the bend as the PEM's ``noise_bend_gain`` and ``noise_bend_px``,
     whose ``pass_probability`` gives the drawn rates of the large boxes."""
-    data = _draw(25, runs=150, spread=0.5, bend=(-0.9, 60.0), bias=0.3)
+    data = _draw(25, runs=100, spread=0.5, bend=(-0.9, 60.0), bias=0.3)
     t = fm.tracks_of(data)
     opts = {"ridge": 1.0, "ar": True, "size_ref": 25.0, "edge": True, "scale": 450.0,
             "stages": 2}  # fmt: skip
