@@ -921,6 +921,21 @@ def test_the_detection_term_drops_boxes_that_fill_or_leave_the_image():
     assert pass_probability(f_far, edge.params, 0.3) == pass_probability(f_far, plain.params, 0.3)
 
 
+def _flat_params(**changes: float) -> dict[str, float]:
+    """A PEM with no size, side or detection terms (a car that is always output) and a
+    noise whose frames are 30 % fresh, so that what a test sets is what acts; ``changes``
+    on top. (With the whole noise in the AR part ``pass_probability``'s 40-node
+    quadrature is a step function of the threshold.)"""
+    base = {"bias": 0.0, "size_gain": 0.0, "size2_gain": 0.0, "side_size_gain": 0.0,
+            "noise_sigma": 0.3, "noise_tau": 0.0, "noise_frame_share": 0.3,
+            "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
+            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "floor": 0.05,
+            "detect_trunc_gain": 0.0, "detect_fill_gain": 0.0, "noise_size_gain": 0.0,
+            "size_ref_px": 25.0, "size_max_px": 450.0, "size_hinge40_gain": 0.0,
+            "size_hinge80_gain": 0.0}  # fmt: skip
+    return {**base, **changes}
+
+
 def test_the_score_noise_grows_with_the_box_height_as_noise_size_gain_says():
     """``noise_size_gain``: the logit noise's scale is ``(h / size_ref_px) ** gain``, ``h``
     capped at ``noise_size_max_px``. Sampled frames of a close (large) and a far (small)
@@ -935,13 +950,7 @@ def test_the_score_noise_grows_with_the_box_height_as_noise_size_gain_says():
     # a frame share > 0: with the whole noise in the AR part pass_probability's 40-node
     # quadrature is a step function of the threshold (it missed the far car's sampled
     # rate by 0.075 once the refit put its score near 0.5)
-    base = {"bias": -0.6, "size_gain": 0.0, "size2_gain": 0.0, "side_size_gain": 0.0,
-            "noise_sigma": 0.3, "noise_tau": 0.0, "noise_frame_share": 0.3,
-            "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
-            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "floor": 0.05,
-            "detect_trunc_gain": 0.0, "detect_fill_gain": 0.0, "noise_size_gain": 0.0,
-            "size_ref_px": 25.0, "size_max_px": 450.0, "size_hinge40_gain": 0.0,
-            "size_hinge80_gain": 0.0}  # fmt: skip
+    base = _flat_params(bias=-0.6, noise_size_gain=0.0)
     plain = PEMSensor(base)
     grown = PEMSensor({**base, "noise_size_gain": 0.8})
     near, far = car(6.0), car(40.0)
@@ -984,13 +993,7 @@ def test_the_noises_size_bend_changes_its_gain_above_the_knot_only():
     assert noise_scale(0.0, 200.0, *args, 1.0, 100.0) == pytest.approx(2.0)  # alone too
     capped = noise_scale(0.5, 900.0, 10.0, 200.0, 25.0, -1.0, 100.0)  # h counts as 200 px
     assert capped == pytest.approx(math.sqrt(200.0 / 25.0) / 2.0)
-    base = {"bias": 0.2, "size_gain": 0.0, "size2_gain": 0.0, "side_size_gain": 0.0,
-            "noise_sigma": 0.3, "noise_tau": 0.0, "noise_frame_share": 0.3,
-            "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
-            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "floor": 0.05,
-            "detect_trunc_gain": 0.0, "detect_fill_gain": 0.0, "noise_size_gain": 0.3,
-            "size_ref_px": 25.0, "size_max_px": 450.0, "size_hinge40_gain": 0.0,
-            "size_hinge80_gain": 0.0}  # fmt: skip
+    base = _flat_params(bias=0.2, noise_size_gain=0.3)
     plain, bent = PEMSensor(base), PEMSensor({**base, "noise_bend_gain": 1.2,
                                                "noise_bend_px": 60.0})  # fmt: skip
     near, far = car(6.0), car(40.0)
