@@ -86,11 +86,11 @@ class PEMParams:
         noise_bend_gain, noise_bend_px: the noise's size gain changes by
             ``noise_bend_gain`` above ``noise_bend_px``: the scale is further times
             ``(h / noise_bend_px) ** noise_bend_gain`` for ``h`` (clamped as for
-            ``noise_size_gain``) above the knot. The fit puts the knot where the score's
-            own size terms stop (``size_max_px``): the rider's close scores pile up in a
-            narrow band at 60-150 px and spread again on the largest, cut boxes (docs/
-            pem.md, "The close rider"). A gain of 0 (the default, files written before
-            it) changes nothing [-], [px].
+            ``noise_size_gain``) above the knot. The class candidates fix the knot at 150
+            px (the person's and the rider's ``size_max_px`` too): their close scores
+            pile up in a narrow band up to 150 px and spread again on the larger, mostly
+            cut boxes (docs/pem.md, "The close rider"). A gain of 0 (the default, files
+            written before it) changes nothing [-], [px].
         noise_up_ratio: the logit noise's scale above its median over the scale below
             (``noise_sigma``): the detector's scores spread less upwards than downwards
             (1 = a normal law) [-].
