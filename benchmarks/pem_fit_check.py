@@ -48,10 +48,31 @@ def candidate(
     return fm.extended(base, "x", names, near_noise, outliers, False, tail, noise_bend)
 
 
+def frames_of(specs: list[str], kind: str) -> fm.KindFrames:
+    """The ``kind``'s frames of the files ``specs``, merged; a ``#even``/``#odd`` suffix
+    keeps that file's runs of even or odd index (as the shipped fit splits a held-out
+    file: it is refitted on the even runs, the odd ones are left for the check)."""
+    merged = fm.KindFrames()
+    for spec in specs:
+        path, _, part = spec.partition("#")
+        data = read_frames(path)[kind]
+        if part:
+            data = fm.split_runs(data, part)
+        merged.sweep.extend(data.sweep)
+        merged.runs.extend(data.runs)
+    return merged
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("fit", help="fit frames file (.jsonl.gz); several: comma-separated")
-    parser.add_argument("held", help="held-out frames file: every run is checked")
+    parser.add_argument(
+        "fit",
+        help="fit frames file (.jsonl.gz); several: comma-separated; FILE#even or FILE#odd: "
+        "that file's runs of even or odd index only",
+    )
+    parser.add_argument(
+        "held", help="held-out frames file: every run is checked (FILE#odd: its odd runs)"
+    )
     parser.add_argument("--kind", default="car", choices=("car", "pedestrian", "cyclist"))
     parser.add_argument(
         "--extras",
@@ -84,8 +105,8 @@ def main() -> None:
         args.near_noise,
         args.noise_bend,
     )
-    fit_data = fm._merged(args.fit.split(","))[args.kind]
-    t, held = fm.tracks_of(fit_data), fm.tracks_of(read_frames(args.held)[args.kind])
+    fit_data = frames_of(args.fit.split(","), args.kind)
+    t, held = fm.tracks_of(fit_data), fm.tracks_of(frames_of([args.held], args.kind))
     clock = time.perf_counter()
     fit = fm.fit_candidate(t, cand, params0.size_ref_px, stages=2)
     bare = replace(fit, extras=(), gains=(), noise=replace(fit.noise, kn=0.0))

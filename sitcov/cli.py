@@ -1233,6 +1233,13 @@ def calibrate_cmd(
         "with 1, the others moved at random, seeded), the best kept; about that many times "
         "the time (docs/pem.md).",
     ),
+    refit_with_heldout: bool = typer.Option(
+        True,
+        "--refit-with-heldout/--no-refit-with-heldout",
+        help="--heldout: refit the chosen model on the fit frames and the held-out files' "
+        "even-index runs (the default), or keep it as fitted on the fit frames alone "
+        "(the car's file, docs/pem.md).",
+    ),
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
     ),
@@ -1258,7 +1265,7 @@ def calibrate_cmd(
         return
     if frames_from:
         _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
-                         fit_stages, fit_starts, kinds)  # fmt: skip
+                         fit_stages, fit_starts, kinds, refit_with_heldout)  # fmt: skip
         return
     if record_frames:
         _record_frames_cmd(kinds, runs, seed, workers, model, samples_out, sweep_frames)
@@ -1335,7 +1342,7 @@ def calibrate_cmd(
 def _frame_model_cmd(
     paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
     workers: int = 1, heldout: list[Path] | None = None, stages: int = 2, starts: int = 1,
-    kinds: str = "car,pedestrian,cyclist,bicycle",
+    kinds: str = "car,pedestrian,cyclist,bicycle", refit_held: bool = True,
 ) -> None:  # fmt: skip
     """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
     import shlex
@@ -1355,11 +1362,12 @@ def _frame_model_cmd(
     cpu = time.process_time()
     wall = time.perf_counter()
     results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or (), stages=stages,
-                           starts=starts, kinds=wanted)  # fmt: skip
+                           starts=starts, kinds=wanted, refit_held=refit_held)  # fmt: skip
     wall = time.perf_counter() - wall
     command = "sitcov calibrate " + " ".join(f"--frames-from {shlex.quote(str(p))}" for p in paths)
     if heldout:
         command += "".join(f" --heldout {shlex.quote(str(p))}" for p in heldout)
+        command += "" if refit_held else " --no-refit-with-heldout"
     else:
         command += f" --cv-folds {folds}"
     command += f" --seed {seed}" + (f" --workers {workers}" if workers > 1 else "")

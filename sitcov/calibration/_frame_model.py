@@ -1348,7 +1348,7 @@ def split_runs(data: KindFrames, part: str) -> KindFrames:
 def fit_kind(
     data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None,
     candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 2, starts: int = 1,
-    box: bool = False,
+    box: bool = False, refit_held: bool = True,
 ) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
     """Choose the model on held-out runs and fit it on every frame of the kind; the
     parameters and a summary (frames, tracks, the choice table, the fitted noise).
@@ -1356,7 +1356,9 @@ def fit_kind(
     With ``held`` (frames recorded with another seed) the candidates are fitted on
     ``data`` and chosen by their log-likelihood on ``held``'s even-index runs, and the
     chosen one is refitted on ``data`` and those runs (the odd ones are left for the
-    check, :mod:`sitcov.calibration._frame_check`); else by ``folds`` run-grouped folds
+    check, :mod:`sitcov.calibration._frame_check`), or with ``refit_held`` False kept as
+    fitted on ``data`` alone (the car's file: docs/pem.md, "Which frames the car is
+    fitted on"); else by ``folds`` run-grouped folds
     of ``data`` and the chosen one refitted on all of it. ``candidates``: those of
     :data:`CANDIDATES` to choose among. ``stages``: the fit's (:func:`fit_tracks`), 2 by
     default (the marginal parameters by the frames-alone likelihood, then the AR share
@@ -1369,16 +1371,18 @@ def fit_kind(
     size_ref = base.size_ref_px
     if held is not None:
         even = split_runs(held, "even")
-        chosen, table, _ = held_out_choice(t, tracks_of(even), size_ref=size_ref,
-                                           candidates=candidates, stages=stages,
-                                           starts=starts)  # fmt: skip
-        # then the chosen model on every frame but the check's: the held-out runs are
-        # recorded with the stack given no detections, so they hold the closest frames
-        # (after the moment an AEB would fire) that the calibration runs stop before
-        data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
-        t = tracks_of(data)
-        fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
-                            stages=stages, starts=starts)  # fmt: skip
+        chosen, table, fits = held_out_choice(t, tracks_of(even), size_ref=size_ref,
+                                              candidates=candidates, stages=stages,
+                                              starts=starts)  # fmt: skip
+        fit = fits[chosen]
+        if refit_held:
+            # then the chosen model on every frame but the check's (written for fit runs
+            # that an AEB stopped: the held-out runs, recorded with the stack given no
+            # detections, held the closest frames)
+            data = KindFrames(sweep=list(data.sweep), runs=[*data.runs, *even.runs])
+            t = tracks_of(data)
+            fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
+                                stages=stages, starts=starts)  # fmt: skip
     else:
         chosen, table = choose_model(t, folds=folds, size_ref=size_ref, candidates=candidates,
                                      stages=stages, starts=starts)  # fmt: skip
@@ -1395,6 +1399,7 @@ def fit_kind(
         "detected_ge_floor": round(float(np.mean(t.score >= FLOOR)), 4),
         "model_choice": {
             "on": "held-out runs (even index)" if held is not None else f"{folds} folds",
+            "refitted_with_held_out_runs": held is not None and refit_held,
             "chosen": chosen,
             "by": selector(stages),
             "fit_stages": stages,
@@ -1411,11 +1416,13 @@ def fit_kind(
 
 
 def _fit_job(
-    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...], int, int],
-) -> tuple[PEMParams, dict[str, Any]]:
-    kind, data, base, folds, held, candidates, stages, starts = job
+    job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...], int, int,
+               bool],
+) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
+    kind, data, base, folds, held, candidates, stages, starts, refit_held = job
     return fit_kind(data, base, folds=folds, held=held, candidates=candidates, stages=stages,
-                    starts=starts, box=kind in BOX_OFFSET_KINDS)  # fmt: skip
+                    starts=starts, box=kind in BOX_OFFSET_KINDS,
+                    refit_held=refit_held)  # fmt: skip
 
 
 def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
@@ -1439,14 +1446,15 @@ def fit_files(
     stages: int = 2,
     starts: int = 1,
     kinds: Sequence[str] | None = None,
+    refit_held: bool = True,
 ) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
     """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
     kind -> (parameters, summary). Cars start from the shipped car parameters, the other
     kinds from the shipped per-class ones (their size reference [px] is kept).
     ``workers`` > 1 fits the kinds in that many processes (the same results). ``held``:
     frames files recorded with another seed, to choose the model on (:func:`fit_kind`);
-    ``stages``, ``starts``: :func:`fit_kind`'s; ``kinds``: only these (None: every kind
-    in the files)."""
+    ``stages``, ``starts``, ``refit_held``: :func:`fit_kind`'s; ``kinds``: only these
+    (None: every kind in the files)."""
     from sitcov.perception._pem_classes import load_class_params
     from sitcov.perception._pem_params import load_pem_params
 
@@ -1457,7 +1465,7 @@ def fit_files(
     classes = load_class_params()
     jobs = [
         (kind, data, load_pem_params() if kind == "car" else _start(classes, kind), folds,
-         other.get(kind) if held else None, candidates_for(kind), stages, starts)
+         other.get(kind) if held else None, candidates_for(kind), stages, starts, refit_held)
         for kind, data in merged.items()
     ]  # fmt: skip
     if workers <= 1 or len(jobs) <= 1:

@@ -14,7 +14,7 @@ from sitcov.calibration import _frame_model as fm
 from sitcov.calibration._camera_runs import CameraRun, RunFrame
 from sitcov.calibration._frames import KindFrames, read_frames, write_frames
 from sitcov.errors import ConfigError, SitcovError
-from sitcov.perception._pem import PEMFeatures, PEMParams
+from sitcov.perception._pem import PEMFeatures, PEMParams, pem_logit
 
 
 def _draw(
@@ -642,6 +642,47 @@ def test_more_starts_never_lower_the_frames_alone_likelihood() -> None:
     _, three = fm.fit_kind(data, base, held=held, candidates=cands, stages=2, starts=3)
     assert one["model_choice"]["fit_starts"] == 1 and three["model_choice"]["fit_starts"] == 3
     assert three["marginal_loglik_per_frame"] >= one["marginal_loglik_per_frame"] - 2e-4
+
+
+def test_the_chosen_model_takes_the_held_out_runs_only_when_asked(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """``refit_held`` (``sitcov calibrate --no-refit-with-heldout``): by default the chosen
+    model is refitted on the fit frames and the held-out file's even runs; without it it
+    stays as fitted on the fit frames alone (the car's file, docs/pem.md). Held-out runs
+    drawn 0.8 higher on the logit pull the refit's level up; the fit on the fit frames
+    alone does not see them. The command in ``meta`` records the option."""
+    import yaml
+    from cli_helpers import run_cli
+
+    from sitcov.calibration._frames import write_frames
+
+    cands = (fm.CANDIDATES[1],)  # ar1
+    data, held = _draw(3, runs=30), _draw(4, runs=30, bias=0.2)
+    base = PEMParams(size_ref_px=25.0)
+    alone, kept = fm.fit_kind(data, base, held=held, candidates=cands, refit_held=False)
+    both, refit = fm.fit_kind(data, base, held=held, candidates=cands)
+    assert kept["model_choice"]["refitted_with_held_out_runs"] is False
+    assert refit["model_choice"]["refitted_with_held_out_runs"] is True
+    assert kept["runs"] == 30 and refit["runs"] == 30 + 15
+    feats = [f.features for run in held.runs for f in run.frames]
+    level = [np.mean([pem_logit(f, p) for f in feats]) for p in (alone, both)]
+    assert level[1] > level[0] + 0.1
+    real = fm.fit_kind
+    monkeypatch.setattr(
+        fm, "fit_kind", lambda d, b, **kw: real(d, b, **{**kw, "candidates": cands})
+    )
+    fit_file, held_file = tmp_path / "fit.jsonl.gz", tmp_path / "held.jsonl.gz"
+    write_frames(fit_file, {"car": _draw(3, runs=20)})
+    write_frames(held_file, {"car": _draw(5, runs=10)})
+    out = tmp_path / "pem.yaml"
+    code, _, err = run_cli(capsys, "calibrate", "--frames-from", str(fit_file), "--heldout",
+                           str(held_file), "--no-refit-with-heldout", "--kinds", "car",
+                           "--out", str(out))  # fmt: skip
+    assert code == 0, err
+    meta = yaml.safe_load(out.read_text())["meta"]
+    assert "--no-refit-with-heldout" in meta["command"]
+    assert meta["car"]["runs"] == 20
 
 
 def test_calibrate_fits_only_the_kinds_asked_for(tmp_path, capsys, monkeypatch) -> None:

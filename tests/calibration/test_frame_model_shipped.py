@@ -24,6 +24,11 @@ HELD_OUT = {
     "cyclist": ROOT / "docs" / "data" / "pem-frames-rider-seed3.jsonl.gz",
     "bicycle": ROOT / "docs" / "data" / "pem-frames-bicycle-seed3.jsonl.gz",
 }
+#: A second held-out recording of every kind (seed 4, 300 runs each), read by nothing but
+#: the check.
+HELD_OUT_SEED4 = {
+    kind: Path(str(path).replace("seed3", "seed4")) for kind, path in HELD_OUT.items()
+}
 
 
 def _files(command: str, flag: str) -> list[Path]:
@@ -76,14 +81,15 @@ def test_no_term_is_chosen_on_a_stacks_verdicts() -> None:
     assert "camera_runs" not in meta and "bias_shift" not in str(meta)
 
 
-@functools.lru_cache(maxsize=1)
-def _check_rows() -> list[dict]:
+@functools.lru_cache(maxsize=2)
+def _check_rows(seed: int = 3) -> list[dict]:
     import numpy as np
 
     from sitcov.calibration import _frame_check as fc
     from sitcov.calibration._frames import read_frames
 
-    frames = {k: read_frames(path)[k] for k, path in HELD_OUT.items()}
+    held = HELD_OUT if seed == 3 else HELD_OUT_SEED4
+    frames = {k: read_frames(path)[k] for k, path in held.items()}
     classes = load_class_params()
     params = {k: load_pem_params() if k == "car" else classes[k][1] for k in frames}
     return fc.check_frames(frames, params, rng=np.random.default_rng(1))
@@ -106,28 +112,43 @@ def test_held_out_check_from_10_m_on() -> None:
 
 
 def test_held_out_misses_are_below_10_m_and_the_pem_under_the_detector() -> None:
-    """What is not met yet, stated as it is measured: the misses are the car's, below
-    10 m at θ = 0.5 and 0.6, and there the PEM says a score >= θ less often than the
-    detector gives one (docs/pem.md, "The car cut by the image edge, again": the close
-    car cut by the image edge scores higher than the PEM's law, missed or 0.5-0.7); every
-    cell around them (θ 0.3, 0.4 and 0.7) passes, and since the lower tail no cell of any
-    class is significantly off (its run-bootstrap interval reaches inside ±0.05): 43 of
-    45 within, none significant. The person, the rider and the bicycle pass every cell
-    (the rider's close θ 0.5 cell since the noise's size bend, session 18: -0.061 before,
-    -0.045 with it; before the lower tail 31 of 35, three significant)."""
+    """What is not met yet, stated as it is measured: the one miss is the car's, below
+    10 m at θ = 0.6, where the PEM says a score >= θ less often than the detector gives
+    one (docs/pem.md, "The car cut by the image edge, again": the close car cut by the
+    image edge scores higher than the PEM's law, missed or 0.5-0.7); every cell around it
+    (θ 0.3, 0.4, 0.5 and 0.7) passes, and since the lower tail no cell of any class is
+    significantly off (its run-bootstrap interval reaches inside ±0.05): 44 of 45 within,
+    none significant (43 with the car fitted with seed 2's even runs too, the misses at
+    θ 0.5 and 0.6: docs/pem.md, "Which frames the car is fitted on"). The person, the
+    rider and the bicycle pass every cell (the rider's close θ 0.5 cell since the noise's
+    size bend, session 18: -0.061 before, -0.045 with it; before the lower tail 31 of 35,
+    three significant)."""
     rows = [r for r in _check_rows() if "ok" in r]
     misses = [r for r in rows if not r["ok"]]
     assert misses and all(r["band"] == "0-10 m" and r["difference"] < 0 for r in misses)
     assert {r["theta"] for r in misses} <= {0.5, 0.6}
     assert {r["kind"] for r in misses} == {"car"}, misses
-    assert all(r["ok"] for r in rows if r["theta"] in (0.3, 0.4, 0.7))
+    assert all(r["ok"] for r in rows if r["theta"] in (0.3, 0.4, 0.5, 0.7))
     assert not any(r["significant"] for r in rows), [r for r in rows if r["significant"]]
-    assert len(misses) <= 2
+    assert len(misses) <= 1
 
 
-@pytest.mark.xfail(strict=True, reason="not met yet: 43 of 45 cells on seed 3's 300 "
-                   "held-out runs per kind (below 10 m: the car at 0.5 and 0.6, none "
-                   "significantly off; docs/pem.md, held-out check)")  # fmt: skip
+def test_held_out_check_done_when_on_a_second_recording() -> None:
+    """On seed 4's recordings (300 runs per kind, read by nothing but the check) every
+    judged cell of every class is within ±0.05 of the detector: 45 of 45 (the car's
+    close θ 0.6 cell -0.047 [-0.070, -0.024], the rider's close θ 0.5 -0.048; `sitcov
+    calibrate --check docs/data/pem-frames-top-seed4.jsonl.gz --kinds car` and the class
+    recordings, docs/pem.md)."""
+    from sitcov.calibration import _frame_check as fc
+
+    rows = _check_rows(4)
+    judged = [r for r in rows if "ok" in r]
+    assert len(judged) == 45 and all(r["ok"] for r in judged), fc.table_lines(rows)
+
+
+@pytest.mark.xfail(strict=True, reason="not met yet: 44 of 45 cells on seed 3's 300 "
+                   "held-out runs per kind (below 10 m: the car at 0.6, not significantly "
+                   "off; docs/pem.md, held-out check)")  # fmt: skip
 def test_held_out_check_done_when() -> None:
     """The done-when check: P(score >= θ), θ = 0.3..0.7, within ±0.05 of the detector's
     per class and distance band, on the held-out runs."""
