@@ -410,7 +410,11 @@ NEAR_M = 10.0
 #: truncation's linear term says, docs/pem.md, "The lower tail"); ``trunc_hinge<N>`` the
 #: truncation past ``N`` % (``max(0, trunc - N / 100)``: a bend of the truncation term,
 #: measured, no PEM parameter; docs/pem.md, "The car cut by the image edge, again");
-#: ``size3`` the cube of
+#: ``cut_hinge<N>`` the ``cut`` ramp times the size hinge ``max(0, ln(h / N))`` (a large
+#: box cut by the edge apart from a small one; measured, no PEM parameter; docs/pem.md,
+#: "Which frames the car is fitted on"); ``vis_hinge<N>`` the size hinge of the visible
+#: box's size (``h sqrt(1 - trunc)``) less that of the whole box's (the hinge as the
+#: image shows the box; measured, as ``cut_hinge``); ``size3`` the cube of
 #: the log apparent size; ``hinge<N>`` (any whole ``N`` px, e.g. ``hinge40``) the hinge
 #: ``max(0, ln(h / N))`` of the box height ``h`` [px] (unclamped: a piecewise-linear
 #: bend of the size term at ``N`` px, which the quadratic in the clamped log size cannot
@@ -422,8 +426,9 @@ NEAR_M = 10.0
 #: chance of giving a box at all need not follow the box size as its score does.
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
-               "trunc_side", "cut", "trunc_hinge<N>", "size3", "hinge<N>", "view_hinge<N>",
-               "size", "size2", "det_<term>")  # fmt: skip
+               "trunc_side", "cut", "trunc_hinge<N>", "cut_hinge<N>", "vis_hinge<N>", "size3",
+               "hinge<N>",
+               "view_hinge<N>", "size", "size2", "det_<term>")  # fmt: skip
 
 
 def is_detection_term(name: str) -> bool:
@@ -470,6 +475,21 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
             continue
         if name.startswith("trunc_hinge") and name[11:].isdigit():
             cols[name] = lambda k=int(name[11:]) / 100.0: np.maximum(0.0, -x[:, 8] - k)
+            continue
+        if name.startswith("vis_hinge") and name[9:].isdigit() and int(name[9:]) > 0:
+            h = np.asarray([f.height_px for f in t.feats], dtype=float)
+            eff = h * np.sqrt(np.clip(1.0 + x[:, 8], 1e-6, 1.0))
+            cols[name] = lambda n=int(name[9:]), h=h, e=eff: (
+                np.maximum(0.0, np.log(np.maximum(e, 1e-9) / n))
+                - np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n))
+            )
+            continue
+        if name.startswith("cut_hinge") and name[9:].isdigit() and int(name[9:]) > 0:
+            h = np.asarray([f.height_px for f in t.feats], dtype=float)
+            cols[name] = lambda n=int(name[9:]), h=h: (
+                np.minimum(1.0, -x[:, 8] / CUT_RAMP)
+                * (np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n)))
+            )
             continue
         view = name.startswith("view_hinge")
         knot = name[10 if view else 5 :] if name.startswith(("hinge", "view_hinge")) else ""

@@ -271,6 +271,34 @@ def test_the_truncation_hinge_is_the_truncation_past_its_knot() -> None:
         fm.extra_columns(t, x, ("trunc_hinge2.5",))
 
 
+def test_the_cut_size_hinges_are_what_their_names_say() -> None:
+    """``cut_hinge<N>`` (a measured term, not a candidate): the ``cut`` ramp (0 to 1 over
+    the first ``CUT_RAMP`` of truncation) times ``max(0, ln(h / N))``: 0 for a whole box
+    or one no taller than the knot, the size hinge itself for a box cut past the ramp; a
+    knot of 0 is refused. ``vis_hinge<N>`` (measured too): the hinge of the visible size
+    less the whole box's, 0 for a whole box and negative for a cut one past the knot."""
+    from sitcov.perception._pem import CUT_RAMP
+
+    t = fm.tracks_of(_draw(41, runs=4))
+    h = np.array([f.height_px for f in t.feats])
+    trunc = np.array([0.0, CUT_RAMP / 2, 0.3, 0.9] * (len(h) // 4 + 1))[: len(h)]
+    x = np.zeros((len(h), 14))
+    x[:, 8] = -trunc
+    col = fm.extra_columns(t, x, ("cut_hinge40",))[:, 0]
+    hinge = np.maximum(0.0, np.log(h / 40.0))
+    assert np.allclose(col, np.minimum(1.0, trunc / CUT_RAMP) * hinge)
+    assert col[trunc == 0.0].max() == 0.0 and col[h <= 40.0].max() == 0.0
+    past = (trunc >= 0.3) & (h > 40.0)
+    assert past.any() and np.allclose(col[past], hinge[past])
+    with pytest.raises(SitcovError, match="unknown extra term"):
+        fm.extra_columns(t, x, ("cut_hinge0",))
+    # vis_hinge<N>: the hinge of the visible size h sqrt(1 - trunc) less the whole box's
+    vis = fm.extra_columns(t, x, ("vis_hinge40",))[:, 0]
+    seen = np.maximum(0.0, np.log(h * np.sqrt(1.0 - trunc) / 40.0))
+    assert np.allclose(vis, seen - hinge) and vis.max() <= 0.0
+    assert vis[trunc == 0.0].min() == 0.0 and vis[(trunc == 0.9) & (h > 40.0)].max() < 0.0
+
+
 def test_a_detection_term_enters_the_detection_probit_only() -> None:
     """``det_size`` (the log size in the detection term only): drawn with a detector that
     gives fewer boxes the more of the image the road user fills (``fill_miss``, a size
