@@ -12,6 +12,10 @@ import yaml
 from sitcov.perception._pem_classes import PEM_CLASSES_FILE, load_class_params
 from sitcov.perception._pem_params import PEM_PARAMS_FILE, load_pem_params
 
+#: One worker runs this file's tests, so each recording's check rows (about 7 CPU-s) are
+#: computed once (``_check_rows`` is cached per process).
+pytestmark = pytest.mark.xdist_group("frame_model_shipped_check")
+
 ROOT = Path(__file__).resolve().parents[2]
 #: The check's held-out recordings per kind: 300 runs of seed 3, a seed neither the fit
 #: (seed 1) nor the model choice (seed 2's even runs) read; the car's; the pedestrian's;
