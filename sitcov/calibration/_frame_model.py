@@ -426,9 +426,9 @@ NEAR_M = 10.0
 #: chance of giving a box at all need not follow the box size as its score does.
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
-               "trunc_side", "cut", "trunc_hinge<N>", "cut_hinge<N>", "vis_hinge<N>", "size3",
-               "hinge<N>",
-               "view_hinge<N>", "size", "size2", "det_<term>")  # fmt: skip
+               "trunc_side", "cut", "trunc_hinge<N>", "cut_hinge<N>", "vis_hinge<N>",
+               "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
+               "det_<term>")  # fmt: skip
 
 
 def is_detection_term(name: str) -> bool:
@@ -469,6 +469,7 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         "size": lambda: x[:, 1],
         "size2": lambda: x[:, 2],
     }
+    heights = None  # the box heights [px], read once for the size hinges
     for name in names:
         if name.startswith("det_"):  # the same column, in the detection term only
             cols[name] = lambda n=name[4:]: extra_columns(t, x, (n,))[:, 0]
@@ -476,34 +477,50 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         if name.startswith("trunc_hinge") and name[11:].isdigit():
             cols[name] = lambda k=int(name[11:]) / 100.0: np.maximum(0.0, -x[:, 8] - k)
             continue
-        if name.startswith("vis_hinge") and name[9:].isdigit() and int(name[9:]) > 0:
-            h = np.asarray([f.height_px for f in t.feats], dtype=float)
-            eff = h * np.sqrt(np.clip(1.0 + x[:, 8], 1e-6, 1.0))
-            cols[name] = lambda n=int(name[9:]), h=h, e=eff: (
-                np.maximum(0.0, np.log(np.maximum(e, 1e-9) / n))
-                - np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n))
-            )
-            continue
-        if name.startswith("cut_hinge") and name[9:].isdigit() and int(name[9:]) > 0:
-            h = np.asarray([f.height_px for f in t.feats], dtype=float)
-            cols[name] = lambda n=int(name[9:]), h=h: (
-                np.minimum(1.0, -x[:, 8] / CUT_RAMP)
-                * (np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n)))
-            )
-            continue
-        view = name.startswith("view_hinge")
-        knot = name[10 if view else 5 :] if name.startswith(("hinge", "view_hinge")) else ""
-        if knot.isdigit() and int(knot) > 0:
-            h = np.asarray([f.height_px for f in t.feats], dtype=float)
-            gain = -x[:, 4] if view else 1.0  # the sine of the view angle (side-on: 1)
-            cols[name] = lambda n=int(knot), h=h, g=gain: (
-                g * np.maximum(0.0, np.log(np.maximum(h, 1e-9) / n))
-            )
+        prefix, knot = _hinge_knot(name)
+        if prefix is not None:
+            if heights is None:
+                heights = np.asarray([f.height_px for f in t.feats], dtype=float)
+            cols[name] = lambda p=prefix, n=knot, h=heights: _hinge_column(p, n, h, x)
         if name not in cols:
             raise SitcovError(f"unknown extra term {name!r}; expected one of {EXTRA_TERMS}")
     return np.column_stack([np.asarray(cols[n](), dtype=float) for n in names]).reshape(
         len(d), len(names)
     )
+
+
+#: The size-hinge terms' name prefixes (each followed by a whole knot ``N`` > 0 [px]),
+#: the longer first: ``hinge`` ends each of the others.
+_HINGE_PREFIXES = ("view_hinge", "cut_hinge", "vis_hinge", "hinge")
+
+
+def _hinge_knot(name: str) -> tuple[str | None, int]:
+    """(prefix, knot) of a size-hinge term's name (:data:`_HINGE_PREFIXES`), or (None, 0)
+    for any other name or a knot that is not a whole number above 0."""
+    for prefix in _HINGE_PREFIXES:
+        if name.startswith(prefix):
+            knot = name[len(prefix) :]
+            return (prefix, int(knot)) if knot.isdigit() and int(knot) > 0 else (None, 0)
+    return None, 0
+
+
+def _size_hinge(h: np.ndarray, knot: float) -> np.ndarray:
+    """``max(0, ln(h / knot))`` of the box heights ``h`` [px]: a bend of the size term."""
+    return np.maximum(0.0, np.log(np.maximum(h, 1e-9) / knot))
+
+
+def _hinge_column(prefix: str, knot: int, h: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The size-hinge term ``prefix`` + ``knot`` per frame (:data:`EXTRA_TERMS`): the
+    hinge itself, times the sine of the view angle, times the ``cut`` ramp, or the hinge
+    of the visible size less the whole box's."""
+    hinge = _size_hinge(h, knot)
+    if prefix == "view_hinge":
+        return -x[:, 4] * hinge  # the sine of the view angle (side-on: 1)
+    if prefix == "cut_hinge":
+        return np.minimum(1.0, -x[:, 8] / CUT_RAMP) * hinge
+    if prefix == "vis_hinge":
+        return _size_hinge(h * np.sqrt(np.clip(1.0 + x[:, 8], 1e-6, 1.0)), knot) - hinge
+    return hinge
 
 
 def geometry(t: Tracks) -> np.ndarray:
