@@ -10,6 +10,16 @@ no model choice: a measurement of one candidate, not a shipped fit.
 
     python benchmarks/pem_fit_check.py docs/data/pem-frames-pedestrian-seed1.jsonl.gz \\
         docs/data/pem-frames-pedestrian-seed3.jsonl.gz --kind pedestrian --tail
+
+``--held-terms A,B`` (repeatable) then adds those terms to the fitted model with the
+rest held (``fit_held_terms``, as ``sitcov calibrate --held-term`` does) and prints, per
+set, the fit's and each held-out file's frames-alone likelihood per frame, cells and
+close (< 10 m) θ 0.5 / 0.6 differences; ``HELD`` may name several files
+(comma-separated, each with its ``#even``/``#odd``):
+
+    D=docs/data; python benchmarks/pem_fit_check.py $D/pem-frames-top-seed1.jsonl.gz \\
+        "$D/pem-frames-top-seed2.jsonl.gz#even,$D/pem-frames-top-seed2.jsonl.gz#odd" \\
+        --held-terms cut_tent150 --held-terms cut_tent180 --held-terms cut_tent220
 """
 
 from __future__ import annotations
@@ -71,7 +81,9 @@ def main() -> None:
         "that file's runs of even or odd index only",
     )
     parser.add_argument(
-        "held", help="held-out frames file: every run is checked (FILE#odd: its odd runs)"
+        "held",
+        help="held-out frames file: every run is checked (FILE#odd: its odd runs); several: "
+        "comma-separated (the detailed table is the first's)",
     )
     parser.add_argument("--kind", default="car", choices=("car", "pedestrian", "cyclist"))
     parser.add_argument(
@@ -94,6 +106,13 @@ def main() -> None:
     parser.add_argument(
         "--model", default=None, help="the candidate to start from (default: the shipped one)"
     )
+    parser.add_argument(
+        "--held-terms",
+        action="append",
+        default=[],
+        metavar="A,B",
+        help="extra terms added to the fitted model with the rest held (repeatable: one set each)",
+    )
     args = parser.parse_args()
     params0, _ = shipped(args.kind)
     cand = candidate(
@@ -106,7 +125,9 @@ def main() -> None:
         args.noise_bend,
     )
     fit_data = frames_of(args.fit.split(","), args.kind)
-    t, held = fm.tracks_of(fit_data), fm.tracks_of(frames_of([args.held], args.kind))
+    t = fm.tracks_of(fit_data)
+    helds = {spec: fm.tracks_of(frames_of([spec], args.kind)) for spec in args.held.split(",")}
+    held = next(iter(helds.values()))
     clock = time.perf_counter()
     fit = fm.fit_candidate(t, cand, params0.size_ref_px, stages=2)
     bare = replace(fit, extras=(), gains=(), noise=replace(fit.noise, kn=0.0))
@@ -136,6 +157,30 @@ def main() -> None:
             cols = " ".join(f"{th}:{np.mean(held.score[sel] >= th):.2f}/"
                             f"{np.mean(rates[th][sel]):.2f}" for th in THETAS)  # fmt: skip
             print(f"  truncation {lo}-{hi} n={int(sel.sum())} {cols}")
+    if args.held_terms:
+        print("held terms (the rest held), frames alone per frame, cells, close θ 0.5 / 0.6:")
+        print(held_line("none", fit, params, t, helds))
+    for names in args.held_terms:
+        more = fm.fit_held_terms(fit, t, tuple(n for n in names.split(",") if n))
+        gains = ", ".join(f"{n} {g:+.3f}" for n, g in zip(more.extras, more.gains, strict=True)
+                          if n not in fit.extras)  # fmt: skip
+        print(held_line(gains, more, params, t, helds))
+
+
+def held_line(
+    name: str, fit: fm.FrameFit, params: object, t: fm.Tracks, helds: dict[str, fm.Tracks]
+) -> str:
+    """One line of the held terms' table: the fit's own frames and each held-out file's."""
+    parts = [f"  {name}: fit {marginal_loglik(fit, t):+.4f}"]
+    for spec, h in helds.items():
+        rows = [r for r in cells(fit, params, h) if "ok" in r]
+        close = {r["theta"]: r["diff"] for r in rows if r["band"] == "0-10 m"}
+        parts.append(
+            f"{spec.rsplit('/', 1)[-1]} {marginal_loglik(fit, h):+.4f} "
+            f"{sum(r['ok'] for r in rows)}/{len(rows)} "
+            f"({close.get(0.5, float('nan')):+.3f} / {close.get(0.6, float('nan')):+.3f})"
+        )
+    return "  ".join(parts)
 
 
 if __name__ == "__main__":

@@ -1240,6 +1240,13 @@ def calibrate_cmd(
         "even-index runs (the default), or keep it as fitted on the fit frames alone "
         "(the car's file, docs/pem.md).",
     ),
+    held_term: list[str] = typer.Option(
+        [],
+        "--held-term",
+        help="--frames-from: add this extra term (one with a PEM parameter, e.g. "
+        "cut_tent220) to the chosen model, its gain fitted with the rest held; repeatable "
+        '(docs/pem.md, "The mid-size cut car").',
+    ),
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
     ),
@@ -1265,7 +1272,8 @@ def calibrate_cmd(
         return
     if frames_from:
         _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
-                         fit_stages, fit_starts, kinds, refit_with_heldout)  # fmt: skip
+                         fit_stages, fit_starts, kinds, refit_with_heldout,
+                         tuple(held_term))  # fmt: skip
         return
     if record_frames:
         _record_frames_cmd(kinds, runs, seed, workers, model, samples_out, sweep_frames)
@@ -1343,6 +1351,7 @@ def _frame_model_cmd(
     paths: list[Path], folds: int, seed: int, out: Path | None, classes_out: Path | None,
     workers: int = 1, heldout: list[Path] | None = None, stages: int = 2, starts: int = 1,
     kinds: str = "car,pedestrian,cyclist,bicycle", refit_held: bool = True,
+    held_terms: tuple[str, ...] = (),
 ) -> None:  # fmt: skip
     """``sitcov calibrate --frames-from``: the frame model's files (docs/pem.md)."""
     import shlex
@@ -1359,10 +1368,19 @@ def _frame_model_cmd(
             expected="pedestrian and cyclist with --classes-out (the per-class file holds both)",
         )  # fmt: skip
 
+    from sitcov.calibration._calibrate import EXTRA_TERM_PARAMS
+
+    for name in held_terms:
+        if name not in EXTRA_TERM_PARAMS:
+            raise ConfigError(
+                field="--held-term", value=name,
+                expected=f"an extra term with a PEM parameter: {', '.join(EXTRA_TERM_PARAMS)}",
+            )  # fmt: skip
     cpu = time.process_time()
     wall = time.perf_counter()
     results = fm.fit_files(paths, folds=folds, workers=workers, held=heldout or (), stages=stages,
-                           starts=starts, kinds=wanted, refit_held=refit_held)  # fmt: skip
+                           starts=starts, kinds=wanted, refit_held=refit_held,
+                           held_terms=held_terms)  # fmt: skip
     wall = time.perf_counter() - wall
     command = "sitcov calibrate " + " ".join(f"--frames-from {shlex.quote(str(p))}" for p in paths)
     if heldout:
@@ -1374,6 +1392,7 @@ def _frame_model_cmd(
     command += f" --fit-stages {stages}" if stages != 2 else ""
     command += f" --fit-starts {starts}" if starts != 1 else ""
     command += f" --kinds {','.join(wanted)}" if set(wanted) != set(KIND_LABEL) else ""
+    command += "".join(f" --held-term {shlex.quote(n)}" for n in held_terms)
     if out is not None:
         command += f" --out {shlex.quote(str(out))}"
     if classes_out is not None:

@@ -414,7 +414,10 @@ NEAR_M = 10.0
 #: box cut by the edge apart from a small one; measured, no PEM parameter; docs/pem.md,
 #: "Which frames the car is fitted on"); ``vis_hinge<N>`` the size hinge of the visible
 #: box's size (``h sqrt(1 - trunc)``) less that of the whole box's (the hinge as the
-#: image shows the box; measured, as ``cut_hinge``); ``size3`` the cube of
+#: image shows the box; measured, as ``cut_hinge``); ``cut_tent<N>`` the ``cut`` ramp
+#: times a tent in the log box height, ``max(0, 1 - |ln(h / N)| / ln 2)`` (a mid-size box
+#: cut by the edge: the PEM parameter ``cut_tent_gain`` at ``N`` = 220, ``CUT_TENT_PX``;
+#: docs/pem.md, "The mid-size cut car"); ``size3`` the cube of
 #: the log apparent size; ``hinge<N>`` (any whole ``N`` px, e.g. ``hinge40``) the hinge
 #: ``max(0, ln(h / N))`` of the box height ``h`` [px] (unclamped: a piecewise-linear
 #: bend of the size term at ``N`` px, which the quadratic in the clamped log size cannot
@@ -427,7 +430,7 @@ NEAR_M = 10.0
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
                "trunc_side", "cut", "trunc_hinge<N>", "cut_hinge<N>", "vis_hinge<N>",
-               "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
+               "cut_tent<N>", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
                "det_<term>")  # fmt: skip
 
 
@@ -489,9 +492,9 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
     )
 
 
-#: The size-hinge terms' name prefixes (each followed by a whole knot ``N`` > 0 [px]),
+#: The size terms' name prefixes (each followed by a whole knot ``N`` > 0 [px]),
 #: the longer first: ``hinge`` ends each of the others.
-_HINGE_PREFIXES = ("view_hinge", "cut_hinge", "vis_hinge", "hinge")
+_HINGE_PREFIXES = ("view_hinge", "cut_hinge", "vis_hinge", "hinge", "cut_tent")
 
 
 def _hinge_knot(name: str) -> tuple[str | None, int]:
@@ -512,7 +515,11 @@ def _size_hinge(h: np.ndarray, knot: float) -> np.ndarray:
 def _hinge_column(prefix: str, knot: int, h: np.ndarray, x: np.ndarray) -> np.ndarray:
     """The size-hinge term ``prefix`` + ``knot`` per frame (:data:`EXTRA_TERMS`): the
     hinge itself, times the sine of the view angle, times the ``cut`` ramp, or the hinge
-    of the visible size less the whole box's."""
+    of the visible size less the whole box's; or the ``cut`` ramp times a tent at the
+    knot (``cut_tent``)."""
+    if prefix == "cut_tent":
+        far = np.abs(np.log(np.maximum(h, 1e-9) / knot))
+        return np.minimum(1.0, -x[:, 8] / CUT_RAMP) * np.maximum(0.0, 1.0 - far / math.log(2.0))
     hinge = _size_hinge(h, knot)
     if prefix == "view_hinge":
         return -x[:, 4] * hinge  # the sine of the view angle (side-on: 1)
@@ -1073,6 +1080,62 @@ def fit_tracks(
     return FrameFit(coef, size_max, size_ref, noise, gain, tuple(extras), tuple(gains))
 
 
+#: The gains :func:`fit_held_terms` tries first for each held term [logit], the smaller
+#: first (a tie keeps the smaller).
+HELD_GRID = np.asarray(sorted(np.round(np.arange(-1.0, 1.0001, 0.02), 2), key=abs))
+
+
+def fit_held_terms(fit: FrameFit, t: Tracks, names: Sequence[str]) -> FrameFit:
+    """``fit`` with the extra terms ``names`` (:data:`EXTRA_TERMS`) added, their gains
+    fitted by the frames-alone likelihood of ``t`` with every other parameter held (each
+    gain the best of :data:`HELD_GRID` with the others at 0, then Powell's search from
+    there; 0, the grid's best or the search's end, whichever is best).
+
+    Why held: a term fitted with the rest can be traded away. The mid-size car cut by
+    the image edge scores higher than the logit says, but a joint fit moved the
+    truncation's and the detection term's gains instead, and the close cells did not
+    move (docs/pem.md, "The mid-size cut car"). Fitted after, the term takes only what
+    the chosen model leaves unexplained; it cannot make the fit worse on ``t`` (0 is
+    where the search starts)."""
+    from scipy.optimize import minimize
+
+    names = tuple(names)
+    if not names:
+        return fit
+    clash = [n for n in names if n in fit.extras]
+    if clash:
+        raise SitcovError(f"held terms {clash} are already terms of the fit")
+    y, obs = _observed(t)
+    nz = fit.noise
+    needs_size = nz.k != 0.0 or nz.ku != 0.0 or nz.kb != 0.0
+    size = scale_size(t, fit.size_ref, nz.cap) if needs_size else None
+    geom = geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
+    near = near_of(t) if nz.kn != 0.0 else None
+    x = _design_for(t, fit.size_max, fit.size_ref)
+    cols = extra_columns(t, x, names)
+    in_det = np.asarray([is_detection_term(n) for n in names], dtype=bool)
+    m0 = fit.logit(t)
+    det0 = fit.extra(t, x, detection=True)
+
+    def nll(g: np.ndarray) -> float:
+        m = m0 + cols[:, ~in_det] @ g[~in_det]
+        det = det0 + cols[:, in_det] @ g[in_det] if in_det.any() else det0
+        det = None if np.isscalar(det) else np.asarray(det)
+        return -frames_alone_loglik(m, y, obs, nz, geom, size, near, det)
+
+    # the likelihood is not smooth at this scale (a 0.02 step can lose 0.1 where a local
+    # search stops): each gain from a grid with the others at 0, then all from there
+    zero = np.zeros(len(names))
+    start = zero.copy()
+    for i in range(len(names)):
+        trial = [np.where(np.arange(len(names)) == i, g, 0.0) for g in HELD_GRID]
+        start[i] = HELD_GRID[int(np.argmin([nll(g) for g in trial]))]
+    res = minimize(nll, start, method="Powell", options={"xtol": 1e-3, "ftol": 1e-9})
+    best = min((zero, start, np.atleast_1d(res.x)), key=nll)
+    return replace(fit, extras=fit.extras + names,
+                   gains=fit.gains + tuple(float(g) for g in best))  # fmt: skip
+
+
 def _with_tail(
     px: np.ndarray, at: int, first: Any, embed: Any, fixed: np.ndarray, without: float
 ) -> np.ndarray:
@@ -1385,7 +1448,7 @@ def split_runs(data: KindFrames, part: str) -> KindFrames:
 def fit_kind(
     data: KindFrames, base: PEMParams, *, folds: int = 5, held: KindFrames | None = None,
     candidates: Sequence[tuple[Any, ...]] = CANDIDATES, stages: int = 2, starts: int = 1,
-    box: bool = False, refit_held: bool = True,
+    box: bool = False, refit_held: bool = True, held_terms: Sequence[str] = (),
 ) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
     """Choose the model on held-out runs and fit it on every frame of the kind; the
     parameters and a summary (frames, tracks, the choice table, the fitted noise).
@@ -1403,7 +1466,9 @@ def fit_kind(
     likelihood); 1 the single-stage sequence fit and choice of the files before it.
     ``starts``: every fit's (:func:`fit_tracks`: its first stage from that many starts,
     the best kept; 1, the default, is the shipped files' fit). ``box``:
-    :func:`to_params`'s (the box's mean offsets and per-axis noise)."""
+    :func:`to_params`'s (the box's mean offsets and per-axis noise). ``held_terms``:
+    extra terms with a PEM parameter added to the fitted model with the rest held
+    (:func:`fit_held_terms`, on the frames it was fitted on)."""
     t = tracks_of(data)
     size_ref = base.size_ref_px
     if held is not None:
@@ -1425,6 +1490,8 @@ def fit_kind(
                                      stages=stages, starts=starts)  # fmt: skip
         fit = fit_candidate(t, next(c for c in candidates if c[0] == chosen), size_ref,
                             stages=stages, starts=starts)  # fmt: skip
+    before = fit.marginal_loglik(t) / max(1, len(t.score)) if held_terms else 0.0
+    fit = fit_held_terms(fit, t, held_terms)
     params = to_params(fit, base, t, data.runs, box=box)
     nz = fit.noise
     lag1 = nz.share * nz.rho
@@ -1449,17 +1516,23 @@ def fit_kind(
         "loglik_per_frame": round(fit.loglik(t) / max(1, len(t.score)), 4),
         "marginal_loglik_per_frame": round(fit.marginal_loglik(t) / max(1, len(t.score)), 4),
     }
+    if held_terms:
+        gains = dict(zip(fit.extras, fit.gains, strict=True))
+        summary["held_terms"] = {
+            "gains": {n: round(gains[n], 4) for n in held_terms},
+            "marginal_loglik_per_frame_without": round(before, 4),
+        }
     return params, summary
 
 
 def _fit_job(
     job: tuple[str, KindFrames, PEMParams, int, KindFrames | None, tuple[Any, ...], int, int,
-               bool],
+               bool, tuple[str, ...]],
 ) -> tuple[PEMParams, dict[str, Any]]:  # fmt: skip
-    kind, data, base, folds, held, candidates, stages, starts, refit_held = job
+    kind, data, base, folds, held, candidates, stages, starts, refit_held, held_terms = job
     return fit_kind(data, base, folds=folds, held=held, candidates=candidates, stages=stages,
-                    starts=starts, box=kind in BOX_OFFSET_KINDS,
-                    refit_held=refit_held)  # fmt: skip
+                    starts=starts, box=kind in BOX_OFFSET_KINDS, refit_held=refit_held,
+                    held_terms=held_terms)  # fmt: skip
 
 
 def _merged(paths: Sequence[Any]) -> dict[str, KindFrames]:
@@ -1484,14 +1557,15 @@ def fit_files(
     starts: int = 1,
     kinds: Sequence[str] | None = None,
     refit_held: bool = True,
+    held_terms: Sequence[str] = (),
 ) -> dict[str, tuple[PEMParams, dict[str, Any]]]:
     """:func:`fit_kind` for every kind in the frames files ``paths`` (merged per kind):
     kind -> (parameters, summary). Cars start from the shipped car parameters, the other
     kinds from the shipped per-class ones (their size reference [px] is kept).
     ``workers`` > 1 fits the kinds in that many processes (the same results). ``held``:
     frames files recorded with another seed, to choose the model on (:func:`fit_kind`);
-    ``stages``, ``starts``, ``refit_held``: :func:`fit_kind`'s; ``kinds``: only these
-    (None: every kind in the files)."""
+    ``stages``, ``starts``, ``refit_held``, ``held_terms``: :func:`fit_kind`'s; ``kinds``:
+    only these (None: every kind in the files)."""
     from sitcov.perception._pem_classes import load_class_params
     from sitcov.perception._pem_params import load_pem_params
 
@@ -1502,7 +1576,8 @@ def fit_files(
     classes = load_class_params()
     jobs = [
         (kind, data, load_pem_params() if kind == "car" else _start(classes, kind), folds,
-         other.get(kind) if held else None, candidates_for(kind), stages, starts, refit_held)
+         other.get(kind) if held else None, candidates_for(kind), stages, starts, refit_held,
+         tuple(held_terms))
         for kind, data in merged.items()
     ]  # fmt: skip
     if workers <= 1 or len(jobs) <= 1:

@@ -13,6 +13,7 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         - view_gain  * sin(view_angle) + view2_gain * sin(2 * view_angle)      side, oblique
         + facing_gain * facing + facing2_gain * (2 * facing^2 - 1)             rear/front
         - trunc_gain * truncation                                             image edge
+        + cut_tent_gain * cut * max(0, 1 - |ln(h / 220)| / ln 2)   a mid-size box cut by it
         + fog_gain   * ln(transmittance(distance))                            fog contrast
         + illum_gain * ln(illumination)                                       darkness
         - rain_gain  * rain_noise                                             rain, spray
@@ -28,7 +29,8 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
     h' = clamp(h, size_min_px, noise_size_max_px)
                                              (larger boxes, wider scores; 1 if the gains are 0)
 
-with ``h`` and ``w`` the unclipped box height and width [px], ``facing`` the cosine of the
+with ``h`` and ``w`` the unclipped box height and width [px], ``cut`` the ramp
+``min(1, truncation / 0.1)`` (``CUT_RAMP``), ``facing`` the cosine of the
 actor's heading relative to the line of sight (+1 rear view, -1 front view), ``side`` its
 sine (+1 seen from the actor's left, moving right to left in the image, -1 from its right:
 the only feature that is not left/right symmetric; 0 in frames recorded before it),
@@ -144,6 +146,10 @@ _TINY = 1e-9  # floor inside logarithms [-]
 FILL_MIN = 0.05
 #: Truncation over which ``cut_gain``'s step ramps from 0 to 1 [-].
 CUT_RAMP = 0.1
+#: Box height [px] at which ``cut_tent_gain``'s tent peaks; it falls to 0 at half and at
+#: twice this height.
+CUT_TENT_PX = 220.0
+_LN2 = math.log(2.0)
 #: Where the score noise's lower tail widens (``noise_low_tail``), in standard units of
 #: the latent noise below the median [-].
 LOW_TAIL_KNEE = 1.0
@@ -218,6 +224,7 @@ COEFFICIENTS = (
     "size_hinge80_gain",
     "view_hinge40_gain",
     "cut_gain",
+    "cut_tent_gain",
 )
 (
     _BIAS,
@@ -248,6 +255,7 @@ COEFFICIENTS = (
     _HINGE80,
     _VIEW_HINGE40,
     _CUT,
+    _CUT_TENT,
 ) = range(len(COEFFICIENTS))
 
 
@@ -301,6 +309,12 @@ def _logit(
         bend += c[_VIEW_HINGE40] * side * math.log(height_px / 40.0)
     if c[_CUT] != 0.0 and truncation > 0.0:  # cut by the image edge (0 without: same bits)
         bend += c[_CUT] * (1.0 if truncation > CUT_RAMP else truncation / CUT_RAMP)
+    if c[_CUT_TENT] != 0.0 and truncation > 0.0 and height_px > 0.0:  # (0: the same bits)
+        far = math.log(height_px / CUT_TENT_PX)
+        tent = 1.0 - (far if far >= 0.0 else -far) / _LN2
+        if tent > 0.0:
+            ramp = 1.0 if truncation > CUT_RAMP else truncation / CUT_RAMP
+            bend += c[_CUT_TENT] * ramp * tent
     return (
         c[_BIAS]
         + (c[_SIZE] + c[_SIZE2] * size + c[_SIDE_SIZE] * side) * size

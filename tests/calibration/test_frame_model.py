@@ -4,6 +4,7 @@ the check on held-out frames; the frames file."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -810,3 +811,88 @@ def test_the_class_file_labels_a_cyclist_as_its_rider() -> None:
     assert doc["classes"]["cyclist"]["label"] == "person"
     assert doc["classes"]["pedestrian"]["label"] == "person"
     assert doc["classes"]["bicycle"]["label"] == "bicycle"  # the cyclist's second detection
+
+
+def test_a_held_term_takes_only_what_the_held_model_leaves() -> None:
+    """``fit_held_terms`` (``sitcov calibrate --held-term``): the fitted model's every
+    parameter stays as it was and only the added term's gain is fitted. Frames drawn
+    with ``0.8 * side`` on the logit (which no term of the fit sees): the held ``side``
+    term recovers it and raises the frames-alone likelihood; drawn without, it stays near
+    0. No terms give the fit itself; a term the fit has already is refused."""
+    t = fm.tracks_of(_draw(61, runs=60, side_gain=0.8))
+    fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0)
+    held = fm.fit_held_terms(fit, t, ("side",))
+    assert held.extras == ("side",) and held.gains[0] == pytest.approx(0.8, abs=0.25)
+    assert held.beta is fit.beta and held.noise == fit.noise and held.size_max == fit.size_max
+    assert held.marginal_loglik(t) > fit.marginal_loglik(t) + 5.0
+    t0 = fm.tracks_of(_draw(61, runs=60, side_gain=0.0))
+    fit0 = fm.fit_tracks(t0, ridge=1.0, ar=True, size_ref=25.0)
+    assert abs(fm.fit_held_terms(fit0, t0, ("side",)).gains[0]) < 0.15
+    assert fm.fit_held_terms(fit, t, ()) is fit
+    with pytest.raises(SitcovError, match="already"):
+        fm.fit_held_terms(held, t, ("side",))
+
+
+def test_the_cut_tent_is_the_pems_cut_tent_gain() -> None:
+    """``cut_tent<N>``: the ``cut`` ramp times ``max(0, 1 - |ln(h / N)| / ln 2)``: 0 for a
+    whole box and outside [N/2, 2N], the ramp itself at the knot. ``cut_tent220`` is
+    written as ``cut_tent_gain`` and the PEM's logit of every frame, whole and cut, below,
+    at and above the tent, is then the fit's."""
+    from sitcov.calibration._calibrate import _LINEAR
+    from sitcov.perception._pem import CUT_RAMP, CUT_TENT_PX
+
+    base = fm.tracks_of(_draw(23, runs=5, length=60))
+    trunc = np.array([0.0, CUT_RAMP / 2, 0.3] * (len(base.feats) // 3 + 1))[: len(base.feats)]
+    feats = [f._replace(truncation=float(c)) for f, c in zip(base.feats, trunc, strict=True)]
+    t = replace(base, feats=feats)
+    h = np.array([f.height_px for f in feats])
+    x = np.zeros((len(h), 14))
+    x[:, 8] = -trunc
+    col = fm.extra_columns(t, x, ("cut_tent220",))[:, 0]
+    tent = np.maximum(0.0, 1.0 - np.abs(np.log(h / CUT_TENT_PX)) / math.log(2.0))
+    assert np.allclose(col, np.minimum(1.0, trunc / CUT_RAMP) * tent)
+    assert col[trunc == 0.0].max() == 0.0 and col[h <= CUT_TENT_PX / 2].max() == 0.0
+    assert (col > 0.0).sum() > 20
+    beta = np.random.default_rng(2).uniform(-0.5, 0.5, len(_LINEAR))
+    fit = fm.FrameFit(beta, 150.0, 25.0, fm.Noise(0.3, 0.5, 0.8), 0.0, ("cut_tent220",), (0.6,))
+    params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, [])
+    assert params.cut_tent_gain == 0.6
+    exact = replace(fit, beta=np.asarray([getattr(params, n) for n in _LINEAR]))
+    logits = exact.logit(t)
+    inside = [i for i, f in enumerate(feats) if f.height_px >= params.size_min_px]
+    assert max(h[inside]) > CUT_TENT_PX
+    for i in inside:
+        assert pem_logit(feats[i], params) == pytest.approx(logits[i], abs=1e-9)
+
+
+def test_calibrate_adds_a_held_term_and_refuses_one_without_a_parameter(
+    tmp_path, capsys, monkeypatch
+) -> None:
+    """``sitcov calibrate --frames-from ... --held-term cut_tent220``: the term's gain is
+    fitted after the model, recorded in the summary and the command of ``meta``; a term
+    the PEM has no parameter for is refused before any fit (one clear line naming the
+    option)."""
+    import yaml
+    from cli_helpers import run_cli
+
+    from sitcov.calibration._frames import write_frames
+
+    real = fm.fit_kind
+    monkeypatch.setattr(
+        fm, "fit_kind", lambda d, b, **kw: real(d, b, **{**kw, "candidates": fm.CANDIDATES[1:2]})
+    )
+    fit_file, held_file = tmp_path / "fit.jsonl.gz", tmp_path / "held.jsonl.gz"
+    write_frames(fit_file, {"car": _draw(3, runs=20)})
+    write_frames(held_file, {"car": _draw(5, runs=10)})
+    out = tmp_path / "pem.yaml"
+    args = ("calibrate", "--frames-from", str(fit_file), "--heldout", str(held_file),
+            "--kinds", "car", "--out", str(out))  # fmt: skip
+    code, _, err = run_cli(capsys, *args, "--held-term", "near")
+    assert code != 0 and "--held-term" in err and "cut_tent220" in err
+    assert "Traceback" not in err and not out.exists()
+    code, _, err = run_cli(capsys, *args, "--held-term", "cut_tent220")
+    assert code == 0, err
+    doc = yaml.safe_load(out.read_text())
+    assert "--held-term cut_tent220" in doc["meta"]["command"]
+    assert doc["meta"]["car"]["held_terms"]["gains"] == {"cut_tent220": 0.0}  # none cut
+    assert doc["params"]["cut_tent_gain"] == 0.0

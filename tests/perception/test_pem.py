@@ -29,7 +29,7 @@ from sitcov.perception import (
     pem_logit,
     pem_score,
 )
-from sitcov.perception._pem import NormalStream, pass_probability
+from sitcov.perception._pem import CUT_TENT_PX, NormalStream, pass_probability
 from sitcov.sim import Conditions, conditions_from_values
 
 EGO = Pose(0.0, 0.0, 0.0)
@@ -166,6 +166,8 @@ def test_score_grows_with_apparent_size(name):
             continue
         if p.size_hinge40_gain + p.size_hinge80_gain < 0 and 2.0 * f.height_px > 80.0:
             continue  # the bends turn it over above 80 px (the shipped car: -0.17 per e-fold)
+        if p.cut_tent_gain > 0.0 and f.truncation > 0.0 and 2.0 * f.height_px > CUT_TENT_PX:
+            continue  # a cut box's tent falls past its peak (docs/pem.md, "The mid-size cut car")
         scaled = [
             pem_score(f._replace(height_px=f.height_px * k, width_px=f.width_px * k), p)
             for k in (0.5, 0.8, 1.0, 1.3, 2.0)
@@ -230,12 +232,22 @@ def test_fog_hurts_less_when_it_starts_further_away(name):
 
 @params_ids
 def test_truncation_and_off_centre_never_raise_the_score(name):
-    """Cut by the image edge or off the image centre, a box scores no higher; a fitted
-    ``edge_gain`` a hair below 0 (the car fitted with its side-on bend: -0.005, no
-    measurable off-centre effect, docs/pem.md) may raise it by less than 0.01."""
+    """Cut by the image edge or off the image centre, a box scores no higher, but for the
+    car's cut tent (``cut_tent_gain``: a box of 110-440 px cut by the edge scores higher,
+    as the detector's do; docs/pem.md, "The mid-size cut car"): without it no higher;
+    with it higher by at most its gain on the logit, only inside the tent, and past the
+    cut ramp (0.3 -> 0.7) never higher. A fitted ``edge_gain`` a hair below 0 (the car
+    fitted with its side-on bend: -0.005, no measurable off-centre effect, docs/pem.md)
+    may raise it by less than 0.01."""
     p = PARAM_SETS[name]
+    flat = replace(p, cut_tent_gain=0.0)
+    cuts = (0.0, 0.3, 0.7)
     for f in random_features(np.random.default_rng(2), 200):
-        assert nonincreasing([pem_score(f._replace(truncation=t), p) for t in (0.0, 0.3, 0.7)])
+        assert nonincreasing([pem_score(f._replace(truncation=t), flat) for t in cuts])
+        z = [pem_logit(f._replace(truncation=t), p) for t in cuts]
+        assert z[2] <= z[1] and z[1] - z[0] <= max(0.0, p.cut_tent_gain) + 1e-12
+        if not CUT_TENT_PX / 2 < f.height_px < 2 * CUT_TENT_PX:
+            assert nonincreasing(z)
         off = [pem_score(f._replace(offset=o), p) for o in (0.0, 0.4, 1.0)]
         if p.edge_gain < 0.0:
             assert p.edge_gain > -0.04 and max(off) - off[0] < 0.01, (p.edge_gain, off)
@@ -725,13 +737,16 @@ def documented_logit(f: PEMFeatures, p: PEMParams) -> float:
         + p.yellow_blue_gain * f.yellow_blue
         + p.side_gain * f.side
         + p.size3_gain * size * size * size
-        + _bends(f.height_px, side, p)
+        + _bends(f.height_px, side, p, f.truncation)
     )
 
 
-def _bends(h: float, view_sine: float, p: PEMParams) -> float:
+def _bends(h: float, view_sine: float, p: PEMParams, truncation: float = 0.0) -> float:
     """The size term's bends at 40 and 80 px of the unclamped height, then the side-on
-    bend at 40 px (the PEM adds them as one sum, in that order)."""
+    bend at 40 px, then the step of a box cut by the image edge and its tent at
+    ``CUT_TENT_PX`` (the PEM adds them as one sum, in that order)."""
+    from sitcov.perception._pem import CUT_RAMP, CUT_TENT_PX
+
     bend = 0.0
     if p.size_hinge40_gain != 0.0 and h > 40.0:
         bend += p.size_hinge40_gain * math.log(h / 40.0)
@@ -739,6 +754,12 @@ def _bends(h: float, view_sine: float, p: PEMParams) -> float:
         bend += p.size_hinge80_gain * math.log(h / 80.0)
     if p.view_hinge40_gain != 0.0 and h > 40.0:
         bend += p.view_hinge40_gain * view_sine * math.log(h / 40.0)
+    ramp = min(1.0, truncation / CUT_RAMP)
+    if p.cut_gain != 0.0 and truncation > 0.0:
+        bend += p.cut_gain * ramp
+    tent = 1.0 - abs(math.log(h / CUT_TENT_PX)) / math.log(2.0) if h > 0.0 else 0.0
+    if p.cut_tent_gain != 0.0 and truncation > 0.0 and tent > 0.0:
+        bend += p.cut_tent_gain * ramp * tent
     return bend
 
 
@@ -749,6 +770,7 @@ def test_pem_logit_is_the_documented_formula_bit_for_bit(name):
     shapes, no width, full fog and darkness."""
     p = replace(PARAM_SETS[name], contrast_gain=0.4, chroma_gain=-0.3, yellow_blue_gain=0.2)
     p = replace(p, side_gain=-0.35, size3_gain=-0.4, view_hinge40_gain=0.3)
+    p = replace(p, cut_gain=0.2, cut_tent_gain=0.45)  # the cut box's step and tent
     rng = np.random.default_rng(11)
     features = [f._replace(side=rng.uniform(-1.0, 1.0)) for f in random_features(rng, 400)]
     features += [
@@ -775,6 +797,7 @@ def test_detect_scores_as_features_then_pem_logit(monkeypatch):
     p = replace(p, detect_ar=0.0)  # the actor always output: every frame has its score
     p = replace(p, side_gain=0.45)  # the side's term computed in the view too
     p = replace(p, view_hinge40_gain=0.3)  # and the side-on bend
+    p = replace(p, cut_gain=0.2, cut_tent_gain=0.45)  # and the cut box's step and tent
     sensor = PEMSensor(p)
     rng = np.random.default_rng(12)
     detected = 0
