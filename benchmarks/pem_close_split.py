@@ -9,6 +9,13 @@ median noise scale below the median (``noise_sigma`` times its size factor).
     python benchmarks/pem_close_split.py docs/data/pem-frames-top-seed3.jsonl.gz:car \\
         docs/data/pem-frames-pedestrian-seed3.jsonl.gz:pedestrian \\
         docs/data/pem-frames-rider-seed3.jsonl.gz:cyclist
+
+``--by-height`` splits each part further by box height (below 150, 150-250, 250 px and
+up) and adds the cut frames by truncation (10-30 %, 30-50 %); ``--pem FILE`` takes the car
+parameters from that file instead of the shipped one (e.g. an earlier ``pem.yaml`` from
+git, to compare):
+
+    python benchmarks/pem_close_split.py docs/data/pem-frames-top-seed3.jsonl.gz:car --by-height
 """
 
 from __future__ import annotations
@@ -27,11 +34,21 @@ from sitcov.perception._pem_params import load_pem_params
 CUT = 0.05
 #: The close band [m].
 NEAR_M = 10.0
+#: Fewer frames than this in a part: not printed.
+MIN_FRAMES = 15
 
 
-def split_rows(path: str, kind: str) -> list[str]:
-    """The two parts' lines (cut by the edge or not) of ``kind``'s close frames in ``path``."""
-    params = load_pem_params() if kind == "car" else load_class_params()[kind][1]
+#: Box height bins of ``--by-height`` [px].
+HEIGHT_BINS = ((0.0, 150.0), (150.0, 250.0), (250.0, float("inf")))
+#: Truncation bins of the cut frames under ``--by-height`` [-].
+TRUNCATION_BINS = ((0.1, 0.3), (0.3, 0.5))
+
+
+def split_rows(path: str, kind: str, by_height: bool = False, pem: str | None = None) -> list[str]:
+    """The two parts' lines (cut by the edge or not) of ``kind``'s close frames in ``path``
+    (``by_height``: each part and the cut frames' truncation bins by box height too;
+    ``pem``: the car's parameters from that file)."""
+    params = load_pem_params(pem) if kind == "car" else load_class_params()[kind][1]
     frames = [
         f for r in read_frames(path)[kind].runs for f in r.frames if 0.0 <= f.distance < NEAR_M
     ]
@@ -43,9 +60,21 @@ def split_rows(path: str, kind: str) -> list[str]:
                                          params.size_ref_px)
         for f in frames
     ])  # fmt: skip
+    parts = [("whole", ~cut), ("cut", cut)]
+    if by_height:
+        heights = np.asarray([f.features.height_px for f in frames])
+        trunc = np.asarray([f.features.truncation for f in frames])
+        cuts = [(f"cut {lo:g}-{hi:g}", (trunc >= lo) & (trunc < hi)) for lo, hi in TRUNCATION_BINS]
+        parts = [
+            (f"{name} {lo:g}-{hi:g}px", part & (heights >= lo) & (heights < hi))
+            for name, part in (*parts, *cuts)
+            for lo, hi in HEIGHT_BINS
+        ]
     lines = []
-    for name, part in (("whole", ~cut), ("cut", cut)):
+    for name, part in parts:
         idx = np.flatnonzero(part)
+        if len(idx) < MIN_FRAMES:
+            continue
         cells = []
         for theta in THETAS:
             pem = float(np.mean([pass_probability(params, frames[i].features, theta) for i in idx]))
@@ -58,11 +87,13 @@ def split_rows(path: str, kind: str) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("files", nargs="+", help="FILE:KIND (car, pedestrian, cyclist)")
+    parser.add_argument("--by-height", action="store_true", help="split by box height too")
+    parser.add_argument("--pem", default=None, help="car PEM file (default: the shipped one)")
     args = parser.parse_args()
     print(f"below {NEAR_M:g} m, detector/PEM P(score >= θ); cut = truncation > {CUT:g}")
     for item in args.files:
         path, kind = item.rsplit(":", 1)
-        for line in split_rows(path, kind):
+        for line in split_rows(path, kind, args.by_height, args.pem):
             print(line)
 
 
