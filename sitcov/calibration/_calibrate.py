@@ -36,7 +36,7 @@ from sitcov.calibration._camera_runs import CameraRun, match
 from sitcov.perception._base import ActorView, CameraSpec, Pose
 from sitcov.perception._camera import project_box
 from sitcov.perception._colors import PALETTE as COLOR_PALETTE
-from sitcov.perception._pem import COEFFICIENTS, PEMFeatures, PEMParams, PEMSensor
+from sitcov.perception._pem import COEFFICIENTS, CUT_TENT_PX, PEMFeatures, PEMParams, PEMSensor
 from sitcov.perception._renderer import render_frame
 from sitcov.weather._conditions import WEATHER_ELEMENTS  # swept one at a time (CARLA units, 0..100)
 
@@ -208,7 +208,7 @@ EXTRA_TERM_PARAMS = {
     "hinge80": "size_hinge80_gain",
     "view_hinge40": "view_hinge40_gain",
     "cut": "cut_gain",
-    "cut_tent220": "cut_tent_gain",
+    f"cut_tent{CUT_TENT_PX:.0f}": "cut_tent_gain",
 }
 #: The gains of the frame model's candidate terms (:mod:`sitcov.calibration._frame_model`):
 #: the side's and the extra terms'.

@@ -492,8 +492,8 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
     )
 
 
-#: The size terms' name prefixes (each followed by a whole knot ``N`` > 0 [px]),
-#: the longer first: ``hinge`` ends each of the others.
+#: The size terms' name prefixes (each followed by a whole knot ``N`` > 0 [px]): the
+#: three that end in ``hinge`` before ``hinge`` itself.
 _HINGE_PREFIXES = ("view_hinge", "cut_hinge", "vis_hinge", "hinge", "cut_tent")
 
 

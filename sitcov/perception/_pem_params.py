@@ -153,9 +153,9 @@ class PEMParams:
         cut_tent_gain: added to the logit of a box cut by the image edge (the same ramp
             as ``cut_gain``) times a tent in its log height, 1 at ``CUT_TENT_PX`` (220 px)
             and 0 at half and twice that: the detector scores a close car cut by 10-50 %
-            with a box of 110-440 px higher than the rest of the logit says, and reports
-            it above 0.6 about twice as often as the PEM without the term (docs/pem.md,
-            "The mid-size cut car"). Fitted after the rest, which is held
+            with a box of 110-440 px higher than the rest of the logit says (above 0.6
+            two to three times as often as the PEM without the term; docs/pem.md, "The
+            mid-size cut car"). Fitted after the rest, which is held
             (``sitcov calibrate --held-term cut_tent220``); 0 (the default, files written
             before it) changes nothing [-].
     """
