@@ -467,7 +467,7 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         "offset_near": lambda: -x[:, 13] * near,
         "trunc_near": lambda: -x[:, 8] * near,
         "trunc_side": lambda: -x[:, 8] * side,
-        "cut": lambda: np.minimum(1.0, -x[:, 8] / CUT_RAMP),
+        "cut": lambda: _cut_ramp(x),
         "size3": lambda: x[:, 1] ** 3,
         "size": lambda: x[:, 1],
         "size2": lambda: x[:, 2],
@@ -507,6 +507,12 @@ def _hinge_knot(name: str) -> tuple[str | None, int]:
     return None, 0
 
 
+def _cut_ramp(x: np.ndarray) -> np.ndarray:
+    """The ``cut`` ramp per frame of the design ``x`` (its 9th column minus the
+    truncation): 0 for a whole box, 1 past :data:`CUT_RAMP` of truncation."""
+    return np.minimum(1.0, -x[:, 8] / CUT_RAMP)
+
+
 def _size_hinge(h: np.ndarray, knot: float) -> np.ndarray:
     """``max(0, ln(h / knot))`` of the box heights ``h`` [px]: a bend of the size term."""
     return np.maximum(0.0, np.log(np.maximum(h, 1e-9) / knot))
@@ -519,12 +525,12 @@ def _hinge_column(prefix: str, knot: int, h: np.ndarray, x: np.ndarray) -> np.nd
     knot (``cut_tent``)."""
     if prefix == "cut_tent":
         far = np.abs(np.log(np.maximum(h, 1e-9) / knot))
-        return np.minimum(1.0, -x[:, 8] / CUT_RAMP) * np.maximum(0.0, 1.0 - far / math.log(2.0))
+        return _cut_ramp(x) * np.maximum(0.0, 1.0 - far / math.log(2.0))
     hinge = _size_hinge(h, knot)
     if prefix == "view_hinge":
         return -x[:, 4] * hinge  # the sine of the view angle (side-on: 1)
     if prefix == "cut_hinge":
-        return np.minimum(1.0, -x[:, 8] / CUT_RAMP) * hinge
+        return _cut_ramp(x) * hinge
     if prefix == "vis_hinge":
         return _size_hinge(h * np.sqrt(np.clip(1.0 + x[:, 8], 1e-6, 1.0)), knot) - hinge
     return hinge
@@ -849,11 +855,20 @@ class FrameFit:
         law over consecutive frames (the AR share and coefficient do not enter it but
         through the detection term's correlation with the score noise)."""
         y, obs = _observed(t)
+        geom, size, near, det = self.frames_alone_inputs(t)
+        return frames_alone_loglik(self.logit(t), y, obs, self.noise, geom, size, near, det)
+
+    def frames_alone_inputs(
+        self, t: Tracks
+    ) -> tuple[np.ndarray | None, np.ndarray | None, np.ndarray | None, np.ndarray | None]:
+        """What :func:`frames_alone_loglik` takes of ``t`` besides the logit and scores,
+        for this fit's noise: ``(geom, size, near, det)``, each None when the noise does
+        not read it."""
         nz = self.noise
         size, det = self._frame_inputs(t)
         geom = geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
         near = near_of(t) if nz.kn != 0.0 else None
-        return frames_alone_loglik(self.logit(t), y, obs, nz, geom, size, near, det)
+        return geom, size, near, det
 
 
 def logistic(x: float, top: float = 1.0) -> float:
@@ -1106,22 +1121,17 @@ def fit_held_terms(fit: FrameFit, t: Tracks, names: Sequence[str]) -> FrameFit:
     if clash:
         raise SitcovError(f"held terms {clash} are already terms of the fit")
     y, obs = _observed(t)
-    nz = fit.noise
-    needs_size = nz.k != 0.0 or nz.ku != 0.0 or nz.kb != 0.0
-    size = scale_size(t, fit.size_ref, nz.cap) if needs_size else None
-    geom = geometry(t) if (nz.dt != 0.0 or nz.df != 0.0) else None
-    near = near_of(t) if nz.kn != 0.0 else None
-    x = _design_for(t, fit.size_max, fit.size_ref)
-    cols = extra_columns(t, x, names)
+    geom, size, near, det0 = fit.frames_alone_inputs(t)
+    cols = extra_columns(t, _design_for(t, fit.size_max, fit.size_ref), names)
     in_det = np.asarray([is_detection_term(n) for n in names], dtype=bool)
     m0 = fit.logit(t)
-    det0 = fit.extra(t, x, detection=True)
 
     def nll(g: np.ndarray) -> float:
         m = m0 + cols[:, ~in_det] @ g[~in_det]
-        det = det0 + cols[:, in_det] @ g[in_det] if in_det.any() else det0
-        det = None if np.isscalar(det) else np.asarray(det)
-        return -frames_alone_loglik(m, y, obs, nz, geom, size, near, det)
+        det = det0
+        if in_det.any():
+            det = (0.0 if det0 is None else det0) + cols[:, in_det] @ g[in_det]
+        return -frames_alone_loglik(m, y, obs, fit.noise, geom, size, near, det)
 
     # the likelihood is not smooth at this scale (a 0.02 step can lose 0.1 where a local
     # search stops): each gain from a grid with the others at 0, then all from there
