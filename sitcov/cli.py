@@ -1250,6 +1250,13 @@ def calibrate_cmd(
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
     ),
+    check_by: Optional[str] = typer.Option(  # noqa: UP045
+        None,
+        "--check-by",
+        help="--check: split each class and band further by approach (the side the road "
+        "user comes from), view (front, side, rear), rain (the situation's precipitation) "
+        "or cut (the box cut by the image edge or whole).",
+    ),
     check: Optional[Path] = typer.Option(  # noqa: UP045
         None,
         "--check",
@@ -1268,7 +1275,7 @@ def calibrate_cmd(
     from rich.progress import Progress
 
     if check is not None:
-        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs, seed)
+        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs, seed, check_by)
         return
     if frames_from:
         _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
@@ -1428,10 +1435,11 @@ def _frame_model_cmd(
 
 def _check_frames_cmd(
     path: Path, kinds: str, pem: Path | None, pem_classes: Path | None, part: str = "all",
-    seed: int = 0,
+    seed: int = 0, split: str | None = None,
 ) -> None:  # fmt: skip
     """``sitcov calibrate --check``: the frame model's done-when table (docs/pem.md), each
-    cell with its run-bootstrap interval (drawn from ``seed``)."""
+    cell with its run-bootstrap interval (drawn from ``seed``); ``split`` (``--check-by``)
+    cuts each class and band further (``_frame_check.SPLITS``)."""
     import numpy as np
 
     from sitcov.calibration import _frame_check as fc
@@ -1445,6 +1453,8 @@ def _check_frames_cmd(
 
     if part not in ("all", "odd", "even"):
         raise ConfigError(field="--check-runs", value=part, expected="all | odd | even")
+    if split is not None and split not in fc.SPLITS:
+        raise ConfigError(field="--check-by", value=split, expected=" | ".join(fc.SPLITS))
     frames = {k: split_runs(v, part) for k, v in read_frames(path).items() if k in names}
     classes = load_class_params(pem_classes)
     lacking = sorted(k for k in frames if k != "car" and k not in classes)
@@ -1456,7 +1466,7 @@ def _check_frames_cmd(
             field="classes", value=",".join(lacking), expected="an entry for every kind checked",
         )  # fmt: skip
     params = {k: load_pem_params(pem) if k == "car" else classes[k][1] for k in frames}
-    rows = fc.check_frames(frames, params, rng=np.random.default_rng(seed))
+    rows = fc.check_frames(frames, params, rng=np.random.default_rng(seed), split=split)
     for line in fc.table_lines(rows):
         console.print(line, highlight=False, markup=False, soft_wrap=True)
     if not all(r.get("ok", True) for r in rows):

@@ -9,6 +9,12 @@ The frames should be held out (recorded with another seed than the fit's) and re
 with ``--record-frames`` (the stack given no detections), so that no frame was kept or
 dropped because of a score: the marginal probability is then the right prediction.
 
+A band can hide where the PEM is off: its frames mix road users seen head-on and side-on,
+from the left and from the right, in rain and in the dry, and misses of opposite sign
+cancel in the band's mean while a stack's verdicts depend on which situations carry
+them. ``split`` (``sitcov calibrate --check FILE --check-by NAME``, :data:`SPLITS`) cuts
+each (class, band) cell further by one such property of the frame or of its run.
+
 A cell's frames are not independent: one road user's consecutive frames share its
 colour, model, path and the detector's bursts. So each difference carries a 95 %
 interval from a bootstrap over the recorded runs (:func:`run_interval`, resampled whole),
@@ -18,12 +24,15 @@ miss: the frames show the PEM off there, not only the sample's scatter.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import math
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from sitcov.calibration._frames import KIND_LABEL, KindFrames
+from sitcov.errors import SitcovError
+from sitcov.hyperspace._situation import approach_side
 from sitcov.perception._pem import PEMParams
 from sitcov.perception._pem import pass_probability as _pass
 
@@ -40,21 +49,83 @@ MIN_FRAMES = 30
 RESAMPLES = 2000
 
 
+#: Facing (cosine of the road user's heading to the line of sight) beyond which the
+#: ``view`` split counts it as seen end-on: within 45 degrees of its front or its rear.
+END_ON = math.sqrt(0.5)
+#: Truncation above which the ``cut`` split counts a box as cut by the image edge [-].
+CUT = 0.05
+#: The situation's precipitation (the hyperspace element, 0-100) from which the ``rain``
+#: split counts a run as heavy rain.
+HEAVY_RAIN = 50.0
+
+
+def _approach(feats: Any, situation: Mapping[str, Any]) -> str:
+    side = approach_side(situation.get("bins", {}), situation.get("values", {}))
+    return "ahead/other" if side in ("ahead", "other") else f"from {side}"
+
+
+def _view(feats: Any, situation: Mapping[str, Any]) -> str:
+    if feats.facing <= -END_ON:
+        return "front"
+    return "rear" if feats.facing >= END_ON else "side"
+
+
+def _rain(feats: Any, situation: Mapping[str, Any]) -> str:
+    rain = situation.get("values", {}).get("precipitation")
+    if not isinstance(rain, (int, float)):
+        return "unknown"
+    return "dry" if rain <= 0.0 else ("heavy rain" if rain >= HEAVY_RAIN else "light rain")
+
+
+def _cut(feats: Any, situation: Mapping[str, Any]) -> str:
+    return "cut" if feats.truncation > CUT else "whole"
+
+
+#: The ways :func:`check_frames` can split each (class, band) cell: name -> (the group of
+#: a frame from its features and its run's situation, the groups in print order).
+#: ``approach``: where the run's road user comes from, seen by the ego (left, right, or
+#: ahead and any other, :func:`sitcov.hyperspace._situation.approach_side`); ``view``: the
+#: road user seen within 45 degrees of its front or of its rear, else from the side;
+#: ``rain``: the situation's precipitation 0, below :data:`HEAVY_RAIN`, or from it
+#: (``unknown`` without that element); ``cut``: the box cut by the image edge or whole.
+SPLITS: dict[str, tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]]] = {
+    "approach": (_approach, ("from left", "from right", "ahead/other")),
+    "view": (_view, ("front", "side", "rear")),
+    "rain": (_rain, ("dry", "light rain", "heavy rain", "unknown")),
+    "cut": (_cut, ("whole", "cut")),
+}
+
+
 def pass_probability(params: PEMParams, feats: Any, theta: float) -> float:
     """The PEM's P(score >= theta) for one frame's features
     (:func:`sitcov.perception._pem.pass_probability`)."""
     return _pass(feats, params, theta)
 
 
-def frames_of(data: KindFrames) -> list[tuple[Any, float, float, int]]:
-    """(features, score, distance, run number) of every run frame with a recorded
-    distance (the run number counts the file's runs from 0)."""
-    return [
-        (f.features, f.score, f.distance, i)
-        for i, r in enumerate(data.runs)
-        for f in r.frames
-        if f.distance >= 0.0 and f.features.height_px >= 1.0
-    ]
+def frames_of(
+    data: KindFrames, split: str | None = None
+) -> list[tuple[Any, float, float, int, str]]:
+    """(features, score, distance, run number, group) of every run frame with a recorded
+    distance (the run number counts the file's runs from 0; the group is the frame's in
+    :data:`SPLITS` ``[split]``, "" without a split)."""
+    group = _split(split)[0] if split else None
+    out = []
+    for i, r in enumerate(data.runs):
+        for f in r.frames:
+            if f.distance >= 0.0 and f.features.height_px >= 1.0:
+                g = group(f.features, r.situation or {}) if group else ""
+                out.append((f.features, f.score, f.distance, i, g))
+    return out
+
+
+def _split(name: str) -> tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]]:
+    """:data:`SPLITS` ``[name]``, or an error naming the splits there are."""
+    try:
+        return SPLITS[name]
+    except KeyError:
+        raise SitcovError(
+            f"unknown split {name!r} of the check; expected one of {', '.join(SPLITS)}"
+        ) from None
 
 
 def run_interval(
@@ -78,54 +149,72 @@ def run_interval(
 def check_frames(
     frames: Mapping[str, KindFrames], params: Mapping[str, PEMParams],
     thetas: Sequence[float] = THETAS, bands: Sequence[tuple[float, float]] = BANDS,
-    rng: np.random.Generator | None = None,
+    rng: np.random.Generator | None = None, split: str | None = None,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """One row per (kind, band, θ): frames, runs, detector and PEM rates, difference,
     within :data:`TOLERANCE`; ``params`` per kind. With ``rng``, each judged row also
     holds the difference's run-bootstrap interval (``low``, ``high``,
     :func:`run_interval`) and whether it lies wholly outside the tolerance
-    (``significant``)."""
+    (``significant``). With ``split`` (a name of :data:`SPLITS`) one row per (kind, band,
+    group, θ) instead, ``group`` naming the group (a group with no frames in the band is
+    left out)."""
+    groups = _split(split)[1] if split else ("",)
     rows = []
     for kind, data in frames.items():
-        p = params[kind]
-        got = frames_of(data)
+        got = frames_of(data, split)
         for lo, hi in bands:
-            sel = [(f, s, r) for f, s, d, r in got if lo <= d < hi]
-            run = np.asarray([r for _, _, r in sel], dtype=int)
-            for theta in thetas:
-                row: dict[str, Any] = {"kind": kind, "label": KIND_LABEL[kind], "theta": theta}
-                row.update(band=f"{lo:g}-{hi:g} m", n=len(sel), runs=len(np.unique(run)))
-                if len(sel) >= MIN_FRAMES:
-                    hit = np.asarray([s >= theta for _, s, _ in sel])
-                    prob = np.asarray([pass_probability(p, f, theta) for f, _, _ in sel])
-                    det, pem = float(np.mean(hit)), float(np.mean(prob))
-                    row.update(detector=round(det, 4), pem=round(pem, 4),
-                               difference=round(pem - det, 4),
-                               ok=abs(pem - det) <= TOLERANCE)  # fmt: skip
-                    if rng is not None:
-                        low, high = run_interval(prob, hit, run, rng)
-                        row.update(low=round(low, 4), high=round(high, 4),
-                                   significant=low > TOLERANCE or high < -TOLERANCE)  # fmt: skip
-                rows.append(row)
+            for group in groups:
+                sel = [(f, s, r) for f, s, d, r, g in got if lo <= d < hi and g == group]
+                if split and not sel:
+                    continue
+                head = {"kind": kind, "label": KIND_LABEL[kind], "band": f"{lo:g}-{hi:g} m"}
+                head.update({"group": group} if split else {})
+                rows += _cell_rows(head, sel, params[kind], thetas, rng)
+    return rows
+
+
+def _cell_rows(
+    head: Mapping[str, Any], sel: Sequence[tuple[Any, float, int]], p: PEMParams,
+    thetas: Sequence[float], rng: np.random.Generator | None,
+) -> list[dict[str, Any]]:  # fmt: skip
+    """:func:`check_frames`' rows of one cell's frames ``sel`` (features, score, run), one
+    per θ, each starting with ``head``."""
+    run = np.asarray([r for _, _, r in sel], dtype=int)
+    rows = []
+    for theta in thetas:
+        row: dict[str, Any] = {**head, "theta": theta, "n": len(sel), "runs": len(np.unique(run))}
+        if len(sel) >= MIN_FRAMES:
+            hit = np.asarray([s >= theta for _, s, _ in sel])
+            prob = np.asarray([pass_probability(p, f, theta) for f, _, _ in sel])
+            det, pem = float(np.mean(hit)), float(np.mean(prob))
+            row.update(detector=round(det, 4), pem=round(pem, 4),
+                       difference=round(pem - det, 4),
+                       ok=abs(pem - det) <= TOLERANCE)  # fmt: skip
+            if rng is not None:
+                low, high = run_interval(prob, hit, run, rng)
+                row.update(low=round(low, 4), high=round(high, 4),
+                           significant=low > TOLERANCE or high < -TOLERANCE)  # fmt: skip
+        rows.append(row)
     return rows
 
 
 def table_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:
-    """The check as a printed table (with the intervals when the rows have them), then
-    the count of cells within the tolerance (and of significant misses)."""
+    """The check as a printed table (with the intervals when the rows have them, a group
+    column when they are split), then the count of cells within the tolerance (and of
+    significant misses)."""
     ci = any("low" in r for r in rows)
-    head = f"{'class':<8} {'band':<9} {'theta':>5} {'n':>6} {'detector':>9} {'PEM':>7} {'diff':>7}"
+    width = max((len(r["group"]) for r in rows if "group" in r), default=0)
+    group = (lambda r: f" {r['group']:<{width}}") if width else (lambda r: "")
+    head = f"{'class':<8} {'band':<9}" + (f" {'group':<{width}}" if width else "")
+    head += f" {'theta':>5} {'n':>6} {'detector':>9} {'PEM':>7} {'diff':>7}"
     head += f"  {'95% (runs)':<17}" if ci else ""
     lines = [head + f"  within ±{TOLERANCE:g}"]
     for r in rows:
+        cell = f"{r['label']:<8} {r['band']:<9}{group(r)} {r['theta']:>5.1f} {r['n']:>6}"
         if "detector" not in r:
-            lines.append(
-                f"{r['label']:<8} {r['band']:<9} {r['theta']:>5.1f} {r['n']:>6}  "
-                f"(fewer than {MIN_FRAMES} frames: not judged)"
-            )
+            lines.append(f"{cell}  (fewer than {MIN_FRAMES} frames: not judged)")
             continue
-        line = (f"{r['label']:<8} {r['band']:<9} {r['theta']:>5.1f} {r['n']:>6} "
-                f"{r['detector']:>9.3f} {r['pem']:>7.3f} {r['difference']:>+7.3f}")  # fmt: skip
+        line = f"{cell} {r['detector']:>9.3f} {r['pem']:>7.3f} {r['difference']:>+7.3f}"
         verdict = "yes" if r["ok"] else "NO"
         if "low" in r:
             line += f"  [{r['low']:+.3f}, {r['high']:+.3f}]"

@@ -1,0 +1,116 @@
+"""The held-out check split by a property of the frame or its run (``--check-by``): the
+groups partition each band, and a miss confined to one group shows there."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sitcov.calibration import _frame_check as fc
+from sitcov.calibration._camera_runs import CameraRun, RunFrame
+from sitcov.calibration._frames import KindFrames, write_frames
+from sitcov.perception._pem import PEMFeatures, PEMParams, pass_probability
+
+#: The PEM the synthetic frames are drawn from (its own law: the check finds it right).
+PARAMS = PEMParams(noise_up_ratio=1.0)
+#: Where each synthetic run's road user comes from: the ego's and its routes.
+ROUTES = {
+    "from left": {"ego": "B-L", "ov": "L-R"},
+    "from right": {"ego": "B-L", "ov": "R-L"},
+    "ahead/other": {"ego": "L-B", "ov": "R-L"},
+}
+
+
+def _score(feats: PEMFeatures, u: float, shift: float) -> float:
+    """The score whose PEM exceedance probability is ``u`` (0: not reported), its logit
+    moved by ``shift``: a draw of the PEM's own law by inverting ``pass_probability``."""
+    if u >= pass_probability(feats, PARAMS, PARAMS.floor):
+        return 0.0
+    lo, hi = PARAMS.floor, 1.0 - 1e-9
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if pass_probability(feats, PARAMS, mid) > u else (lo, mid)
+    z = math.log(lo / (1.0 - lo)) + shift
+    return 1.0 / (1.0 + math.exp(-z))
+
+
+def _frames(seed: int, left_shift: float = 0.0, runs: int = 90) -> KindFrames:
+    """Runs of a car closing from 40 to 4 m, a third from each side, each seen from the
+    front, side or rear, in dry or heavy rain, some cut by the image edge; scores drawn
+    from :data:`PARAMS`' law, those of runs from the left moved by ``left_shift`` logit."""
+    rng = np.random.default_rng(seed)
+    out = KindFrames()
+    for r in range(runs):
+        side = list(ROUTES)[r % 3]
+        facing = float(rng.choice([-0.95, 0.0, 0.95]))
+        rain = float(rng.choice([0.0, 30.0, 80.0]))
+        cut = float(rng.choice([0.0, 0.3]))
+        shift = left_shift if side == "from left" else 0.0
+        frames = []
+        for k, d in enumerate(np.linspace(40.0, 4.0, 30)):
+            h = 1.45 * 336.0 / d
+            feats = PEMFeatures(h, math.acos(abs(facing)), cut, rain_noise=rain / 200.0,
+                                width_px=2.0 * h, facing=facing)  # fmt: skip
+            score = _score(feats, float(rng.uniform()), shift)
+            frames.append(RunFrame(feats, score, None, 2.0 * h, k, 0, float(d)))
+        values = {"precipitation": rain, "intsit": ROUTES[side]}
+        out.runs.append(CameraRun(r, r, {"values": values}, False, None, tuple(frames)))
+    return out
+
+
+@pytest.mark.parametrize("split", sorted(fc.SPLITS))
+def test_a_splits_groups_partition_each_band(split: str) -> None:
+    """Per band and θ the groups' frames add up to the band's, and their frame-weighted
+    rates (detector's and PEM's) to the band's rates."""
+    data = {"car": _frames(1, runs=30)}
+    whole = fc.check_frames(data, {"car": PARAMS})
+    parts = fc.check_frames(data, {"car": PARAMS}, split=split)
+    assert {r["group"] for r in parts} <= set(fc.SPLITS[split][1])
+    for row in whole:
+        mine = [p for p in parts if (p["band"], p["theta"]) == (row["band"], row["theta"])]
+        assert sum(p["n"] for p in mine) == row["n"]
+        if "detector" in row and all("detector" in p for p in mine):
+            for key in ("detector", "pem"):
+                mixed = sum(p[key] * p["n"] for p in mine) / row["n"]
+                assert mixed == pytest.approx(row[key], abs=2e-4)
+
+
+def test_a_miss_confined_to_one_group_shows_in_that_group() -> None:
+    """Runs from the left scored 1.5 logit lower than the PEM says: split by approach,
+    the left's close cells are off significantly, the other sides' are within the
+    tolerance; split by view (which the miss does not follow) no group is as far off."""
+    data = {"car": _frames(2, left_shift=-1.5)}
+    rng = np.random.default_rng(0)
+    rows = fc.check_frames(data, {"car": PARAMS}, rng=rng, split="approach")
+    judged = [r for r in rows if "ok" in r]
+    left = [r for r in judged if r["group"] == "from left"]
+    assert any(r["significant"] and r["difference"] > 0 for r in left), fc.table_lines(rows)
+    assert all(r["ok"] for r in judged if r["group"] != "from left"), fc.table_lines(rows)
+    worst_left = max(r["difference"] for r in left)
+    by_view = fc.check_frames(data, {"car": PARAMS}, split="view")
+    assert max(r.get("difference", 0.0) for r in by_view) < 0.8 * worst_left
+
+
+def test_check_by_prints_a_group_column_and_names_a_wrong_split(tmp_path: Path, capsys) -> None:
+    """``sitcov calibrate --check FILE --check-by rain``: a row per group (dry, light and
+    heavy rain); an unknown split is one error line, exit 2."""
+    from sitcov.cli import main
+
+    frames = tmp_path / "frames.jsonl"
+    write_frames(frames, {"car": _frames(3, runs=12)})
+    args = ["calibrate", "--check", str(frames), "--kinds", "car"]
+    try:
+        main([*args, "--check-by", "rain"])
+    except SystemExit as exc:  # 1 when a cell is off: the table is printed either way
+        assert exc.code == 1
+    out = capsys.readouterr().out
+    assert " group " in out.splitlines()[0]
+    for group in ("dry", "light rain", "heavy rain"):
+        assert f" {group} " in out
+    with pytest.raises(SystemExit) as exc:
+        main([*args, "--check-by", "colour"])
+    err = capsys.readouterr().err.strip()
+    assert exc.value.code == 2 and err.count("\n") == 0 and "approach | view" in err
