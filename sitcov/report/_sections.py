@@ -167,6 +167,46 @@ def _setup_value(views: Sequence[CampaignView], key: str) -> str:
     return values[0] if len(values) == 1 else "mixed: " + ", ".join(values)
 
 
+#: What the summary's perception card says of each perception a campaign can run with
+#: (the backend option ``perception``; the embedded and esmini backends default to the
+#: PEM; the CARLA backend's is its own camera).
+PERCEPTION_DETAIL = {
+    "pem": "a per-frame model of the SSD detector (docs/pem.md)",
+    "camera": "rendered frames and the SSD detector (docs/camera.md)",
+    "carla": "the simulator's own camera",
+}
+#: What the summary says under the cards of a campaign run on the PEM: what the model is
+#: known to get wrong, where it shows in verdicts, and how to check it.
+PEM_NOTE = (
+    "Perception was the PEM, a model of the detector checked on held-out frames per "
+    "distance band. Within a band it under-reports close cars coming from the ego's left "
+    'and over-reports oncoming cars at 10-20 m (docs/pem.md, "Within a band"): a stack '
+    "braking at a score of 0.5 then fails more often from the left in PEM mode where camera "
+    "mode shows no such difference. Confirm an effect of approach side or route with "
+    "--perception camera before reporting it."
+)
+
+
+def perception_of(views: Sequence[CampaignView]) -> str:
+    """The campaigns' perception (``pem`` unless a backend option names another;
+    ``carla`` for the CARLA backend), or ``mixed: a, b``."""
+    values = []
+    for view in views:
+        cfg = view.config
+        if str(cfg.get("backend", "embedded")) == "carla":
+            values.append("carla")
+        else:
+            values.append(str((cfg.get("backend_options") or {}).get("perception") or "pem"))
+    values = list(dict.fromkeys(values))
+    return values[0] if len(values) == 1 else "mixed: " + ", ".join(values)
+
+
+def _perception_card(views: Sequence[CampaignView]) -> dict[str, Any]:
+    value = perception_of(views)
+    detail = PERCEPTION_DETAIL.get(value, "campaigns differ: compare them per perception")
+    return {"key": "perception", "value": value, "detail": detail}
+
+
 def _setup_cards(views: Sequence[CampaignView]) -> list[dict[str, Any]]:
     from sitcov.sim import Judge
 
@@ -189,6 +229,7 @@ def _setup_cards(views: Sequence[CampaignView]) -> list[dict[str, Any]]:
             "detail": f"world model {world}"
             + (" (before physics profiles and failure kinds)" if legacy else ""),
         },
+        _perception_card(views),
     ]
 
 
@@ -330,6 +371,7 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
         "kinds": kind_rows(all_runs),
         "uncounted": uncounted_rows(views, all_runs),
         "completion": {"head": head, "distribution": dist},
+        "perception_note": PEM_NOTE if "pem" in perception_of(views) else "",
     }
 
 

@@ -16,6 +16,7 @@ from report_fakes import add_campaign
 from sitcov.campaign import open_store
 from sitcov.cli import main
 from sitcov.errors import ConfigError
+from sitcov.hyperspace import load_hyperspace
 from sitcov.report import build_report
 
 EVIL = "<script>alert('x')</script>"
@@ -213,3 +214,31 @@ def test_failing_runs_are_drawn_from_a_real_campaign(tmp_path):
         Path(tmp_path / "out" / "figures" / f"failure_{ref.replace(':', '_')}.png").is_file()
         for ref in shown
     )
+
+
+def test_the_perception_card_says_what_the_stack_was_shown(built):
+    """A PEM campaign's summary names the PEM and, under the cards, its known side bias
+    with the way to check it in camera mode; camera, CARLA and mixed campaigns say
+    theirs, and only a campaign on the PEM gets the note."""
+    from sitcov.report._data import CampaignView
+    from sitcov.report._sections import PERCEPTION_DETAIL, _perception_card, headline_section
+
+    assert _cards(built["html"])["perception"] == "pem"
+    note = re.findall(r'<p class="note">(Perception was the PEM[^<]+)</p>', built["html"])
+    assert len(note) == 1 and "from the left" in note[0] and "--perception camera" in note[0]
+
+    def view(**config):
+        return CampaignView(name="c", config=config, tags={}, hyperspace=None)
+
+    camera = view(backend="embedded", backend_options={"perception": "camera"})
+    assert _perception_card([camera]) == {
+        "key": "perception",
+        "value": "camera",
+        "detail": PERCEPTION_DETAIL["camera"],
+    }
+    assert _perception_card([view(backend="carla")])["detail"] == "the simulator's own camera"
+    mixed = _perception_card([camera, view(backend="esmini")])
+    assert mixed["value"] == "mixed: camera, pem" and "differ" in mixed["detail"]
+    hs = load_hyperspace()
+    assert headline_section(hs, [camera], [])["perception_note"] == ""
+    assert headline_section(hs, [camera, view()], [])["perception_note"].startswith("Percep")
