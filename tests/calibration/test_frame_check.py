@@ -12,6 +12,7 @@ import pytest
 from sitcov.calibration import _frame_check as fc
 from sitcov.calibration._camera_runs import CameraRun, RunFrame
 from sitcov.calibration._frames import KindFrames, write_frames
+from sitcov.errors import SitcovError
 from sitcov.perception._pem import PEMFeatures, PEMParams, pass_probability
 
 #: The PEM the synthetic frames are drawn from (its own law: the check finds it right).
@@ -69,6 +70,7 @@ def test_a_splits_groups_partition_each_band(split: str) -> None:
     whole = fc.check_frames(data, {"car": PARAMS})
     parts = fc.check_frames(data, {"car": PARAMS}, split=split)
     assert {r["group"] for r in parts} <= set(fc.SPLITS[split][1])
+    assert all("group" not in r for r in whole)
     for row in whole:
         mine = [p for p in parts if (p["band"], p["theta"]) == (row["band"], row["theta"])]
         assert sum(p["n"] for p in mine) == row["n"]
@@ -114,3 +116,8 @@ def test_check_by_prints_a_group_column_and_names_a_wrong_split(tmp_path: Path, 
         main([*args, "--check-by", "colour"])
     err = capsys.readouterr().err.strip()
     assert exc.value.code == 2 and err.count("\n") == 0 and "approach | view" in err
+
+
+def test_an_unknown_split_names_the_ones_there_are() -> None:
+    with pytest.raises(SitcovError, match="approach, view, rain, cut"):
+        fc.check_frames({"car": _frames(4, runs=3)}, {"car": PARAMS}, split="colour")
