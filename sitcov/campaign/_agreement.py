@@ -694,6 +694,46 @@ def side_failures(
     return out
 
 
+#: One-sided Fisher p below which :func:`side_verdict` says a side fails more.
+SIDE_ALPHA = 0.05
+
+
+def side_verdict(sides: Mapping[str, Mapping[str, Any]]) -> str | None:
+    """Where each mode finds a side that fails more (:func:`side_failures`' rows: any run
+    seed stream with p < :data:`SIDE_ALPHA`), in words: a side that fails more in both
+    modes is the stack's; in PEM mode only, not shown to be the stack's (from the left the
+    PEM's known bias: it under-reports close cars from the left, docs/pem.md "Within a
+    band"); in camera mode only, a weakness the PEM hides. None without rows of both
+    modes."""
+    found: dict[str, set[str]] = {"camera": set(), "pem": set()}
+    for name, row in sides.items():
+        mode = name.partition("@")[0]
+        for where in ("left", "right"):
+            p = row.get(f"p_{where}_fails_more")
+            if mode in found and p is not None and p < SIDE_ALPHA:
+                found[mode].add(where)
+    modes = {name.partition("@")[0] for name in sides}
+    if not {"camera", "pem"} <= modes:
+        return None
+    said = []
+    for where in ("left", "right"):
+        cam, pem = where in found["camera"], where in found["pem"]
+        if cam and pem:
+            said.append(f"from the {where} fails more in both modes (the stack's)")
+        elif pem:
+            known = (
+                ': the PEM under-reports close cars from the left, docs/pem.md "Within a band"'
+                if where == "left"
+                else ""
+            )
+            said.append(
+                f"from the {where} fails more in PEM mode only (not shown to be the stack's{known})"
+            )
+        elif cam:
+            said.append(f"from the {where} fails more in camera mode only (the PEM hides it)")
+    return "; ".join(said) or "neither side fails significantly more in either mode"
+
+
 def situation_bins(
     seeds: Sequence[int], situations: int, kind: str | None = None
 ) -> dict[tuple[int, int], dict]:
@@ -827,6 +867,7 @@ def run_agreement(
         for pair in pairs:
             result["pairs"][pair]["bin_differences"] = bin_differences(mine, pair, bins)
         result["sides"] = side_failures(mine, sides)
+        result["side_verdict"] = side_verdict(result["sides"])
         per_stack[name] = result
     summary = dict(per_stack[stacks[0]])
     summary["stacks"] = per_stack
@@ -994,6 +1035,8 @@ def table_lines(summary: Mapping[str, Any]) -> list[str]:
                 f"(n={right['n']}); one-sided Fisher p: right fails more "
                 f"{_p(row['p_right_fails_more'])}, left fails more {_p(row['p_left_fails_more'])}"
             )
+        if result.get("side_verdict"):
+            lines.append(f"  sides, p < {SIDE_ALPHA:g}: {result['side_verdict']}")
     return lines
 
 

@@ -62,6 +62,8 @@ def test_every_stack_gets_its_rows_pairs_and_sides(tmp_path: Path) -> None:
         assert ref["sides"][side]["p_right_fails_more"] > 0.01
     lines = ag.table_lines(summary)
     assert "== stack blind" in lines and any("from the right 100.0%" in x for x in lines)
+    assert blind["side_verdict"] == "from the right fails more in both modes (the stack's)"
+    assert any(x.startswith("  sides, p < 0.05: from the right") for x in lines)
 
 
 def test_camera_rows_are_reused_per_stack(tmp_path: Path) -> None:
@@ -87,3 +89,28 @@ def test_stack_names_are_checked(monkeypatch: pytest.MonkeyPatch) -> None:
     assert names == ["reference", "examples.aeb_stacks:RightBlind"]
     with pytest.raises(SitcovError):
         ag.parse_stacks(["no-such-stack"])
+
+
+def test_the_side_verdict_says_whose_weakness_a_side_is() -> None:
+    """Both modes: the stack's; PEM mode only: the PEM's bias; camera only: hidden by the
+    PEM; one mode's rows alone: no verdict."""
+
+    def row(p_right: float, p_left: float) -> dict:
+        return {"p_right_fails_more": p_right, "p_left_fails_more": p_left}
+
+    both = {"camera@A": row(1e-5, 1.0), "pem@B": row(0.002, 1.0)}
+    assert ag.side_verdict(both) == "from the right fails more in both modes (the stack's)"
+    pem_only = {"camera@A": row(0.8, 0.37), "camera@B": row(0.6, 0.3), "pem@A": row(0.99, 0.03)}
+    said = ag.side_verdict(pem_only)
+    assert said.startswith("from the left fails more in PEM mode only (not shown to be the")
+    assert "under-reports close cars from the left" in said
+    right_only = {"camera@A": row(0.8, 0.37), "pem@A": row(0.03, 0.99)}
+    assert "under-reports" not in ag.side_verdict(right_only)
+    hidden = {"camera@A": row(0.01, 0.9), "pem@B": row(0.2, 0.7)}
+    assert (
+        ag.side_verdict(hidden)
+        == "from the right fails more in camera mode only (the PEM hides it)"
+    )
+    none = {"camera@A": row(0.5, 0.5), "pem@B": row(0.5, 0.5)}
+    assert ag.side_verdict(none) == "neither side fails significantly more in either mode"
+    assert ag.side_verdict({"pem@A": row(0.001, 1.0), "pem@B": row(0.5, 0.5)}) is None
