@@ -180,7 +180,7 @@ PERCEPTION_DETAIL = {
 PEM_NOTE = (
     "Perception was the PEM, a model of the detector checked on held-out frames per "
     "distance band. Within a band it under-reports close cars coming from the ego's left "
-    "and over-reports oncoming cars at 10-20 m (docs/pem.md, \"Within a band\"): a stack "
+    'and over-reports oncoming cars at 10-20 m (docs/pem.md, "Within a band"): a stack '
     "braking at a score of 0.5 then fails road users from the left more often, and those "
     "from the right less often, than in camera mode (the default campaign re-run in camera "
     "mode: 54.6 % against 49.7 % from the left, 37.6 % against 40.5 % from the right). "
