@@ -13,6 +13,8 @@ Fisher p in each mode; and the paired discordance (runs failing in one mode only
 
 Rows are written as runs finish (``index, intsit, side, pem_failed, camera_failed,
 camera_status, cpu_s``); an interrupted re-run resumes from the rows already in ``--out``.
+``--stack NAME`` runs the campaign's situations and run seeds with another stack (e.g.
+``examples.aeb_stacks:Threshold07``, with the checkout on ``PYTHONPATH``) in both modes.
 Needs the camera extra (the detector model: ``sitcov models fetch``).
 """
 
@@ -30,25 +32,31 @@ FIELDS = ("index", "intsit", "side", "pem_failed", "camera_failed", "camera_stat
 _WORKER: dict[str, Any] = {}
 
 
-def _camera_verdict(job: tuple[int, dict[str, Any], int, str, str, str]) -> dict[str, Any]:
-    """One stored run again in camera mode (its situation as ``Situation.to_dict``): its
-    row (index, verdict, CPU seconds)."""
+def _verdicts(job: tuple[int, dict[str, Any], int, str, str, str, bool]) -> dict[str, Any]:
+    """One stored run again in camera mode (its situation as ``Situation.to_dict``), and
+    on the PEM too when ``with_pem`` (another stack than the campaign's): its row (index,
+    verdicts, CPU seconds of the camera run)."""
     from sitcov.av import make_stack
     from sitcov.hyperspace import Situation
     from sitcov.sim._judge import Judge
     from sitcov.sim.embedded._backend import EmbeddedBackend
 
-    index, situation, seed, av, physics, judge = job
+    index, situation, seed, av, physics, judge, with_pem = job
     key = (av, physics, judge)
-    if _WORKER.get("key") != key:  # one backend and stack per worker and setup
-        _WORKER.update(key=key, backend=EmbeddedBackend(perception="camera", physics=physics),
-                       stack=make_stack(av), judge=Judge.from_spec(judge))  # fmt: skip
+    if _WORKER.get("key") != key:  # one backend per mode and one stack per worker and setup
+        _WORKER.update(key=key, stack=make_stack(av), judge=Judge.from_spec(judge),
+                       camera=EmbeddedBackend(perception="camera", physics=physics),
+                       pem=EmbeddedBackend(perception="pem", physics=physics))  # fmt: skip
+    sit = Situation.from_dict(situation)
     cpu0 = time.process_time()
-    sim = _WORKER["backend"].run(Situation.from_dict(situation), _WORKER["stack"], seed)
-    outcome = _WORKER["judge"](sim)
+    outcome = _WORKER["judge"](_WORKER["camera"].run(sit, _WORKER["stack"], seed))
     cpu = round(time.process_time() - cpu0, 3)
-    failed = int(outcome.status == "fail")
-    return {"index": index, "camera_failed": failed, "camera_status": outcome.status, "cpu_s": cpu}
+    row = {"index": index, "camera_failed": int(outcome.status == "fail"),
+           "camera_status": outcome.status, "cpu_s": cpu}  # fmt: skip
+    if with_pem:
+        pem = _WORKER["judge"](_WORKER["pem"].run(sit, _WORKER["stack"], seed))
+        row["pem_failed"] = int(pem.status == "fail")
+    return row
 
 
 def _stored(db: Path, campaign: str) -> list[Any]:
@@ -83,23 +91,29 @@ def _read(out: Path) -> dict[int, dict[str, Any]]:
         return {int(r["index"]): r for r in csv.DictReader(f)}
 
 
-def rerun(db: Path, campaign: str, out: Path, workers: int) -> list[dict[str, Any]]:
-    """Every judged run of ``campaign`` in camera mode (resuming ``out``): the rows."""
+def rerun(
+    db: Path, campaign: str, out: Path, workers: int, stack: str | None = None
+) -> list[dict[str, Any]]:
+    """Every judged run of ``campaign`` in camera mode (resuming ``out``): the rows. With
+    ``stack`` (another than the campaign's) its situations and run seeds are run with that
+    stack in both modes."""
     from sitcov.hyperspace._situation import approach_side
 
     runs = _stored(db, campaign)
     if not runs:
         raise SystemExit(f"{db}: no judged runs of campaign {campaign!r}")
     av, physics, judge = _setup(runs[0])
+    with_pem = stack is not None and stack != av
+    av = stack or av
     done = _read(out)
     base = {
         r.index: {"index": r.index, "intsit": r.situation.bins.get("intsit", "-"),
                   "side": approach_side(r.situation.bins, r.situation.values),
-                  "pem_failed": int(r.status == "fail")}
+                  "pem_failed": -1 if with_pem else int(r.status == "fail")}
         for r in runs
     }  # fmt: skip
     jobs = [
-        (r.index, r.situation.to_dict(), r.seed, av, physics, judge)
+        (r.index, r.situation.to_dict(), r.seed, av, physics, judge, with_pem)
         for r in runs
         if r.index not in done
     ]
@@ -108,7 +122,7 @@ def rerun(db: Path, campaign: str, out: Path, workers: int) -> list[dict[str, An
         writer = csv.DictWriter(f, fieldnames=FIELDS)
         if new:
             writer.writeheader()
-        futures = [pool.submit(_camera_verdict, job) for job in jobs]
+        futures = [pool.submit(_verdicts, job) for job in jobs]
         for k, fut in enumerate(as_completed(futures), 1):
             row = {**base[fut.result()["index"]], **fut.result()}
             writer.writerow(row)
@@ -165,9 +179,12 @@ def main() -> None:
     parser.add_argument("--campaign", default="default", help="campaign name")
     parser.add_argument("--out", type=Path, required=True, help="rows file (.csv)")
     parser.add_argument("--workers", type=int, default=1, help="processes")
+    parser.add_argument(
+        "--stack", default=None, help="another stack (as sitcov run --av names it), in both modes"
+    )
     args = parser.parse_args()
     start = time.perf_counter()
-    rows = rerun(args.db, args.campaign, args.out, args.workers)
+    rows = rerun(args.db, args.campaign, args.out, args.workers, args.stack)
     for line in report(rows):
         print(line)
     cpu = sum(float(r["cpu_s"]) for r in rows)
