@@ -49,9 +49,12 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import tempfile
 import types
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 #: Veltkamp's splitting constant for doubles: 2**27 + 1.
@@ -143,6 +146,43 @@ def compiled(
     """
     if not enabled():
         return None
+    with cache_lock():  # one process at a time compiles or loads kernels (docstring below)
+        return _compiled(fn, example, helpers)
+
+
+@contextmanager
+def cache_lock() -> Iterator[None]:
+    """Hold this machine's lock on numba's disk cache (per user) for the block.
+
+    Why: kernels share cached helpers (the PEM's view and frame kernels both compile
+    ``_logit``, ``_project``, ...), and numba numbers a function's cached overloads per
+    index file without a lock of its own (numba issues #4807, #10128). Two processes that
+    compile different kernels at once from an empty cache (two xdist workers, two campaign
+    workers) can write the same overload file for two signatures: the one that reads it
+    next runs the other's machine code. That was seen as "numba could not compile
+    _pem_frame (ZeroDivisionError)" in 2 of 4 trials of the view and frame kernels compiled
+    side by side (27 Nov 2026); behind this lock, in none of 6. Without ``fcntl`` (not POSIX)
+    the cache is used unguarded, as numba does."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    path = Path(tempfile.gettempdir()) / f"sitcov-numba-cache-{os.getuid()}.lock"
+    with path.open("a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _compiled(
+    fn: Callable[..., Any],
+    example: tuple[Any, ...],
+    helpers: tuple[Callable[..., Any] | tuple[str, Callable[..., Any]], ...],
+) -> Callable[..., Any] | None:
+    """:func:`compiled`'s work, under :func:`cache_lock`."""
     try:
         import numba
 
@@ -166,7 +206,7 @@ def compiled(
             f"numba could not compile {fn.__name__} ({type(exc).__name__}: {exc}); "
             "running the Python code (same results, slower)",
             RuntimeWarning,
-            stacklevel=2,
+            stacklevel=3,  # the caller of compiled()
         )
         return None
     return fast

@@ -112,6 +112,38 @@ def test_a_numba_failure_warns_and_falls_back_to_python(monkeypatch) -> None:
         assert compiled(_not_compilable, 1.0) is None
 
 
+def test_compiling_holds_the_machines_cache_lock_and_it_excludes_other_processes(
+    monkeypatch,
+) -> None:
+    """``compiled`` compiles and loads under ``cache_lock`` (numba's disk cache has no lock
+    of its own: kernels compiled side by side from an empty cache ran each other's machine
+    code), and while one process holds the lock another cannot take it."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)
+    from sitcov import _jit
+
+    held = []
+    real = _jit.cache_lock
+
+    def recording():
+        held.append(True)
+        return real()
+
+    monkeypatch.setattr(_jit, "cache_lock", recording)
+    assert compiled(_dynamics.integrate) is not None
+    assert held == [True]
+    probe = (
+        "import fcntl, os, tempfile, sys\n"
+        "p = os.path.join(tempfile.gettempdir(), f'sitcov-numba-cache-{os.getuid()}.lock')\n"
+        "h = open(p, 'a')\n"
+        "try:\n    fcntl.flock(h, fcntl.LOCK_EX | fcntl.LOCK_NB)\nexcept BlockingIOError:\n"
+        "    sys.exit(3)\n"
+    )
+    with real():
+        assert subprocess.run([sys.executable, "-c", probe]).returncode == 3
+    assert subprocess.run([sys.executable, "-c", probe]).returncode == 0
+
+
 def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
     """A whole braking turn through ``Vehicle.step`` (whichever integrator this process
     uses) equals the plain-Python integrator's, step by step."""
