@@ -72,9 +72,7 @@ def _stored(db: Path, campaign: str) -> list[Any]:
 
 def _setup(run: Any) -> tuple[str, str, str]:
     """(stack, physics profile, judge) the campaign ran with (its stored config)."""
-    import ast
-
-    cfg = run.config if isinstance(run.config, dict) else ast.literal_eval(run.config)
+    cfg = run.config
     if cfg.get("fault"):
         raise SystemExit("a campaign with a seeded fault: re-run it by hand")
     return (

@@ -24,14 +24,12 @@ import argparse
 
 import numpy as np
 
-from sitcov.calibration._frame_check import THETAS, pass_probability
+from sitcov.calibration._frame_check import CUT, THETAS, pass_probability
 from sitcov.calibration._frames import KIND_LABEL, read_frames
 from sitcov.perception._pem import noise_scale
 from sitcov.perception._pem_classes import load_class_params
 from sitcov.perception._pem_params import load_pem_params
 
-#: Truncation above which a frame counts as cut by the image edge [-].
-CUT = 0.05
 #: The close band [m].
 NEAR_M = 10.0
 #: Fewer frames than this in a part: not printed.
