@@ -11,10 +11,22 @@ Fisher p in each mode; and the paired discordance (runs failing in one mode only
     python benchmarks/campaign_in_camera.py --db sitcov.db --campaign default --workers 2 \\
         --out docs/data/default-campaign-camera.csv
 
+``--pem-draws K`` re-runs the PEM side with the majority of K perception draws (``sitcov
+run --perception-draws``) and ``--camera-rows FILE`` takes the camera verdicts from an
+earlier rows file of the same campaign and stack, so only the PEM side runs:
+
+    python benchmarks/campaign_in_camera.py --db sitcov.db --pem-draws 7 \\
+        --camera-rows docs/data/default-campaign-camera.csv --out draws7.csv
+
 Rows are written as runs finish (``index, intsit, side, pem_failed, camera_failed,
 camera_status, cpu_s``); an interrupted re-run resumes from the rows already in ``--out``.
 ``--stack NAME`` runs the campaign's situations and run seeds with another stack (e.g.
 ``examples.aeb_stacks:Threshold07``, with the checkout on ``PYTHONPATH``) in both modes.
+``--second-seed`` runs every situation in both modes at the agreement experiment's second
+run seed (stream B, ``second_run_seed(campaign seed, index)``) instead of the stored one:
+the camera's own reproducibility across run seeds on the campaign's situations. With
+``--against ROWS`` (the same stack's rows at the stored seeds) it prints the agreement of
+camera@A with camera@B (the ceiling), with PEM@B (across run seeds) and PEM@A with PEM@B.
 Needs the camera extra (the detector model: ``sitcov models fetch``).
 """
 
@@ -32,28 +44,33 @@ FIELDS = ("index", "intsit", "side", "pem_failed", "camera_failed", "camera_stat
 _WORKER: dict[str, Any] = {}
 
 
-def _verdicts(job: tuple[int, dict[str, Any], int, str, str, str, bool]) -> dict[str, Any]:
-    """One stored run again in camera mode (its situation as ``Situation.to_dict``), and
-    on the PEM too when ``with_pem`` (another stack than the campaign's): its row (index,
-    verdicts, CPU seconds of the camera run)."""
+def _verdicts(job: dict[str, Any]) -> dict[str, Any]:
+    """One stored run again (``job``: its index, situation as ``Situation.to_dict``, run
+    seed and setup): in camera mode unless ``camera`` is False, and on the PEM when
+    ``with_pem`` (another stack than the campaign's, another seed or perception draws):
+    its row (index, verdicts, CPU seconds of the camera run)."""
     from sitcov.av import make_stack
+    from sitcov.campaign._draws import PerceptionDraws
     from sitcov.hyperspace import Situation
     from sitcov.sim._judge import Judge
     from sitcov.sim.embedded._backend import EmbeddedBackend
 
-    index, situation, seed, av, physics, judge, with_pem = job
-    key = (av, physics, judge)
+    key = (job["av"], job["physics"], job["judge"], job["draws"])
     if _WORKER.get("key") != key:  # one backend per mode and one stack per worker and setup
-        _WORKER.update(key=key, stack=make_stack(av), judge=Judge.from_spec(judge),
-                       camera=EmbeddedBackend(perception="camera", physics=physics),
-                       pem=EmbeddedBackend(perception="pem", physics=physics))  # fmt: skip
-    sit = Situation.from_dict(situation)
-    cpu0 = time.process_time()
-    outcome = _WORKER["judge"](_WORKER["camera"].run(sit, _WORKER["stack"], seed))
-    cpu = round(time.process_time() - cpu0, 3)
-    row = {"index": index, "camera_failed": int(outcome.status == "fail"),
-           "camera_status": outcome.status, "cpu_s": cpu}  # fmt: skip
-    if with_pem:
+        judge = Judge.from_spec(job["judge"])
+        pem = EmbeddedBackend(perception="pem", physics=job["physics"])
+        if job["draws"] > 1:
+            pem = PerceptionDraws(pem, job["draws"], lambda o: judge(o).failed)
+        camera = EmbeddedBackend(perception="camera", physics=job["physics"])
+        _WORKER.update(key=key, stack=make_stack(job["av"]), judge=judge, pem=pem, camera=camera)
+    sit, seed = Situation.from_dict(job["situation"]), job["seed"]
+    row: dict[str, Any] = {"index": job["index"]}
+    if job["camera"]:
+        cpu0 = time.process_time()
+        outcome = _WORKER["judge"](_WORKER["camera"].run(sit, _WORKER["stack"], seed))
+        row.update(camera_failed=int(outcome.status == "fail"), camera_status=outcome.status,
+                   cpu_s=round(time.process_time() - cpu0, 3))  # fmt: skip
+    if job["with_pem"]:
         pem = _WORKER["judge"](_WORKER["pem"].run(sit, _WORKER["stack"], seed))
         row["pem_failed"] = int(pem.status == "fail")
     return row
@@ -90,31 +107,52 @@ def _read(out: Path) -> dict[int, dict[str, Any]]:
 
 
 def rerun(
-    db: Path, campaign: str, out: Path, workers: int, stack: str | None = None
+    db: Path,
+    campaign: str,
+    out: Path,
+    workers: int,
+    stack: str | None = None,
+    second_seed: bool = False,
+    pem_draws: int = 1,
+    camera_rows: Path | None = None,
 ) -> list[dict[str, Any]]:
     """Every judged run of ``campaign`` in camera mode (resuming ``out``): the rows. With
     ``stack`` (another than the campaign's) its situations and run seeds are run with that
-    stack in both modes."""
+    stack in both modes; with ``second_seed`` both modes run at stream B's run seeds; with
+    ``pem_draws`` > 1 the PEM verdict is the majority of that many perception draws
+    (``sitcov run --perception-draws``); ``camera_rows``: the camera verdicts of these
+    runs from an earlier rows file of the same campaign, stack and seeds (not run again)."""
+    from sitcov.campaign._agreement import second_run_seed
     from sitcov.hyperspace._situation import approach_side
 
     runs = _stored(db, campaign)
     if not runs:
         raise SystemExit(f"{db}: no judged runs of campaign {campaign!r}")
     av, physics, judge = _setup(runs[0])
-    with_pem = stack is not None and stack != av
+    with_pem = second_seed or pem_draws > 1 or (stack is not None and stack != av)
     av = stack or av
+    base_seed = int(runs[0].config.get("seed") or 0)
+
+    def seed_of(run: Any) -> int:
+        return second_run_seed(base_seed, run.index) if second_seed else int(run.seed)
+
     done = _read(out)
+    known = _read(camera_rows) if camera_rows is not None else {}
     base = {
         r.index: {"index": r.index, "intsit": r.situation.bins.get("intsit", "-"),
                   "side": approach_side(r.situation.bins, r.situation.values),
-                  "pem_failed": -1 if with_pem else int(r.status == "fail")}
+                  "pem_failed": -1 if with_pem else int(r.status == "fail"),
+                  **{k: v for k, v in known.get(r.index, {}).items()
+                     if k in ("camera_failed", "camera_status", "cpu_s")}}
         for r in runs
     }  # fmt: skip
     jobs = [
-        (r.index, r.situation.to_dict(), r.seed, av, physics, judge, with_pem)
+        {"index": r.index, "situation": r.situation.to_dict(), "seed": seed_of(r), "av": av,
+         "physics": physics, "judge": judge, "with_pem": with_pem, "draws": pem_draws,
+         "camera": r.index not in known}
         for r in runs
         if r.index not in done
-    ]
+    ]  # fmt: skip
     new = not out.exists()
     with out.open("a", newline="") as f, ProcessPoolExecutor(workers) as pool:
         writer = csv.DictWriter(f, fieldnames=FIELDS)
@@ -127,7 +165,7 @@ def rerun(
             f.flush()
             done[row["index"]] = row
             if k % 50 == 0:
-                print(f"  {k}/{len(jobs)} camera runs", flush=True)
+                print(f"  {k}/{len(jobs)} runs", flush=True)
     return [done[i] for i in sorted(done)]
 
 
@@ -170,6 +208,31 @@ def report(rows: Sequence[dict[str, Any]]) -> list[str]:
     return lines
 
 
+def across_seeds(at_a: Sequence[dict[str, Any]], at_b: Sequence[dict[str, Any]]) -> list[str]:
+    """Agreement of the verdicts at the stored run seeds (``at_a``) with those at stream
+    B's (``at_b``), over the situations both hold: camera@A vs camera@B (the camera's own
+    reproducibility, the ceiling of any model drawn independently of it), camera@A vs
+    PEM@B (the agreement experiment's ``pem-camera``), PEM@A vs PEM@B, each with its
+    Wilson 95 % interval."""
+    from sitcov.analysis._stats import wilson_interval
+
+    b = {int(r["index"]): r for r in at_b}
+    pairs = [(r, b[int(r["index"])]) for r in at_a if int(r["index"]) in b]
+    lines = []
+    for name, left, right in (
+        ("camera@A vs camera@B", "camera", "camera"),
+        ("camera@A vs PEM@B", "camera", "pem"),
+        ("PEM@A vs PEM@B", "pem", "pem"),
+    ):
+        n = len(pairs)
+        k = sum(int(x[f"{left}_failed"]) == int(y[f"{right}_failed"]) for x, y in pairs)
+        lo, hi = wilson_interval(k, n) or (0.0, 0.0)
+        lines.append(
+            f"{name:<22} {k}/{n} = {100 * k / max(n, 1):5.1f}% [{100 * lo:4.1f}, {100 * hi:4.1f}]"
+        )
+    return lines
+
+
 def main() -> None:
     """Parse the arguments, re-run, print the comparison."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -180,11 +243,27 @@ def main() -> None:
     parser.add_argument(
         "--stack", default=None, help="another stack (as sitcov run --av names it), in both modes"
     )
+    parser.add_argument(
+        "--second-seed", action="store_true", help="run both modes at stream B's run seeds"
+    )
+    parser.add_argument(
+        "--against", type=Path, default=None, help="rows at the stored seeds, for --second-seed"
+    )
+    parser.add_argument(
+        "--pem-draws", type=int, default=1, help="PEM verdict: the majority of this many draws"
+    )
+    parser.add_argument(
+        "--camera-rows", type=Path, default=None, help="camera verdicts of an earlier rows file"
+    )
     args = parser.parse_args()
     start = time.perf_counter()
-    rows = rerun(args.db, args.campaign, args.out, args.workers, args.stack)
+    rows = rerun(args.db, args.campaign, args.out, args.workers, args.stack, args.second_seed,
+                 args.pem_draws, args.camera_rows)  # fmt: skip
     for line in report(rows):
         print(line)
+    if args.against is not None:
+        for line in across_seeds(list(_read(args.against).values()), rows):
+            print(line)
     cpu = sum(float(r["cpu_s"]) for r in rows)
     print(f"{len(rows)} camera runs, {cpu:.0f} CPU-s in the runs; this call "
           f"{time.perf_counter() - start:.0f} s wall on {args.workers} worker(s)")  # fmt: skip

@@ -21,3 +21,15 @@ def run_seed(seed: int, index: int) -> int:
     """The simulation seed of run ``index`` (a 32-bit integer, stored with the run)."""
     sequence = np.random.SeedSequence([_RUN_STREAM, int(seed), int(index)])
     return int(sequence.generate_state(1, dtype=np.uint32)[0])
+
+
+_DRAW_STREAM = 5  # a run's further perception draws (apart from 0-4: ask, run, shrinker, repeats)
+
+
+def draw_seed(seed: int, draw: int) -> int:
+    """The perception seed of draw ``draw`` (>= 1) of a run whose seed is ``seed``: the
+    same world, other perception noise (``EmbeddedBackend.run(..., perception_seed=)``).
+    Draw 0 is the run itself. A function of the stored run seed alone, so a stored run's
+    draws can be run again without its campaign."""
+    sequence = np.random.SeedSequence([_DRAW_STREAM, int(seed), int(draw)])
+    return int(sequence.generate_state(1, dtype=np.uint32)[0])

@@ -333,6 +333,12 @@ def run_cmd(
     ),
     physics: Optional[str] = PHYSICS_OPT,  # noqa: UP045
     judge: Optional[str] = JUDGE_OPT,  # noqa: UP045
+    perception_draws: Optional[int] = typer.Option(  # noqa: UP045
+        None,
+        "--perception-draws",
+        help="Run each situation's world this many times (odd) with other perception noise "
+        "and store the majority's verdict (embedded backend; default 1; docs/pem.md).",
+    ),
     av: Optional[str] = typer.Option(None, "--av", help="AV stack (default: reference)."),  # noqa: UP045
     hyperspace: Optional[str] = HYPERSPACE_OPT,  # noqa: UP045
     executor: Optional[str] = typer.Option(  # noqa: UP045
@@ -430,6 +436,7 @@ def run_cmd(
         backend=backend,
         physics=physics,
         judge=judge,
+        perception_draws=perception_draws,
         av=av,
         hyperspace=hyperspace,
         executor=executor,
@@ -782,6 +789,12 @@ def experiment_agreement_cmd(
         help="AV stack to run on every side (repeatable or comma-separated; a name "
         "sitcov run --av takes, e.g. examples.aeb_stacks:RightBlind); default: reference.",
     ),
+    pem_draws: int = typer.Option(
+        1,
+        "--pem-draws",
+        help="A PEM run's verdict is the majority of this many perception draws of its world "
+        "(odd; sitcov run --perception-draws).",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ) -> None:
     """PEM vs camera, camera vs camera, PEM vs PEM: verdict agreement on held-out seeds."""
@@ -815,13 +828,14 @@ def experiment_agreement_cmd(
             workers=workers, allow_calibration_seeds=allow_calibration_seeds,
             camera_rows=camera_rows, on_plan=plan, progress=lambda _row: bar.advance(task),
             kind=kind, pem_classes=None if pem_classes is None else str(pem_classes),
-            stacks=stacks,
+            stacks=stacks, pem_draws=pem_draws,
         )  # fmt: skip
     summary["command"] = ag.command_line(
         seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
         pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
         camera_rows=[str(p) for p in camera_rows or ()], kind=kind,
         pem_classes=None if pem_classes is None else str(pem_classes), stacks=stacks,
+        pem_draws=pem_draws,
     )  # fmt: skip
     summary_path = summary_out or out.with_name(out.stem + ".summary.json")
     summary_path.write_text(json.dumps(summary, indent=2) + "\n")

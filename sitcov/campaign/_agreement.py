@@ -285,12 +285,15 @@ class SideSettings:
     """What a side needs to run: the PEM file and the detector model (None = defaults);
     ``kind``: situations of the derived hyperspace with a pedestrian or a cyclist only
     (:func:`sitcov.calibration._class_runs.class_hyperspace`); ``pem_classes``: the
-    per-class PEM file (None = shipped)."""
+    per-class PEM file (None = shipped); ``pem_draws``: a PEM side's verdict is the
+    majority of that many perception draws of the run's world
+    (:class:`~sitcov.campaign._draws.PerceptionDraws`; 1 = one run)."""
 
     pem_file: str | None = None
     model: str | None = None
     kind: str | None = None
     pem_classes: str | None = None
+    pem_draws: int = 1
 
 
 class SideRunner:
@@ -319,6 +322,12 @@ class SideRunner:
             if perception == "pem":
                 sensor = PEMSensor(self.settings.pem_file, classes=self.settings.pem_classes)
                 backend = EmbeddedBackend(perception="pem", sensor=sensor)
+                if self.settings.pem_draws > 1:
+                    from sitcov.campaign._draws import PerceptionDraws
+
+                    backend = PerceptionDraws(
+                        backend, self.settings.pem_draws, lambda o: bool(o.failed)
+                    )
             else:
                 from sitcov.perception import SSDDetector
 
@@ -793,6 +802,7 @@ def run_agreement(
     kind: str | None = None,
     pem_classes: str | None = None,
     stacks: Sequence[str] = (DEFAULT_STACK,),
+    pem_draws: int = 1,
     run_job: Callable[[Job], dict[str, Any]] | None = None,
     on_plan: Callable[[list[Job]], None] | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
@@ -805,7 +815,8 @@ def run_agreement(
     row as it finishes. ``camera_rows``: one or several rows files of earlier runs whose
     camera-mode rows are taken instead of simulated again (see :func:`reusable_camera_rows`).
     ``kind``: pedestrian or cyclist situations only (their PEM: ``pem_classes``, whose
-    calibration seeds are refused too).
+    calibration seeds are refused too). ``pem_draws``: each PEM run's verdict is the
+    majority of that many perception draws of its world (odd; the camera side runs once).
 
     Raises:
         ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
@@ -815,6 +826,9 @@ def run_agreement(
 
     if situations < 1:
         raise ConfigError(field="--situations", value=situations, expected="at least 1")
+    from sitcov.campaign._draws import check_draws
+
+    check_draws(pem_draws, field="--pem-draws")
     rows_format(out)
     pem_path = Path(pem_file) if pem_file is not None else PEM_PARAMS_FILE
     pem_name = str(pem_file) if pem_file is not None else "sitcov/perception/data/pem.yaml"
@@ -838,7 +852,7 @@ def run_agreement(
         model = str(model_path(model))
     settings = SideSettings(
         pem_file=None if pem_file is None else str(pem_file), model=model, kind=kind,
-        pem_classes=pem_classes,
+        pem_classes=pem_classes, pem_draws=pem_draws,
     )  # fmt: skip
     if on_plan is not None:
         on_plan(jobs)
@@ -876,6 +890,7 @@ def run_agreement(
         seeds=list(seeds),
         situations_per_seed=situations,
         pem_file=pem_name,
+        pem_draws=pem_draws,
         pem_sha256=hashlib.sha256(pem_path.read_bytes()).hexdigest(),
         sitcov_version=__version__,
         world_model=WORLD_MODEL_VERSION,
@@ -974,6 +989,7 @@ def command_line(
     kind: str | None = None,
     pem_classes: str | None = None,
     stacks: Sequence[str] = (DEFAULT_STACK,),
+    pem_draws: int = 1,
 ) -> str:
     """The ``sitcov experiment agreement`` command that reproduces a summary."""
     import shlex
@@ -995,6 +1011,8 @@ def command_line(
     if list(stacks) != [DEFAULT_STACK]:
         for name in stacks:
             parts += ["--stack", name]
+    if pem_draws != 1:
+        parts += ["--pem-draws", str(pem_draws)]
     return " ".join(p if i == 0 else shlex.quote(p) for i, p in enumerate(parts))
 
 

@@ -140,7 +140,10 @@ def build_backend(
     The config's ``physics`` profile is given as the backend's ``physics`` option when the
     backend has one; a backend without it runs ``carla`` only. A backend configured with a
     ``servers`` list (e.g. several CARLA servers) is told its
-    ``worker_index`` so that worker k uses server k mod len(servers).
+    ``worker_index`` so that worker k uses server k mod len(servers). A config with
+    ``perception_draws`` > 1 gets its own backend wrapped in
+    :class:`~sitcov.campaign._draws.PerceptionDraws` (another ``backend`` is not: a
+    replay elsewhere runs the stored run once).
     """
     from sitcov.sim import Backend, make_backend
 
@@ -157,9 +160,18 @@ def build_backend(
             value=config.physics,
             expected=f"'carla': backend {name!r} has no physics profiles (no 'physics' option)",
         )
-    if ":" in name:
-        return cls(**opts)
-    return make_backend(name, **opts)
+    built = cls(**opts) if ":" in name else make_backend(name, **opts)
+    if config.perception_draws > 1 and name == config.backend:
+        from sitcov.campaign._draws import PerceptionDraws
+        from sitcov.sim import Judge
+
+        judge = Judge.from_spec(config.judge)
+        try:
+            return PerceptionDraws(built, config.perception_draws, lambda o: judge(o).failed)
+        except ConfigError:
+            built.close()
+            raise
+    return built
 
 
 def _accepts(cls: type, option: str) -> bool:

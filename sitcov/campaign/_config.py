@@ -46,6 +46,11 @@ class CampaignConfig(BaseModel):
             departure, blocked, route incomplete), ``paper`` (every ego collision, the
             paper's judge), ``strict`` (every kind) or a list of kinds
             (``sitcov.sim.FAILURE_KINDS``).
+        perception_draws: each run's world simulated this many times (odd) with other
+            perception noise, the majority's verdict stored with the share of failing
+            draws (``sitcov.campaign._draws``); 1 (the default) is one run per situation.
+            Only for a backend that can rerun a world with other perception noise (the
+            embedded one).
         av: AV stack name (or ``module:Class``); ``fault`` a seeded fault (f1|f2|f3);
             ``av_params`` parameter overrides.
         runs: total runs wanted in the campaign (running again with more extends it).
@@ -69,6 +74,7 @@ class CampaignConfig(BaseModel):
     backend_options: dict[str, Any] = Field(default_factory=dict)
     physics: Literal["carla", "physical"] = "carla"
     judge: str | list[str] = "default"
+    perception_draws: int = Field(1, ge=1)
     av: str = "reference"
     fault: str | None = None
     av_params: dict[str, Any] | None = None
@@ -110,6 +116,13 @@ class CampaignConfig(BaseModel):
             return normalize_judge(value)
         except ConfigError as exc:
             raise ValueError(str(exc.expected)) from None
+
+    @field_validator("perception_draws")
+    @classmethod
+    def _odd_draws(cls, value: int) -> int:
+        if value % 2 == 0:
+            raise ValueError("an odd number of perception draws (a majority needs no ties)")
+        return value
 
     def defining(self) -> dict[str, Any]:
         """The JSON form without execution-only settings (what must match on resume)."""

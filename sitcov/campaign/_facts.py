@@ -152,6 +152,34 @@ def record_facts(run: RunRecord) -> dict[str, Any]:
     }
 
 
+def draw_facts(store: Store, campaign: str | None = None) -> dict[str, Any] | None:
+    """Over the judged runs stored with perception draws (``metrics.perception_draws`` >
+    1, :mod:`sitcov.campaign._draws`): ``runs``, ``failing_draw_share`` (the mean share of
+    a run's draws that failed: the failure rate a single draw per run estimates) and
+    ``split_runs`` (runs whose draws did not all agree). None when no run has draws."""
+    where, params = (
+        store._where(campaign, ("pass", "fail")) if isinstance(store, SQLiteStore) else ("", [])
+    )
+    if isinstance(store, SQLiteStore):
+        draws = "json_extract(outcome, '$.metrics.perception_draws')"
+        failed = "json_extract(outcome, '$.metrics.draws_failed')"
+        cond = f"{where} AND {draws} > 1" if where else f" WHERE {draws} > 1"
+        rows = store._db.execute(f"SELECT {failed}, {draws} FROM runs{cond}", params).fetchall()
+    else:
+        rows = []
+        for run in store.iter_runs(campaign, ("pass", "fail")):
+            metrics = run.outcome.metrics if run.outcome is not None else {}
+            if (metrics.get("perception_draws") or 1) > 1:
+                rows.append((metrics["draws_failed"], metrics["perception_draws"]))
+    if not rows:
+        return None
+    return {
+        "runs": len(rows),
+        "failing_draw_share": sum(k / n for k, n in rows) / len(rows),
+        "split_runs": sum(0 < k < n for k, n in rows),
+    }
+
+
 def run_hit(run: RunRecord) -> str | None:
     """The kind of road user the ego collided with in ``run`` (``metrics["collision_kind"]``;
     None if it stores none)."""

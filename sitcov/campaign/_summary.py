@@ -41,11 +41,13 @@ def campaign_hyperspace(store: Store, campaign: str | None = None) -> Any:
 def campaign_setup(info: CampaignInfo) -> dict[str, Any]:
     """Physics profile, judge and world model a stored campaign was made with."""
     if info.legacy:
-        return {"physics": "legacy", "judge": "paper", "world_model": "legacy"}
+        return {"physics": "legacy", "judge": "paper", "world_model": "legacy",
+                "perception_draws": 1}  # fmt: skip
     return {
         "physics": info.config.get("physics", "carla"),
         "judge": _judge_text(info.config.get("judge", "default")),
         "world_model": info.world_version,
+        "perception_draws": int(info.config.get("perception_draws") or 1),
     }
 
 
@@ -83,14 +85,16 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
     with their run counts), ``route_completion``
     (:func:`sitcov.analysis.route_completion_stats` over the judged runs) and
     ``actor_collisions`` (runs with a collision between two other road users, and how many
-    such collisions: recorded, never the ego's failure).
+    such collisions: recorded, never the ego's failure), ``perception_draws`` (draws per
+    run, one value or a list) and ``draws`` (:func:`~sitcov.campaign._facts.draw_facts`,
+    None without draws).
 
     The runs are read once, as a stream of their facts (no run records are built), so a
     100,000-run campaign is summarised in seconds with flat memory.
     """
     from sitcov.analysis import route_completion_stats, summarize
     from sitcov.campaign._breakdown import slot_types
-    from sitcov.campaign._facts import iter_facts
+    from sitcov.campaign._facts import draw_facts, iter_facts
     from sitcov.sim import FAILURE_KINDS, Judge
 
     hyperspace = campaign_hyperspace(store, campaign)
@@ -112,7 +116,7 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
     summary = summarize(hyperspace, stream(), slot_types(hyperspace))
     infos = [store.campaign(campaign)] if campaign else store.campaigns()
     setups = [campaign_setup(i) for i in infos]
-    for key in ("physics", "judge", "world_model"):
+    for key in ("physics", "judge", "world_model", "perception_draws"):
         summary[key] = _one_or_all([s[key] for s in setups])
     if len({s["judge"] for s in setups}) == 1:
         summary["judge_counts"] = list(Judge.from_spec(setups[0]["judge"]).counts)
@@ -124,6 +128,9 @@ def summarize_store(store: Store, campaign: str | None = None) -> dict[str, Any]
         {k: n for k, n in events.items() if n and k not in counted} if counted else {}
     )
     summary["actor_collisions"] = {"runs": contacts[0], "collisions": contacts[1]}
+    summary["draws"] = (
+        draw_facts(store, campaign) if any(s["perception_draws"] > 1 for s in setups) else None
+    )
     return summary
 
 
@@ -182,6 +189,8 @@ def summary_table(summary: dict[str, Any], title: str = "campaign summary") -> A
     for key, label in (("physics", "physics"), ("judge", "judge"), ("world_model", "world model")):
         if key in summary:
             totals.add_row(label, _setup_text(summary, key))
+    if summary.get("draws"):
+        totals.add_row("perception draws", _draws_text(summary))
     cov = summary.get("coverage", {})
     totals.add_row("bins covered", f"{cov.get('bins_covered', 0)} / {cov.get('bins_total', 0)}")
     totals.add_row("pairwise coverage", f"{cov.get('pairwise', 0.0):.1%}")
@@ -267,6 +276,17 @@ def _uncounted_text(n: int, judged: int) -> str:
     """``12 runs (6.0%)``: runs with an event the judge does not count."""
     runs = "1 run" if n == 1 else f"{n} runs"
     return f"{runs} ({n / judged:.1%})" if judged else runs
+
+
+def _draws_text(summary: dict[str, Any]) -> str:
+    """The perception-draws row: draws per run, the mean share of failing draws (what one
+    draw per run would give as the failure rate) and the runs whose draws split."""
+    d, k = summary["draws"], summary["perception_draws"]
+    per = f"{k} per run" if isinstance(k, int) else "/".join(map(str, k)) + " per run"
+    return (
+        f"{per}, majority verdict; failing draws {d['failing_draw_share']:.1%}; "
+        f"{d['split_runs']} of {d['runs']} runs split"
+    )
 
 
 def _setup_text(summary: dict[str, Any], key: str) -> str:

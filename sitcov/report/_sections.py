@@ -189,6 +189,34 @@ PEM_NOTE = (
 )
 
 
+#: What the PEM note adds for a campaign whose runs were single perception draws, and for
+#: one whose verdicts are majorities of several (``sitcov run --perception-draws``).
+PEM_DRAWS_NOTE = (
+    "Each run's verdict is one draw of the PEM's noise: two runs of the same world disagree "
+    "far more often than two camera runs do. For per-situation verdicts run the campaign "
+    'with --perception-draws (docs/pem.md, "Perception draws").'
+)
+PEM_MAJORITY_NOTE = (
+    "Each run's verdict is the majority of {draws} perception draws of its world; the "
+    "stored run is the first draw with the majority's verdict."
+)
+
+
+def draws_of(views: Sequence[CampaignView]) -> int:
+    """The campaigns' perception draws per run (the largest; 1: single draws)."""
+    return max((int(v.config.get("perception_draws") or 1) for v in views), default=1)
+
+
+def pem_note(views: Sequence[CampaignView]) -> str:
+    """The note under the cards: :data:`PEM_NOTE` and what the verdicts are draws of
+    (empty when no campaign ran on the PEM)."""
+    if "pem" not in perception_of(views):
+        return ""
+    draws = draws_of(views)
+    tail = PEM_DRAWS_NOTE if draws == 1 else PEM_MAJORITY_NOTE.format(draws=draws)
+    return f"{PEM_NOTE} {tail}"
+
+
 def perception_of(views: Sequence[CampaignView]) -> str:
     """The campaigns' perception (``pem`` unless a backend option names another;
     ``carla`` for the CARLA backend), or ``mixed: a, b``."""
@@ -206,6 +234,9 @@ def perception_of(views: Sequence[CampaignView]) -> str:
 def _perception_card(views: Sequence[CampaignView]) -> dict[str, Any]:
     value = perception_of(views)
     detail = PERCEPTION_DETAIL.get(value, "campaigns differ: compare them per perception")
+    draws = draws_of(views)
+    if draws > 1:
+        detail += f"; the majority of {draws} perception draws per run"
     return {"key": "perception", "value": value, "detail": detail}
 
 
@@ -373,7 +404,7 @@ def headline_section(hs: Any, views: Sequence[CampaignView], all_runs: Sequence[
         "kinds": kind_rows(all_runs),
         "uncounted": uncounted_rows(views, all_runs),
         "completion": {"head": head, "distribution": dist},
-        "perception_note": PEM_NOTE if "pem" in perception_of(views) else "",
+        "perception_note": pem_note(views),
     }
 
 

@@ -147,3 +147,42 @@ class RaisingBackend(FakeBackend):
 
     def __init__(self, **options: Any) -> None:
         super().__init__(**{**options, "raise_rate": 1.0})
+
+
+DRAWS_BACKEND = "campaign_fakes:DrawsBackend"
+
+
+def draw_fails(seed: int, perception_seed: int | None) -> bool:
+    """DrawsBackend's verdict: a world's failure probability (from the run seed) drawn
+    with the perception seed (the run's own when None)."""
+    p_fail = np.random.default_rng([int(seed), 11]).random()
+    sense = seed if perception_seed is None else perception_seed
+    return bool(np.random.default_rng([int(sense), 12]).random() < p_fail)
+
+
+class DrawsBackend(FakeBackend):
+    """FakeBackend whose run takes ``perception_seed`` (as the embedded backend's): the
+    verdict depends on the world (run seed) and the perception draw."""
+
+    name: ClassVar[str] = "fake-draws"
+    calls: ClassVar[list[tuple[int, int | None, bool]]] = []
+
+    def run(  # type: ignore[override]
+        self,
+        situation: Any,
+        av_stack: AVStack,
+        seed: int,
+        *,
+        record: bool = False,
+        perception_seed: int | None = None,
+    ) -> Outcome:
+        DrawsBackend.calls.append((int(seed), perception_seed, record))
+        outcome = super().run(situation, av_stack, seed, record=record)
+        failed = draw_fails(seed, perception_seed)
+        return replace(
+            outcome,
+            status="fail" if failed else "pass",
+            end_reason="collision" if failed else "goal",
+            collision=failed,
+            metrics={**outcome.metrics, "sense": perception_seed},
+        )

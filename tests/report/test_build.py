@@ -242,3 +242,23 @@ def test_the_perception_card_says_what_the_stack_was_shown(built):
     hs = load_hyperspace()
     assert headline_section(hs, [camera], [])["perception_note"] == ""
     assert headline_section(hs, [camera, view()], [])["perception_note"].startswith("Percep")
+
+
+def test_the_pem_note_says_whether_verdicts_are_single_draws_or_majorities():
+    """A PEM campaign of single runs is told its verdicts are draws and how to get
+    majorities; one run with --perception-draws is told what its verdicts are, on the card
+    too; a camera campaign gets neither."""
+    from sitcov.report._data import CampaignView
+    from sitcov.report._sections import _perception_card, pem_note
+
+    def view(**config):
+        return CampaignView(name="c", config=config, tags={}, hyperspace=None)
+
+    single = pem_note([view()])
+    assert "--perception-draws" in single and "one draw" in single
+    majority = pem_note([view(perception_draws=9)])
+    assert "majority of 9 perception draws" in majority and "--perception-draws" not in majority
+    assert single.startswith("Perception was the PEM") and majority.startswith("Perception")
+    assert "9 perception draws" in _perception_card([view(perception_draws=9)])["detail"]
+    assert "draws" not in _perception_card([view()])["detail"]
+    assert pem_note([view(backend_options={"perception": "camera"}, perception_draws=3)]) == ""
