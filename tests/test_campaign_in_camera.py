@@ -37,3 +37,51 @@ def test_the_report_counts_rates_sides_and_agreement() -> None:
     camera = next(x for x in lines if x.startswith("camera: "))
     assert float(pem.rsplit(" ", 1)[1]) < 1e-4  # 30 of 40 against 10 of 40
     assert 0.01 < float(camera.rsplit(" ", 1)[1]) < 0.05  # 20 of 40 against 10 of 40
+
+
+def test_across_seeds_pairs_the_two_streams_by_index() -> None:
+    """camera@A vs camera@B, camera@A vs PEM@B and PEM@A vs PEM@B over the indexes both
+    files hold (a run missing from one is left out)."""
+    at_a = _rows()
+    at_b = [dict(r, camera_failed=1 - r["camera_failed"] if r["index"] < 10 else
+                 r["camera_failed"]) for r in _rows()[:-5]]  # fmt: skip
+    lines = load_benchmark("campaign_in_camera").across_seeds(at_a, at_b)
+    assert lines[0].split()[3:5] == ["85/95", "="]  # 10 camera verdicts flipped at B
+    assert lines[1].split()[3] == "85/95"  # camera@A vs PEM@B: the 10 PEM-only fails
+    assert lines[2].split()[3] == "95/95"
+
+
+def test_pem_draws_rerun_takes_the_camera_verdicts_from_a_rows_file(tmp_path) -> None:
+    """With --pem-draws and --camera-rows only the PEM side runs: its verdicts are the
+    majorities PerceptionDraws gives for the stored situations and seeds, the camera's are
+    the file's."""
+    import csv
+
+    from sitcov.av import make_stack
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+    from sitcov.campaign._draws import PerceptionDraws
+    from sitcov.sim import Judge
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    bench = load_benchmark("campaign_in_camera")
+    db = tmp_path / "c.db"
+    store = open_store(db)
+    run_campaign(CampaignConfig(runs=6, executor="serial", workers=1), store)
+    runs = store.runs()
+    store.close()
+    known = tmp_path / "camera.csv"
+    with known.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=bench.FIELDS)
+        writer.writeheader()
+        for r in runs:
+            writer.writerow({"index": r.index, "intsit": "-", "side": "-", "pem_failed": 9,
+                             "camera_failed": r.index % 2, "camera_status": "x",
+                             "cpu_s": 1.5})  # fmt: skip
+    rows = bench.rerun(db, "default", tmp_path / "out.csv", 1, pem_draws=3, camera_rows=known)
+    judge = Judge.from_spec("default")
+    draws = PerceptionDraws(EmbeddedBackend(), 3, lambda o: judge(o).failed)
+    stack = make_stack("reference")
+    for run, row in zip(runs, rows, strict=True):
+        expected = judge(draws.run(run.situation, stack, run.seed)).failed
+        assert int(row["pem_failed"]) == int(expected)
+        assert int(row["camera_failed"]) == run.index % 2 and float(row["cpu_s"]) == 1.5
