@@ -265,7 +265,7 @@ def main() -> None:
         for line in across_seeds(list(_read(args.against).values()), rows):
             print(line)
     cpu = sum(float(r["cpu_s"]) for r in rows)
-    print(f"{len(rows)} camera runs, {cpu:.0f} CPU-s in the runs; this call "
+    print(f"{len(rows)} rows, {cpu:.0f} CPU-s in their camera runs; this call "
           f"{time.perf_counter() - start:.0f} s wall on {args.workers} worker(s)")  # fmt: skip
 
 

@@ -106,6 +106,7 @@ def failure_pictures(
             if outcome.collision_time is not None:
                 detail.append(f"at t = {outcome.collision_time:.1f} s")
             detail.append("AEB fired" if outcome.aeb_fired else "AEB did not fire")
+            detail += _draws_detail(outcome)
             if outcome.status != run.status:
                 detail.append(f"re-simulation gave {outcome.status}, stored {run.status}")
             pictures.append(
@@ -131,6 +132,16 @@ def failure_pictures(
     if problems:
         note += " Not drawn: " + "; ".join(problems)
     return pictures, note
+
+
+def _draws_detail(outcome: Any) -> list[str]:
+    """``failed in 9 of 15 perception draws`` for a run of a campaign with perception
+    draws (how firmly the model fails the situation), else nothing."""
+    metrics = outcome.metrics
+    draws = metrics.get("perception_draws") or 1
+    if draws <= 1:
+        return []
+    return [f"failed in {metrics.get('draws_failed')} of {draws} perception draws"]
 
 
 def _what_happened(outcome: Any) -> str:

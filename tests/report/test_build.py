@@ -262,3 +262,24 @@ def test_the_pem_note_says_whether_verdicts_are_single_draws_or_majorities():
     assert "9 perception draws" in _perception_card([view(perception_draws=9)])["detail"]
     assert "draws" not in _perception_card([view()])["detail"]
     assert pem_note([view(backend_options={"perception": "camera"}, perception_draws=3)]) == ""
+
+
+def test_a_failing_run_of_a_draws_campaign_says_how_many_draws_failed(tmp_path):
+    """Under a failure's picture: in how many of its perception draws the world failed
+    (the stored run's metrics), so a marginal failure reads apart from a firm one."""
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+    from sitcov.report import build_report
+
+    db = tmp_path / "d.db"
+    store = open_store(db)
+    try:
+        run_campaign(CampaignConfig(runs=12, seed=1, perception_draws=3, executor="serial",
+                                    workers=1), store)  # fmt: skip
+        failing = [r for r in store.runs() if r.status == "fail"]
+    finally:
+        store.close()
+    assert failing, "12 runs of the default campaign should fail at least once"
+    html = build_report(db, tmp_path / "out", pictures=3).read_text()
+    section = html.split('id="failures"', 1)[1]
+    found = re.findall(r"failed in ([0-9]) of 3 perception draws", section)
+    assert found and all(int(k) >= 2 for k in found)  # a stored failure is a majority's
