@@ -105,7 +105,7 @@ class PerceptionDraws(Backend):
 
     def _draw(
         self, situation: Any, av_stack: Any, seed: int, sense: int | None, record: bool = False
-    ) -> Any:
+    ) -> Outcome:
         """One draw: the run itself (``sense`` None) or its world with perception seed
         ``sense``."""
         if sense is None:

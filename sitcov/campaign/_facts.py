@@ -157,10 +157,8 @@ def draw_facts(store: Store, campaign: str | None = None) -> dict[str, Any] | No
     1, :mod:`sitcov.campaign._draws`): ``runs``, ``failing_draw_share`` (the mean share of
     a run's draws that failed: the failure rate a single draw per run estimates) and
     ``split_runs`` (runs whose draws did not all agree). None when no run has draws."""
-    where, params = (
-        store._where(campaign, ("pass", "fail")) if isinstance(store, SQLiteStore) else ("", [])
-    )
     if isinstance(store, SQLiteStore):
+        where, params = store._where(campaign, ("pass", "fail"))
         draws = "json_extract(outcome, '$.metrics.perception_draws')"
         failed = "json_extract(outcome, '$.metrics.draws_failed')"
         cond = f"{where} AND {draws} > 1" if where else f" WHERE {draws} > 1"
