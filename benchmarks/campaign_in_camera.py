@@ -27,6 +27,8 @@ run seed (stream B, ``second_run_seed(campaign seed, index)``) instead of the st
 the camera's own reproducibility across run seeds on the campaign's situations. With
 ``--against ROWS`` (the same stack's rows at the stored seeds) it prints the agreement of
 camera@A with camera@B (the ceiling), with PEM@B (across run seeds) and PEM@A with PEM@B.
+``--by precipitation>=50,wind_intensity>=50`` adds the rates and the agreement in each
+group of runs by the situations' bins (an element's bin, or below / from a value on).
 Needs the camera extra (the detector model: ``sitcov models fetch``).
 """
 
@@ -208,6 +210,40 @@ def report(rows: Sequence[dict[str, Any]]) -> list[str]:
     return lines
 
 
+def group_of(bins: dict[str, str], spec: str) -> str:
+    """A run's group by ``spec``: ``ELEMENT`` (its bin) or ``ELEMENT>=VALUE`` (two groups,
+    below and from VALUE on, for a numeric element), ``,``-separated for crossed groups."""
+    parts = []
+    for item in spec.split(","):
+        name, _, cut = item.partition(">=")
+        label = bins.get(name.strip(), "-")
+        if cut:
+            below = float(label) < float(cut)
+            label = f"{name.strip()}<{cut}" if below else f"{name.strip()}>={cut}"
+        else:
+            label = f"{name.strip()}={label}"
+        parts.append(label)
+    return " ".join(parts)
+
+
+def report_by(
+    rows: Sequence[dict[str, Any]], bins: dict[int, dict[str, str]], spec: str
+) -> list[str]:
+    """Failure rates per mode and the agreement in each group of runs (:func:`group_of`)."""
+    groups: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        groups.setdefault(group_of(bins[int(r["index"])], spec), []).append(r)
+    lines = [f"{'group':<44} {'n':>5}  {'PEM':>6} {'camera':>7} {'agree':>7}"]
+    for name in sorted(groups):
+        sel = groups[name]
+        n = len(sel)
+        pem = sum(int(r["pem_failed"]) for r in sel) / n
+        cam = sum(int(r["camera_failed"]) for r in sel) / n
+        agree = sum(int(r["pem_failed"]) == int(r["camera_failed"]) for r in sel) / n
+        lines.append(f"{name:<44} {n:>5}  {100 * pem:5.1f}% {100 * cam:6.1f}% {100 * agree:6.1f}%")
+    return lines
+
+
 def across_seeds(at_a: Sequence[dict[str, Any]], at_b: Sequence[dict[str, Any]]) -> list[str]:
     """Agreement of the verdicts at the stored run seeds (``at_a``) with those at stream
     B's (``at_b``), over the situations both hold: camera@A vs camera@B (the camera's own
@@ -255,6 +291,9 @@ def main() -> None:
     parser.add_argument(
         "--camera-rows", type=Path, default=None, help="camera verdicts of an earlier rows file"
     )
+    parser.add_argument(
+        "--by", default=None, help="also by ELEMENT or ELEMENT>=VALUE, comma-separated (crossed)"
+    )
     args = parser.parse_args()
     start = time.perf_counter()
     rows = rerun(args.db, args.campaign, args.out, args.workers, args.stack, args.second_seed,
@@ -263,6 +302,10 @@ def main() -> None:
         print(line)
     if args.against is not None:
         for line in across_seeds(list(_read(args.against).values()), rows):
+            print(line)
+    if args.by:
+        bins = {r.index: dict(r.situation.bins) for r in _stored(args.db, args.campaign)}
+        for line in report_by(rows, bins, args.by):
             print(line)
     cpu = sum(float(r["cpu_s"]) for r in rows)
     print(f"{len(rows)} rows, {cpu:.0f} CPU-s in their camera runs; this call "

@@ -85,3 +85,21 @@ def test_pem_draws_rerun_takes_the_camera_verdicts_from_a_rows_file(tmp_path) ->
         expected = judge(draws.run(run.situation, stack, run.seed)).failed
         assert int(row["pem_failed"]) == int(expected)
         assert int(row["camera_failed"]) == run.index % 2 and float(row["cpu_s"]) == 1.5
+
+
+def test_rates_by_situation_bins_cross_elements_and_cut_at_values() -> None:
+    """--by: groups by an element's bin or by below / from a value on, crossed."""
+    bench = load_benchmark("campaign_in_camera")
+    rows = _rows()
+    bins = {r["index"]: {"precipitation": str(20 * (r["index"] % 6)),
+                         "intsit": r["intsit"]} for r in rows}  # fmt: skip
+    assert bench.group_of(bins[3], "precipitation>=50") == "precipitation>=50"
+    assert bench.group_of(bins[2], "precipitation>=50,intsit") == (
+        "precipitation<50 intsit=IntSit-5"
+    )
+    lines = bench.report_by(rows, bins, "precipitation>=50")
+    body = {line.split()[0]: line.split() for line in lines[1:]}
+    wet = [r for r in rows if 20 * (r["index"] % 6) >= 50]
+    assert body["precipitation>=50"][1] == str(len(wet))
+    rate = 100 * sum(r["pem_failed"] for r in wet) / len(wet)
+    assert body["precipitation>=50"][2] == f"{rate:.1f}%"
