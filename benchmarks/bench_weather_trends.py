@@ -1,7 +1,9 @@
 """Per-element weather trends in PEM and camera mode, paired (docs/weather.md, trend table).
 
 Runs 0..N-1 of ``--seed`` (the intersection situation of the random generator's situation,
-simulation seed ``run_seed(seed, i)``) are driven by the reference stack (no fault) once per
+simulation seed ``run_seed(seed, i)``) are driven by the reference stack (no fault; another
+with ``--stack``, e.g. ``examples.aeb_stacks:Threshold07`` with the checkout on
+``PYTHONPATH``) once per
 arm and perception mode, every weather element at its mildest bin (0, friction ``--friction``)
 except what the arm changes:
 
@@ -20,7 +22,9 @@ camera-mode throughput (runs per wall-clock second over ``--workers`` processes)
 
     python benchmarks/bench_weather_trends.py --runs 120 --seed 7 --workers 2
 
-``--first K`` starts at run K (to extend a measurement), ``--json FILE`` also writes the
+``--wind`` measures only the wind in the rain: precipitation 100 with wind 0 against
+wind 100 (the renderer slants the streaks with the wind; without rain the wind changes no
+frame). ``--first K`` starts at run K (to extend a measurement), ``--json FILE`` also writes the
 report; ``--merge A.json B.json ...`` pools reports of disjoint runs (counts add up) and
 prints the pooled report and table without running anything.
 """
@@ -47,6 +51,13 @@ ELEMENTS = {
     "cloudiness": ("baseline", "cloudiness"),
     "precipitation": ("baseline", "precipitation"),
 }
+#: ``--wind``: the wind in the rain, the one element whose effect needs another (the
+#: renderer slants the streaks with the wind; without rain the wind changes no frame)
+WIND_ARMS = {
+    "precipitation": {"precipitation": 100.0},
+    "rain_wind": {"precipitation": 100.0, "wind_intensity": 100.0},
+}
+WIND_ELEMENTS = {"wind_intensity": ("precipitation", "rain_wind")}
 MILD = {
     "cloudiness": 0.0, "precipitation": 0.0, "precipitation_deposits": 0.0,
     "wind_intensity": 0.0, "fog_density": 0.0, "fog_distance": 0.0, "wetness": 0.0,
@@ -54,22 +65,26 @@ MILD = {
 _STATE: dict = {}
 
 
-def _run(job: tuple[str, int, int, float]) -> dict:
-    mode, seed, i, friction = job
+def _run(job: tuple) -> dict:
+    """One situation in every arm: ``(mode, seed, index, friction[, arms[, stack]])``."""
+    mode, seed, i, friction = job[:4]
+    arms = job[4] if len(job) > 4 else ARMS
+    stack_name = job[5] if len(job) > 5 else "reference"
     from sitcov._seeding import ask_rng, run_seed
-    from sitcov.av import ReferenceStack
+    from sitcov.av import make_stack
     from sitcov.generation import make_generator
     from sitcov.hyperspace import Situation, load_hyperspace
     from sitcov.sim.embedded import EmbeddedBackend
 
     if "gen" not in _STATE:
         _STATE["gen"] = make_generator("random", load_hyperspace())
-        _STATE["stack"] = ReferenceStack()
+    if _STATE.get("stack_name") != stack_name:
+        _STATE["stack_name"], _STATE["stack"] = stack_name, make_stack(stack_name)
     if mode not in _STATE:
         _STATE[mode] = EmbeddedBackend(perception=mode)
     base = _STATE["gen"].ask(ask_rng(seed, i))
     out: dict = {"mode": mode, "index": i}
-    for arm, change in ARMS.items():
+    for arm, change in arms.items():
         values = {**MILD, "friction": friction, **change, "intsit": base.values["intsit"]}
         sit = Situation(dict.fromkeys(values, "-"), values)
         outcome = _STATE[mode].run(sit, _STATE["stack"], run_seed(seed, i))
@@ -87,30 +102,30 @@ def sign_test(up: int, down: int) -> float:
     return min(1.0, 2.0 * tail)
 
 
-def summarize(rows: list[dict]) -> dict:
+def summarize(rows: list[dict], arms: dict = ARMS, elements: dict = ELEMENTS) -> dict:
     """Failure rates per arm and the paired change per element, for one mode's rows."""
-    counts = {arm: sum(r[arm] for r in rows) for arm in ARMS}
+    counts = {arm: sum(r[arm] for r in rows) for arm in arms}
     pairs = {
         element: (
             sum(r[high] and not r[low] for r in rows),
             sum(r[low] and not r[high] for r in rows),
         )
-        for element, (low, high) in ELEMENTS.items()
+        for element, (low, high) in elements.items()
     }
-    return _report(len(rows), counts, pairs)
+    return _report(len(rows), counts, pairs, elements)
 
 
-def _report(n: int, counts: dict, pairs: dict) -> dict:
+def _report(n: int, counts: dict, pairs: dict, elements: dict = ELEMENTS) -> dict:
     """The report of ``n`` paired runs: failures per arm, (up, down) discordant per element."""
     from sitcov.analysis._stats import wilson_interval
 
     report: dict = {"runs": n, "arms": {}, "elements": {}}
-    for arm in ARMS:
+    for arm in counts:
         k = counts[arm]
         lo, hi = wilson_interval(k, n)
         report["arms"][arm] = {"failures": k, "rate": round(k / n, 3),
                                "wilson95": [round(lo, 3), round(hi, 3)]}  # fmt: skip
-    for element, (low, high) in ELEMENTS.items():
+    for element, (low, high) in elements.items():
         up, down = pairs[element]
         report["elements"][element] = {
             "low": low, "high": high, "change": round((up - down) / n, 3),
@@ -133,7 +148,8 @@ def table(report: dict) -> str:
         f"{m}: failures low -> high, change [discordant], p" for m in modes
     )
     lines = [head + " | agree |", "|---" * (len(modes) + 2) + "|"]
-    for element, (low, high) in ELEMENTS.items():
+    for element, first in report[modes[0]]["elements"].items():
+        low, high = first["low"], first["high"]
         cells, dirs = [], []
         for m in modes:
             e, arms = report[m]["elements"][element], report[m]["arms"]
@@ -155,13 +171,14 @@ def merge(reports: list[dict]) -> dict:
         parts = [r[mode] for r in reports if mode in r]
         if not parts:
             continue
-        counts = {arm: sum(p["arms"][arm]["failures"] for p in parts) for arm in ARMS}
+        counts = {arm: sum(p["arms"][arm]["failures"] for p in parts) for arm in parts[0]["arms"]}
+        elements = {e: (v["low"], v["high"]) for e, v in parts[0]["elements"].items()}
         pairs = {
             e: (sum(p["elements"][e]["fail_only_high"] for p in parts),
                 sum(p["elements"][e]["fail_only_low"] for p in parts))
-            for e in ELEMENTS
+            for e in elements
         }  # fmt: skip
-        out[mode] = _report(sum(p["runs"] for p in parts), counts, pairs)
+        out[mode] = _report(sum(p["runs"] for p in parts), counts, pairs, elements)
     return out
 
 
@@ -175,7 +192,12 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--friction", type=float, default=1.0)
     parser.add_argument("--modes", default="pem,camera", help="pem, camera or both")
+    parser.add_argument(
+        "--wind", action="store_true", help="only the wind in the rain (precipitation 100)"
+    )
+    parser.add_argument("--stack", default="reference", help="AV stack (sitcov run --av names)")
     args = parser.parse_args()
+    arms, elements = (WIND_ARMS, WIND_ELEMENTS) if args.wind else (ARMS, ELEMENTS)
     if args.merge:
         from pathlib import Path
 
@@ -183,10 +205,12 @@ def main() -> None:
         print(json.dumps(report, indent=1))
         print(table(report))
         return
-    report: dict = {"seed": args.seed, "friction": args.friction, "first": args.first}
+    report: dict = {"seed": args.seed, "friction": args.friction, "first": args.first,
+                    "stack": args.stack}  # fmt: skip
     for mode in args.modes.split(","):
         jobs = [
-            (mode, args.seed, i, args.friction) for i in range(args.first, args.first + args.runs)
+            (mode, args.seed, i, args.friction, arms, args.stack)
+            for i in range(args.first, args.first + args.runs)
         ]
         start = time.perf_counter()
         if args.workers > 1:
@@ -195,8 +219,8 @@ def main() -> None:
         else:
             rows = [_run(j) for j in jobs]
         wall = time.perf_counter() - start
-        report[mode] = summarize(sorted(rows, key=lambda r: r["index"]))
-        runs = len(rows) * len(ARMS)
+        report[mode] = summarize(sorted(rows, key=lambda r: r["index"]), arms, elements)
+        runs = len(rows) * len(arms)
         report[mode]["runs_per_second"] = round(runs / wall, 2)
         report[mode]["workers"] = args.workers
     print(json.dumps(report, indent=1))
