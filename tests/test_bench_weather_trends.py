@@ -54,3 +54,21 @@ def test_every_arm_runs_on_the_same_situation(bench) -> None:
     assert set(row) == {"mode", "index", *bench.ARMS}
     assert all(isinstance(row[a], bool) for a in bench.ARMS)
     assert tuple(bench.ARMS) == ARMS
+
+
+def test_the_wind_arms_pair_rain_with_and_without_wind(bench) -> None:
+    """--wind: precipitation 100 with wind 0 and 100 on the same situation. On the PEM the
+    two runs are the same run (its rain terms have no wind and the carla profile's wind
+    no force): the trend table's "flat" for the PEM is this, not sampling."""
+    for i in range(6):
+        row = bench._run(("pem", 7, i, 0.4, bench.WIND_ARMS))
+        assert set(row) == {"mode", "index", "precipitation", "rain_wind"}
+        assert row["precipitation"] == row["rain_wind"]
+    report = bench.summarize(
+        [{"index": 0, "precipitation": True, "rain_wind": False}],
+        bench.WIND_ARMS,
+        bench.WIND_ELEMENTS,
+    )
+    e = report["elements"]["wind_intensity"]
+    assert (e["low"], e["high"], e["fail_only_low"]) == ("precipitation", "rain_wind", 1)
+    assert "| wind_intensity (precipitation -> rain_wind) |" in bench.table({"pem": report})
