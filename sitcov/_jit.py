@@ -31,12 +31,9 @@ an empty string), the Python function runs as it is. Either way a run gives the 
   arithmetic (the squares and their sum split exactly into a high and a low part, one
   Newton correction of the square root), so it agrees with CPython's.
 
-Compiled kernels are cached on disk (numba's ``cache=True``), so a new process loads
-them instead of compiling them again (a few seconds; importing numba itself costs about a
-second of CPU per process). Their helpers are not: each kernel compiles its helpers into
-itself, so no two kernels share a cache file (see :func:`cache_lock` for why that
-matters). That costs about 4 CPU-s more once, when the cache is empty (13 instead of 9
-CPU-s for the kernels of five bench runs, 28 Nov 2026), and nothing once it is filled.
+Compiled code is cached on disk next to this module (numba's ``cache=True``), so a new
+process loads it instead of compiling it again (a few seconds; importing numba itself
+costs about a second of CPU per process).
 ``tests/sim/test_sim_jit.py`` checks each compiled kernel against its Python code bit
 for bit.
 
@@ -165,14 +162,7 @@ def cache_lock() -> Iterator[None]:
     next runs the other's machine code. That was seen as "numba could not compile
     _pem_frame (ZeroDivisionError)" in 2 of 4 trials of the view and frame kernels compiled
     side by side (27 Nov 2026); behind this lock, in none of 6. Without ``fcntl`` (not POSIX)
-    the cache is used unguarded, as numba does.
-
-    The lock cannot cover a compile numba starts by itself later (a call with argument
-    types a kernel has not seen compiles it again, outside :func:`compiled`), and the same
-    failure came back once in a CI run behind the lock (28 Nov 2026). So helpers are not
-    cached on disk at all (:func:`_compiled`): a kernel's cache file is its own, written
-    only for its own signatures, and the shared files where two signatures could collide
-    are gone."""
+    the cache is used unguarded, as numba does."""
     try:
         import fcntl
     except ImportError:
@@ -200,8 +190,7 @@ def _compiled(
         codes = [_hypot_cr.__code__, _two_prod.__code__, fn.__code__]
         for helper in helpers:  # in call order: a helper may call the ones before it
             name, func = helper if isinstance(helper, tuple) else (helper.__name__, helper)
-            # not cached: compiled into each kernel (cache_lock says why)
-            bound[name] = numba.njit(cache=False)(_clone(func, bound))
+            bound[name] = numba.njit(cache=True)(_clone(func, bound))
             codes.append(func.__code__)
         main = _clone(fn, bound)
         # numba's disk cache checks only the source file of ``fn``; a helper from another

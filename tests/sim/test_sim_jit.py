@@ -144,28 +144,6 @@ def test_compiling_holds_the_machines_cache_lock_and_it_excludes_other_processes
     assert subprocess.run([sys.executable, "-c", probe]).returncode == 0
 
 
-def test_kernels_share_no_cache_file_so_their_helpers_cannot_collide(tmp_path) -> None:
-    """Two kernels that call the same helpers, compiled from an empty cache, write only
-    their own cache files (and the correctly rounded hypot's): no helper's index, where
-    overloads of two kernels' signatures could take the same number (the race behind
-    "numba could not compile _pem_frame (ZeroDivisionError)")."""
-    need_module("numba", "fast")
-    script = (
-        "from sitcov.perception import _pem\nassert _pem._view_kernel() and _pem._frame_kernel()\n"
-    )
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
-    env.pop("SITCOV_NO_JIT", None)
-    done = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True)
-    assert done.returncode == 0, done.stderr
-    assert "could not compile" not in done.stderr
-    names = sorted(p.name.split("-")[0] for p in tmp_path.rglob("*.nbi"))
-    assert names and all(
-        n.startswith(("_pem._pem_view_", "_pem._pem_frame_", "_jit._hypot_cr")) for n in names
-    ), names
-    assert any(n.startswith("_pem._pem_view_") for n in names)
-    assert any(n.startswith("_pem._pem_frame_") for n in names)
-
-
 def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
     """A whole braking turn through ``Vehicle.step`` (whichever integrator this process
     uses) equals the plain-Python integrator's, step by step."""
