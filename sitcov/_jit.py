@@ -118,14 +118,19 @@ def hypot_cr() -> Callable[[float, float], float]:
     """The compiled correctly rounded hypot (numba must be installed)."""
     global _HYPOT
     if _HYPOT is None:
-        import numba
-
-        two_prod = numba.njit(cache=True, inline="always")(_two_prod)
-        fn = types.FunctionType(
-            _hypot_cr.__code__, {**_hypot_cr.__globals__, "_two_prod": two_prod}, "_hypot_cr"
-        )
-        _HYPOT = numba.njit(cache=True)(fn)
+        _HYPOT = _hypot_dispatcher(cache=True)
     return _HYPOT
+
+
+def _hypot_dispatcher(*, cache: bool) -> Any:
+    """:func:`_hypot_cr` as a numba dispatcher, on numba's disk cache when ``cache``."""
+    import numba
+
+    two_prod = numba.njit(cache=cache, inline="always")(_two_prod)
+    fn = types.FunctionType(
+        _hypot_cr.__code__, {**_hypot_cr.__globals__, "_two_prod": two_prod}, "_hypot_cr"
+    )
+    return numba.njit(cache=cache)(fn)
 
 
 def compiled(
@@ -162,7 +167,13 @@ def cache_lock() -> Iterator[None]:
     next runs the other's machine code. That was seen as "numba could not compile
     _pem_frame (ZeroDivisionError)" in 2 of 4 trials of the view and frame kernels compiled
     side by side (27 Nov 2026); behind this lock, in none of 6. Without ``fcntl`` (not POSIX)
-    the cache is used unguarded, as numba does."""
+    the cache is used unguarded, as numba does.
+
+    The lock cannot cover a compile numba starts by itself (a kernel called with argument
+    types it has not seen), and the failure came back behind it in 2 of 4 CI runs on 28
+    Nov 2026. So :func:`_compiled` also compiles afresh, without the disk cache, a kernel
+    whose example call fails after loading: a damaged entry costs one compile, not the
+    compiled path."""
     try:
         import fcntl
     except ImportError:
@@ -184,23 +195,16 @@ def _compiled(
 ) -> Callable[..., Any] | None:
     """:func:`compiled`'s work, under :func:`cache_lock`."""
     try:
-        import numba
-
-        bound: dict[str, Any] = {"hypot": hypot_cr()}
-        codes = [_hypot_cr.__code__, _two_prod.__code__, fn.__code__]
-        for helper in helpers:  # in call order: a helper may call the ones before it
-            name, func = helper if isinstance(helper, tuple) else (helper.__name__, helper)
-            bound[name] = numba.njit(cache=True)(_clone(func, bound))
-            codes.append(func.__code__)
-        main = _clone(fn, bound)
-        # numba's disk cache checks only the source file of ``fn``; a helper from another
-        # file compiled into it would go stale unseen. The code's digest in the cached
-        # name makes any change to ``fn`` or a helper compile afresh.
-        digest = hashlib.sha1("".join(map(_code_text, codes)).encode()).hexdigest()
-        main.__qualname__ += "_" + digest[:12]
-        fast = numba.njit(cache=True)(main)
+        fast = _build(fn, helpers, cache=True)
         if example:
-            fast(*example)
+            try:
+                fast(*example)
+            except Exception:  # noqa: BLE001 - a damaged cache entry: compile afresh
+                # numba's cache has races the lock cannot cover (cache_lock): a kernel
+                # loaded from a damaged entry fails its example, so this process compiles
+                # it and its helpers in memory instead (the same code, slower only once)
+                fast = _build(fn, helpers, cache=False)
+                fast(*example)
     except Exception as exc:  # noqa: BLE001 - any numba failure: run the Python code
         warnings.warn(
             f"numba could not compile {fn.__name__} ({type(exc).__name__}: {exc}); "
@@ -210,6 +214,32 @@ def _compiled(
         )
         return None
     return fast
+
+
+def _build(
+    fn: Callable[..., Any],
+    helpers: tuple[Callable[..., Any] | tuple[str, Callable[..., Any]], ...],
+    *,
+    cache: bool,
+) -> Any:
+    """``fn`` and its ``helpers`` as numba dispatchers (``hypot`` bound to
+    :func:`hypot_cr`), on numba's disk cache when ``cache``; without it nothing comes from
+    the cache, the shared hypot included."""
+    import numba
+
+    bound: dict[str, Any] = {"hypot": hypot_cr() if cache else _hypot_dispatcher(cache=False)}
+    codes = [_hypot_cr.__code__, _two_prod.__code__, fn.__code__]
+    for helper in helpers:  # in call order: a helper may call the ones before it
+        name, func = helper if isinstance(helper, tuple) else (helper.__name__, helper)
+        bound[name] = numba.njit(cache=cache)(_clone(func, bound))
+        codes.append(func.__code__)
+    main = _clone(fn, bound)
+    # numba's disk cache checks only the source file of ``fn``; a helper from another
+    # file compiled into it would go stale unseen. The code's digest in the cached
+    # name makes any change to ``fn`` or a helper compile afresh.
+    digest = hashlib.sha1("".join(map(_code_text, codes)).encode()).hexdigest()
+    main.__qualname__ += "_" + digest[:12]
+    return numba.njit(cache=cache)(main)
 
 
 def typed_entry(fast: Callable[..., Any] | None) -> Callable[..., Any] | None:

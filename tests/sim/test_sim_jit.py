@@ -144,6 +144,49 @@ def test_compiling_holds_the_machines_cache_lock_and_it_excludes_other_processes
     assert subprocess.run([sys.executable, "-c", probe]).returncode == 0
 
 
+def test_a_kernel_that_fails_its_example_from_the_cache_is_compiled_afresh(
+    monkeypatch, recwarn
+) -> None:
+    """A damaged cache entry (numba's cache has races no lock covers) shows as a loaded
+    kernel failing its example call, as "could not compile _pem_frame
+    (ZeroDivisionError)" did: ``compiled`` then builds the kernel without the disk cache
+    and keeps the compiled path, silently; only when that fails too does it fall back."""
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)
+    from sitcov import _jit
+
+    real = _jit._build
+    caches = []
+
+    def damaged(fn, helpers, *, cache):
+        caches.append(cache)
+        if cache:
+
+            def broken(*args):
+                raise ZeroDivisionError("division by zero")
+
+            return broken
+        return real(fn, helpers, cache=cache)
+
+    k = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)._k
+    example = (k, *_cases(1, 3)[0], 0.05, 2)
+    monkeypatch.setattr(_jit, "_build", damaged)
+    fast = compiled(_dynamics.integrate, *example)
+    assert fast is not None and caches == [True, False]
+    assert fast(*example) == _dynamics.integrate(*example)
+    assert not [w for w in recwarn if "could not compile" in str(w.message)]
+
+    def always_broken(fn, helpers, *, cache):
+        def broken(*args):
+            raise ZeroDivisionError("division by zero")
+
+        return broken
+
+    monkeypatch.setattr(_jit, "_build", always_broken)
+    with pytest.warns(RuntimeWarning, match="could not compile integrate"):
+        assert compiled(_dynamics.integrate, *example) is None
+
+
 def test_vehicle_steps_give_the_same_bits_with_either_integrator() -> None:
     """A whole braking turn through ``Vehicle.step`` (whichever integrator this process
     uses) equals the plain-Python integrator's, step by step."""
