@@ -303,6 +303,8 @@ class Tracks:
         approach: where the run's road user comes from, seen by the ego (+1 left, -1
             right, 0 ahead, a sweep frame or unknown; :func:`approach_of`): the lane it
             drives in (from the left the near lane, from the right the far one).
+        rain_wind: the run's precipitation times its wind, as fractions
+            (:func:`rain_wind_of`; 0 for a sweep frame).
     """
 
     feats: tuple[PEMFeatures, ...]
@@ -312,6 +314,7 @@ class Tracks:
     group: np.ndarray
     distance: np.ndarray
     approach: np.ndarray | None = None
+    rain_wind: np.ndarray | None = None
 
     def subset(self, groups: np.ndarray) -> Tracks:
         """The frames of the given groups."""
@@ -321,6 +324,7 @@ class Tracks:
             tuple(self.feats[i] for i in idx), self.score[keep], self.track[keep],
             self.gap[keep], self.group[keep], self.distance[keep],
             None if self.approach is None else self.approach[keep],
+            None if self.rain_wind is None else self.rain_wind[keep],
         )  # fmt: skip
 
 
@@ -333,6 +337,14 @@ def approach_of(situation: dict[str, Any]) -> float:
     return {"left": 1.0, "right": -1.0}.get(side, 0.0)
 
 
+def rain_wind_of(situation: dict[str, Any]) -> float:
+    """A recorded situation's precipitation times its wind, both as fractions of 100 (0
+    without weather values): the ``rain_wind`` column, the rain the wind slants."""
+    values = situation.get("values") or {}
+    rain = float(values.get("precipitation", 0.0)) / 100.0
+    return rain * float(values.get("wind_intensity", 0.0)) / 100.0
+
+
 def tracks_of(data: KindFrames) -> Tracks:
     """The tracks of one kind's frames: each sweep frame alone, each run split by actor.
 
@@ -340,17 +352,18 @@ def tracks_of(data: KindFrames) -> Tracks:
     as consecutive (the gated camera frames of one road user are, until its AEB fires).
     """
     feats: list[PEMFeatures] = []
-    score, track, gap, group, dist, appr = [], [], [], [], [], []
+    score, track, gap, group, dist, appr, windy = [], [], [], [], [], [], []
     n_track = 0
     for i, (f, s, d) in enumerate(data.sweep):
         if f.height_px < 1.0:
             continue
         feats.append(f)
         score.append(s), track.append(n_track), gap.append(0), group.append(-1 - i)
-        dist.append(d), appr.append(0.0)
+        dist.append(d), appr.append(0.0), windy.append(0.0)
         n_track += 1
     for r, run in enumerate(data.runs):
         side = approach_of(run.situation or {})
+        wind = rain_wind_of(run.situation or {})
         by_actor: dict[int, list[Any]] = {}
         for k, fr in enumerate(run.frames):
             if fr.features.height_px >= 1.0:
@@ -361,12 +374,12 @@ def tracks_of(data: KindFrames) -> Tracks:
                 feats.append(fr.features)
                 score.append(fr.score), track.append(n_track), group.append(r)
                 gap.append(0 if prev is None else max(1, number - prev))
-                dist.append(fr.distance), appr.append(side)
+                dist.append(fr.distance), appr.append(side), windy.append(wind)
                 prev = number
             n_track += 1
     return Tracks(tuple(feats), np.asarray(score, dtype=float), np.asarray(track),
                   np.asarray(gap), np.asarray(group), np.asarray(dist, dtype=float),
-                  np.asarray(appr, dtype=float))  # fmt: skip
+                  np.asarray(appr, dtype=float), np.asarray(windy, dtype=float))  # fmt: skip
 
 
 # --- step 1: the detected frames' scores, as independent (ridge least squares) ------------
@@ -427,11 +440,17 @@ NEAR_M = 10.0
 #: prefixed ``det_`` (``det_size``, ``det_hinge40``) is that column in the detection
 #: term's probit only (:func:`is_detection_term`), not in the score's mean: the SSD's
 #: chance of giving a box at all need not follow the box size as its score does.
+#: ``rain`` is minus the rain noise (its gain adds to ``rain_gain``), ``rain_wind`` the
+#: run's precipitation times its wind (fractions; 0 for a sweep frame, which varies one
+#: weather element at a time, and a run without weather values) and ``rain_wind_size``
+#: that times the clamped log size: the wind that slants the rendered rain streaks
+#: (``benchmarks/pem_rain_wind.py``; docs/pem.md, "The wind in the rain, on frames";
+#: measured, no PEM parameter).
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
                "trunc_side", "cut", "trunc_hinge<N>", "cut_hinge<N>", "vis_hinge<N>",
                "cut_tent<N>", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
-               "det_<term>")  # fmt: skip
+               "rain", "rain_wind", "rain_wind_size", "det_<term>")  # fmt: skip
 
 
 def is_detection_term(name: str) -> bool:
@@ -471,6 +490,9 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         "size3": lambda: x[:, 1] ** 3,
         "size": lambda: x[:, 1],
         "size2": lambda: x[:, 2],
+        "rain": lambda: np.asarray([-f.rain_noise for f in t.feats], dtype=float),
+        "rain_wind": lambda: t.rain_wind if t.rain_wind is not None else np.zeros(len(d)),
+        "rain_wind_size": lambda: (t.rain_wind if t.rain_wind is not None else 0.0) * x[:, 1],
     }
     heights = None  # the box heights [px], read once for the size hinges
     for name in names:

@@ -24,6 +24,7 @@ def _draw(
     fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
     near_gain: float = 0.0, hinge_gain: float = 0.0, outliers: tuple[float, float] = (0.0, 1.0),
     tail: float = 0.0, bend: tuple[float, float] = (0.0, 60.0),
+    rain: tuple[float, float] | None = None,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -42,7 +43,9 @@ def _draw(
     ``tail``: the unit noise ``n`` below -1 moves to ``n - tail (n + 1) ** 2`` (a long
     lower tail, written out here, not with the PEM's helper). ``bend``: (gain, knot px):
     the noise further scaled by ``max(1, h / knot) ** gain`` (its size gain changes at
-    the knot)."""
+    the knot). ``rain``: (gain, wind gain): each run in precipitation 0, 50 or 100 and
+    wind 0 or 100 (its situation's values; fractions p and w), its frames' ``rain_noise``
+    0.6 p, and ``gain * 0.6 p - wind gain * p w`` taken from the logit."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -52,6 +55,12 @@ def _draw(
         h0 = rng.uniform(12.0, 30.0)
         view = rng.uniform(0.0, math.pi / 2)
         side = 0.0 if side_gain is None else float(rng.choice([-1.0, 1.0])) * math.sin(view)
+        situation: dict = {}
+        calm = windy = 0.0
+        if rain is not None:
+            p, w = float(rng.choice([0.0, 0.5, 1.0])), float(rng.choice([0.0, 1.0]))
+            situation = {"values": {"precipitation": 100 * p, "wind_intensity": 100 * w}}
+            calm, windy = 0.6 * p, 0.6 * p - rain[1] * p * w / rain[0]
         a = rng.standard_normal()
         frames = []
         for k in range(length):
@@ -62,6 +71,7 @@ def _draw(
             z = bias + gain * math.log(min(h, 60.0) / 25.0) + (side_gain or 0.0) * side
             z += near_gain * (1.45 * 336 / h < 10.0)
             z += hinge_gain * max(0.0, math.log(h / 40.0))
+            z -= 0.0 if rain is None else rain[0] * windy
             noise = s_a * a + s_e * rng.standard_normal()
             if tail and noise < -sigma:
                 unit = noise / sigma
@@ -74,11 +84,12 @@ def _draw(
             fill = math.log(min(max(2.5 * h / 800.0, 0.05), 1.0) / 0.05)
             if fill_miss and rng.uniform() >= norm.cdf(2.0 - fill_miss * fill):
                 rec = 0.0  # no box at all
-            feats = PEMFeatures(h, view, 0.0, width_px=2.5 * h, facing=1.0, side=side)
+            feats = PEMFeatures(h, view, 0.0, width_px=2.5 * h, facing=1.0, side=side,
+                                rain_noise=calm)  # fmt: skip
             frames.append(RunFrame(feats, rec, None, 2.5 * h, k, 0, 1.45 * 336 / h))
             if stop_at is not None and score >= stop_at:
                 break
-        out.runs.append(CameraRun(r, r, {}, False, None, tuple(frames)))
+        out.runs.append(CameraRun(r, r, situation, False, None, tuple(frames)))
     return out
 
 
@@ -831,6 +842,45 @@ def test_a_held_term_takes_only_what_the_held_model_leaves() -> None:
     assert fm.fit_held_terms(fit, t, ()) is fit
     with pytest.raises(SitcovError, match="already"):
         fm.fit_held_terms(held, t, ("side",))
+
+
+@pytest.mark.slow
+def test_the_held_rain_wind_term_recovers_the_winds_part() -> None:
+    """``benchmarks/pem_rain_wind.py``'s fit: frames whose logit loses 1.5 times the rain
+    noise but gets 0.45 back per unit of precipitation times wind. The model fitted on
+    them prices the rain at its average over the wind; a held ``rain_wind`` term (with
+    ``rain``) finds the wind's part and raises the likelihood. Drawn without it, its gain
+    is near 0."""
+
+    def held_gain(wind_gain: float) -> tuple[float, float]:
+        t = fm.tracks_of(_draw(67, runs=240, length=30, share=0.3, rho=0.6,
+                               rain=(1.5, wind_gain)))  # fmt: skip
+        fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0)
+        held = fm.fit_held_terms(fit, t, ("rain", "rain_wind"))
+        return held.gains[1], held.marginal_loglik(t) - fit.marginal_loglik(t)
+
+    gain, better = held_gain(0.45)
+    assert gain == pytest.approx(0.45, abs=0.2) and better > 10.0
+    assert abs(held_gain(0.0)[0]) < 0.15
+
+
+def test_the_rain_wind_columns_are_the_runs_rain_times_its_wind() -> None:
+    """``rain_wind`` per frame: the run's recorded precipitation times its wind, as
+    fractions (0 for a sweep frame and a run without weather values); ``rain_wind_size``
+    that times the clamped log size; ``rain`` minus the frame's rain noise."""
+    data = _draw(5, runs=12, length=3, rain=(1.0, 0.0))
+    data.sweep.append((PEMFeatures(30.0, 0.2, 0.0, rain_noise=0.6), 0.41, 12.5))
+    data.runs.append(replace(data.runs[0], situation={}))
+    t = fm.tracks_of(data)
+    x = fm._design_for(t, 60.0, 25.0)
+    cols = fm.extra_columns(t, x, ("rain", "rain_wind", "rain_wind_size"))
+    assert cols[:, 0] == pytest.approx([-f.rain_noise for f in t.feats])
+    want = [0.0]  # the sweep frame
+    for run in data.runs:
+        v = run.situation.get("values", {})
+        want += [v.get("precipitation", 0.0) * v.get("wind_intensity", 0.0) / 1e4] * len(run.frames)
+    assert cols[:, 1] == pytest.approx(want) and max(want) == 1.0
+    assert cols[:, 2] == pytest.approx(cols[:, 1] * x[:, 1])
 
 
 def test_the_cut_tent_is_the_pems_cut_tent_gain() -> None:

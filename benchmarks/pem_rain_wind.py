@@ -1,0 +1,170 @@
+"""The wind in the rain, on the car's recorded camera frames (issue 24).
+
+In camera mode the wind slants the rendered rain streaks, and the threshold-0.7 stack
+fails less often in windy rain; the PEM's rain terms take ``rain_noise``, which has no
+wind (docs/weather.md, "The wind in the rain"). Does a wind term belong in the PEM? This
+script asks the frames:
+
+1. the car's shipped frame model is fitted again on the fit file (its chosen candidate
+   and held terms, from ``pem.yaml``'s meta; ``--base`` reads a pickled fit instead);
+2. held terms (``fit_held_terms``, everything else held): ``rain`` (a change of the rain
+   gain), ``rain_wind`` (the run's precipitation times its wind) and ``rain_wind_size``
+   (that times the log size), fitted on the fit file;
+3. their gain in frames-alone log-likelihood per frame on the fit file and on three
+   held-out files; a term belongs in the PEM when it gains on all of them;
+4. P(score >= theta) per frame, observed and by the shipped PEM, by box height, in heavy
+   rain and dry weather, calm and windy, with the runs each cell's frames come from.
+
+    PYTHONPATH=. python benchmarks/pem_rain_wind.py --json docs/data/pem-rain-wind.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pickle
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "docs" / "data"
+FIT_FILE = DATA / "pem-frames-top-seed1.jsonl.gz"
+HELD_FILES = (
+    ("seed 2, odd runs", DATA / "pem-frames-top-seed2.jsonl.gz", "odd"),
+    ("seed 3", DATA / "pem-frames-top-seed3.jsonl.gz", None),
+    ("seed 4", DATA / "pem-frames-top-seed4.jsonl.gz", None),
+)
+THRESHOLDS = (0.5, 0.7)
+BANDS = (("< 40 px", 40.0), ("40-100 px", 100.0), (">= 100 px", float("inf")))
+TERM_SETS = (("rain", "rain_wind"), ("rain", "rain_wind", "rain_wind_size"))
+HEAVY_RAIN = 50.0  # precipitation from which a run counts as heavy rain
+WINDY = 50.0  # wind_intensity from which a run counts as windy
+
+
+def base_fit(path: Path, starts: int) -> Any:
+    """The car's shipped frame model fitted again on ``path`` (pem.yaml's meta)."""
+    from sitcov.calibration._frame_model import (
+        candidates_for,
+        fit_candidate,
+        fit_held_terms,
+        tracks_of,
+    )
+    from sitcov.calibration._frames import read_frames
+    from sitcov.perception._pem_params import PEM_PARAMS_FILE, load_pem_params, read_yaml
+
+    meta = read_yaml(Path(PEM_PARAMS_FILE), "PEM parameters")["meta"]["car"]
+    chosen = meta["model_choice"]["chosen"]
+    held = tuple(meta.get("held_terms", {}).get("gains", {}))
+    t = tracks_of(read_frames(path)["car"])
+    cand = next(c for c in candidates_for("car") if c[0] == chosen)
+    fit = fit_candidate(t, cand, load_pem_params().size_ref_px, stages=2, starts=starts)
+    return fit_held_terms(fit, t, held)
+
+
+def wind_table(paths: list[Path], params: Any) -> list[dict[str, Any]]:
+    """Observed and modelled P(score >= theta) per frame of ``paths``' car runs, by box
+    height band, heavy rain or dry, calm or windy (the frames and the runs they are of)."""
+    from sitcov.calibration._frames import read_frames
+    from sitcov.perception._pem import pass_probability
+
+    cells: dict[tuple[str, str, str], list[list[float]]] = {}
+    runs: dict[tuple[str, str, str], set[tuple[int, int]]] = {}
+    for n, path in enumerate(paths):
+        for run in read_frames(path)["car"].runs:
+            values = (run.situation or {}).get("values", {})
+            rain = float(values.get("precipitation", 0.0))
+            if 0.0 < rain < HEAVY_RAIN:
+                continue
+            weather = "heavy rain" if rain >= HEAVY_RAIN else "dry"
+            wind = "windy" if float(values.get("wind_intensity", 0.0)) >= WINDY else "calm"
+            for fr in run.frames:
+                f = fr.features
+                if f.height_px < 1.0:
+                    continue
+                band = next(b for b, hi in BANDS if f.height_px < hi)
+                key = (band, weather, wind)
+                cells.setdefault(key, []).append(
+                    [fr.score, *(pass_probability(f, params, th) for th in THRESHOLDS)]
+                )
+                runs.setdefault(key, set()).add((n, run.index))
+    out = []
+    for (band, weather, wind), rows in sorted(cells.items()):
+        a = np.asarray(rows)
+        row: dict[str, Any] = {
+            "height": band,
+            "weather": weather,
+            "wind": wind,
+            "frames": len(a),
+            "runs": len(runs[(band, weather, wind)]),
+        }
+        for k, th in enumerate(THRESHOLDS):
+            row[f"observed_{th}"] = round(float(np.mean(a[:, 0] >= th)), 4)
+            row[f"pem_{th}"] = round(float(np.mean(a[:, 1 + k])), 4)
+        out.append(row)
+    return out
+
+
+def _shown(path: Path) -> str:
+    """``path`` relative to the checkout when it is inside it (the JSON names no host)."""
+    full = path.resolve()
+    return str(full.relative_to(ROOT)) if full.is_relative_to(ROOT) else str(path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=Path, default=FIT_FILE, help="the fit's frames file")
+    ap.add_argument("--starts", type=int, default=3, help="the base fit's starts (pem.yaml: 3)")
+    ap.add_argument("--base", type=Path, help="a pickled base fit (skips step 1)")
+    ap.add_argument("--save-base", type=Path, help="pickle the base fit here")
+    ap.add_argument("--json", type=Path, help="write the result here")
+    args = ap.parse_args(argv)
+
+    from sitcov.calibration._frame_model import fit_held_terms, split_runs, tracks_of
+    from sitcov.calibration._frames import read_frames
+    from sitcov.perception._pem_params import load_pem_params
+
+    t0 = time.process_time()
+    if args.base is not None:
+        base = pickle.loads(args.base.read_bytes())
+    else:
+        base = base_fit(args.frames, args.starts)
+        if args.save_base is not None:
+            args.save_base.write_bytes(pickle.dumps(base))
+    t = tracks_of(read_frames(args.frames)["car"])
+    held = {name: tracks_of(split_runs(read_frames(path)["car"], part) if part
+                            else read_frames(path)["car"])
+            for name, path, part in HELD_FILES}  # fmt: skip
+
+    def per_frame(fit: Any, tracks: Any) -> float:
+        return fit.marginal_loglik(tracks) / max(1, len(tracks.score))
+
+    fits = []
+    for names in TERM_SETS:
+        fit = fit_held_terms(base, t, names)
+        gains = dict(zip(fit.extras[-len(names) :], fit.gains[-len(names) :], strict=True))
+        gain = {"fit file": round(per_frame(fit, t) - per_frame(base, t), 4)}
+        gain |= {k: round(per_frame(fit, h) - per_frame(base, h), 4) for k, h in held.items()}
+        fits.append({"terms": list(names), "gains": {k: round(v, 4) for k, v in gains.items()},
+                     "loglik_gain_per_frame": gain})  # fmt: skip
+    result = {
+        "fit_file": _shown(args.frames),
+        "base_loglik_per_frame": {"fit file": round(per_frame(base, t), 4)}
+        | {k: round(per_frame(base, h), 4) for k, h in held.items()},
+        "held_frames": {k: len(h.score) for k, h in held.items()},
+        "held_terms": fits,
+        "table": wind_table([args.frames, *(p for _, p, _ in HELD_FILES[1:])], load_pem_params()),
+        "cpu_s": round(time.process_time() - t0, 1),
+    }  # fmt: skip
+    text = json.dumps(result, indent=2)
+    print(text)
+    if args.json is not None:
+        args.json.write_text(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
