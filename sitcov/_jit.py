@@ -46,6 +46,7 @@ Python work than that.
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import math
 import os
@@ -56,6 +57,8 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
+
+from sitcov.errors import SitcovError
 
 #: Veltkamp's splitting constant for doubles: 2**27 + 1.
 _SPLIT = 134217729.0
@@ -148,11 +151,41 @@ def compiled(
     With ``example`` arguments the function is compiled (or loaded from the cache) right
     away by calling it once; if numba fails there (e.g. a numba too old or too new for
     the installed numpy), a warning says so and None is returned: the Python code runs.
+    The example first runs as Python (:func:`check_example`).
+
+    Raises:
+        SitcovError: the example does not run as Python (a bug of the caller's).
     """
     if not enabled():
         return None
+    if example:
+        check_example(fn, example)
     with cache_lock():  # one process at a time compiles or loads kernels (docstring below)
         return _compiled(fn, example, helpers)
+
+
+def check_example(fn: Callable[..., Any], example: tuple[Any, ...]) -> None:
+    """Run ``fn``'s Python code once on a copy of ``example`` (its arrays may be written
+    in place).
+
+    Why: compiled code does not check array bounds. An example array shorter than the
+    layout it stands for makes the compiled example call read past its end, and what lies
+    there differs from process to process. That was the intermittent "numba could not
+    compile _pem_frame (ZeroDivisionError)" of sessions 20 to 22: the frame kernel's
+    example lacked the last two values of the view array's layout, and now and then the
+    bytes after it were a zero the kernel divided by. Python raises ``IndexError`` there
+    every time.
+
+    Raises:
+        SitcovError: the Python code raises on the example (naming the function).
+    """
+    try:
+        fn(*copy.deepcopy(example))
+    except Exception as exc:  # noqa: BLE001 - any error: the example is wrong
+        raise SitcovError(
+            f"the compile example of {fn.__name__} does not run as Python "
+            f"({type(exc).__name__}: {exc}); fix the example where {fn.__name__} is compiled"
+        ) from exc
 
 
 @contextmanager
@@ -163,17 +196,16 @@ def cache_lock() -> Iterator[None]:
     ``_logit``, ``_project``, ...), and numba numbers a function's cached overloads per
     index file without a lock of its own (numba issues #4807, #10128). Two processes that
     compile different kernels at once from an empty cache (two xdist workers, two campaign
-    workers) can write the same overload file for two signatures: the one that reads it
-    next runs the other's machine code. That was seen as "numba could not compile
-    _pem_frame (ZeroDivisionError)" in 2 of 4 trials of the view and frame kernels compiled
-    side by side (27 Nov 2026); behind this lock, in none of 6. Without ``fcntl`` (not POSIX)
-    the cache is used unguarded, as numba does.
+    workers) could write the same overload file for two signatures: the one that reads it
+    next would run the other's machine code. Without ``fcntl`` (not POSIX) the cache is
+    used unguarded, as numba does.
 
     The lock cannot cover a compile numba starts by itself (a kernel called with argument
-    types it has not seen), and the failure came back behind it in 2 of 4 CI runs on 28
-    Nov 2026. So :func:`_compiled` also compiles afresh, without the disk cache, a kernel
-    whose example call fails after loading: a damaged entry costs one compile, not the
-    compiled path."""
+    types it has not seen). So :func:`_compiled` also compiles afresh, without the disk
+    cache, a kernel whose example call fails after loading: a damaged entry would cost one
+    compile, not the compiled path. (The "could not compile _pem_frame" failure this lock
+    and that retry were first written against was not the cache's: a short example,
+    :func:`check_example`.)"""
     try:
         import fcntl
     except ImportError:
@@ -201,8 +233,8 @@ def _compiled(
                 fast(*example)
             except Exception:  # noqa: BLE001 - a damaged cache entry: compile afresh
                 # numba's cache has races the lock cannot cover (cache_lock): a kernel
-                # loaded from a damaged entry fails its example, so this process compiles
-                # it and its helpers in memory instead (the same code, slower only once)
+                # loaded from a damaged entry would fail its example, so this process
+                # compiles it and its helpers in memory instead (the same code)
                 fast = _build(fn, helpers, cache=False)
                 fast(*example)
     except Exception as exc:  # noqa: BLE001 - any numba failure: run the Python code

@@ -538,6 +538,26 @@ def _pem_view(
     return True, x0, y0, x1, y1, z, d, s
 
 
+#: The length of :func:`_pem_view`'s array: the layout above, ending with the detection
+#: term's two gains and the score noise's size gain, cap, bend gain and bend knot.
+VIEW_ARRAY_LEN = _DETECT + 6
+
+
+def example_view_array() -> list[float]:
+    """A whole :func:`_pem_view` array (:data:`VIEW_ARRAY_LEN` values: a car of the default
+    :class:`PEMParams` in clear noon) for the compiled kernels' example calls.
+
+    Whole, because compiled code does not check bounds: a short example reads past its
+    end, and the bytes there (a different value in every process) once made the example
+    call divide by zero (numba "could not compile _pem_frame (ZeroDivisionError)", seen
+    intermittently in CI until 28 Nov 2026: the frame kernel's example lacked the noise's
+    bend gain and knot, added to the layout after it was written)."""
+    values = [*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8, 1.5,
+              0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0, 450.0, 0.0,
+              150.0]  # fmt: skip
+    return values
+
+
 _VIEW_FN: Any = None
 
 
@@ -549,9 +569,7 @@ def _view_kernel() -> Any:
 
         from sitcov._jit import compiled, typed_entry
 
-        q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
-                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
-                      450.0, 0.0, 150.0])  # fmt: skip
+        q = np.array(example_view_array())
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit,
                    fill_of, noise_scale, _heading_sine)  # fmt: skip
         _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
@@ -579,6 +597,14 @@ FRAME_NORMALS = 11
 #: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
 #: ``track``'s 5, then the view array ``q``).
 _F_N = 24
+
+
+def example_frame_state() -> list[float]:
+    """A whole :func:`_pem_frame` state (its :data:`_F_N` constants, a fresh noise track
+    of 5 and :func:`example_view_array`) for the compiled kernel's example call."""
+    constants = [0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0, 800.0,
+                 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2]  # fmt: skip
+    return [*constants, *[0.0] * 5, *example_view_array()]
 
 
 def _pem_frame(
@@ -702,12 +728,7 @@ def _frame_kernel() -> Any:
 
         from sitcov._jit import compiled, typed_entry
 
-        q = np.array([*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8,
-                      1.5, 0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0,
-                      450.0])  # fmt: skip
-        c = np.array([0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0])
-        c = np.append(c, [800.0, 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2])
-        state, normals = np.concatenate((c, np.zeros(5), q)), np.zeros(FRAME_NORMALS)
+        state, normals = np.array(example_frame_state()), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
         helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid, low_tail)
         example = (state, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)

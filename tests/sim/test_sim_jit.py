@@ -112,6 +112,44 @@ def test_a_numba_failure_warns_and_falls_back_to_python(monkeypatch) -> None:
         assert compiled(_not_compilable, 1.0) is None
 
 
+def _third(a) -> float:
+    return a[3] * 2.0
+
+
+def test_an_example_that_fails_as_python_is_refused_before_numba_sees_it(monkeypatch) -> None:
+    """Compiled code reads past a short array's end without a word (here the bytes after
+    a 3-value array), which once made the PEM frame kernel's example divide by zero now
+    and then; ``compiled`` runs every example as Python first, where it raises every
+    time, and names the function."""
+    from sitcov.errors import SitcovError
+
+    need_module("numba", "fast")
+    monkeypatch.delenv("SITCOV_NO_JIT", raising=False)
+    with pytest.raises(SitcovError, match="compile example of _third does not run as Python"):
+        compiled(_third, np.zeros(3))
+    assert compiled(_third, np.zeros(4)) is not None
+
+
+def test_the_pem_kernels_examples_are_whole_arrays_of_their_layouts() -> None:
+    """The view and frame kernels' example arrays have the length of the arrays the
+    sensor builds (a short one read past its end in compiled code: the intermittent
+    "could not compile _pem_frame (ZeroDivisionError)"), and run as Python."""
+    from sitcov.perception import PEMSensor
+    from sitcov.perception._base import ActorView, Pose
+    from sitcov.weather._conditions import Conditions
+
+    sensor, cond = PEMSensor(), Conditions(rain_noise=0.2)
+    q, p, _label = sensor.prepare(ActorView(Pose(10.0, 1.0, 0.3), 4.6, 1.8, 1.5), cond)
+    assert len(_pem.example_view_array()) == len(q) == _pem.VIEW_ARRAY_LEN
+    state = sensor._frame_state(None, np.asarray(q, dtype=float), p, cond, {})[3]
+    assert len(_pem.example_frame_state()) == len(state)
+    view = _pem._pem_view(np.array(_pem.example_view_array()), 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
+    assert view[0]  # the example car is in view: every value of the array is read
+    normals = np.zeros(_pem.FRAME_NORMALS)
+    frame = np.array(_pem.example_frame_state())
+    assert _pem._pem_frame(frame, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)[0] != 0
+
+
 def test_compiling_holds_the_machines_cache_lock_and_it_excludes_other_processes(
     monkeypatch,
 ) -> None:
