@@ -179,7 +179,11 @@ def test_compiling_holds_the_machines_cache_lock_and_it_excludes_other_processes
     )
     with real():
         assert subprocess.run([sys.executable, "-c", probe]).returncode == 3
-    assert subprocess.run([sys.executable, "-c", probe]).returncode == 0
+    # released: the probe gets it, once any other process compiling now (another xdist
+    # worker, a campaign's workers) has let go, so it waits for it (at most 120 s)
+    waiting = probe.replace("fcntl.LOCK_EX | fcntl.LOCK_NB", "fcntl.LOCK_EX")
+    waiting = "import signal\nsignal.alarm(120)\n" + waiting
+    assert subprocess.run([sys.executable, "-c", waiting]).returncode == 0
 
 
 def test_a_kernel_that_fails_its_example_from_the_cache_is_compiled_afresh(
