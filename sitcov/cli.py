@@ -795,6 +795,13 @@ def experiment_agreement_cmd(
         help="A PEM run's verdict is the majority of this many perception draws of its world "
         "(odd; sitcov run --perception-draws).",
     ),
+    judge: str = typer.Option(
+        "paper",
+        "--judge",
+        help="What fails a run: paper (collision; the backend's own status, the default of "
+        "this experiment), default (what sitcov run judges: also road departure, blocked, "
+        "route incomplete), strict, or comma-separated failure kinds.",
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ) -> None:
     """PEM vs camera, camera vs camera, PEM vs PEM: verdict agreement on held-out seeds."""
@@ -828,14 +835,14 @@ def experiment_agreement_cmd(
             workers=workers, allow_calibration_seeds=allow_calibration_seeds,
             camera_rows=camera_rows, on_plan=plan, progress=lambda _row: bar.advance(task),
             kind=kind, pem_classes=None if pem_classes is None else str(pem_classes),
-            stacks=stacks, pem_draws=pem_draws,
+            stacks=stacks, pem_draws=pem_draws, judge=judge,
         )  # fmt: skip
     summary["command"] = ag.command_line(
         seeds=seed_list, situations=situations, out=str(out), pairs=pairs, workers=workers,
         pem=None if pem is None else str(pem), allow=allow_calibration_seeds,
         camera_rows=[str(p) for p in camera_rows or ()], kind=kind,
         pem_classes=None if pem_classes is None else str(pem_classes), stacks=stacks,
-        pem_draws=pem_draws,
+        pem_draws=pem_draws, judge=summary["judge"],
     )  # fmt: skip
     summary_path = summary_out or out.with_name(out.stem + ".summary.json")
     summary_path.write_text(json.dumps(summary, indent=2) + "\n")

@@ -12,7 +12,11 @@ generator's ``ask_rng(s, i)`` (the situation of run ``i`` of ``sitcov run --gene
 - stream ``B``: :func:`second_run_seed` ``(s, i)``, drawn from a separate stream of the
   same seed sequence, so it differs from stream A and from every stream-A seed.
 
-A *pair* compares the verdicts (``failed``) of two sides on the same situations:
+A *pair* compares the verdicts (``failed``) of two sides on the same situations, each run
+judged by the experiment's judge (``--judge``): ``paper`` by default (collision, the
+embedded backend's own status, the verdict of every rows file written before rows
+recorded a judge), or any judge a campaign takes (``default`` is what ``sitcov run``
+judges by: road departures, a blocked ego and an unfinished route fail a run too):
 
 - ``pem-camera``: camera at A vs PEM at B (run seeds differ);
 - ``camera-camera``: camera at A vs camera at B (run seeds differ);
@@ -104,9 +108,14 @@ ROW_FIELDS = (
     "wall_s",
     "stack",
     "world_model",
+    "judge",
 )
 #: The stack of a row that names none (rows files written before stacks were recorded).
 DEFAULT_STACK = "reference"
+#: The experiment's judge unless told (``--judge``), and that of a row that names none:
+#: ``paper`` (collision, the ego hit while standing included), the embedded backend's
+#: own status, which every rows file written before rows recorded a judge holds.
+DEFAULT_JUDGE = "paper"
 #: CPU seconds of one camera-mode run on the reference machine (docs/camera.md), for the
 #: runtime estimate printed before the runs start; PEM runs cost about 1 % of it.
 CAMERA_CPU_S_PER_RUN = 1.9
@@ -287,13 +296,29 @@ class SideSettings:
     (:func:`sitcov.calibration._class_runs.class_hyperspace`); ``pem_classes``: the
     per-class PEM file (None = shipped); ``pem_draws``: a PEM side's verdict is the
     majority of that many perception draws of the run's world
-    (:class:`~sitcov.campaign._draws.PerceptionDraws`; 1 = one run)."""
+    (:class:`~sitcov.campaign._draws.PerceptionDraws`; 1 = one run); ``judge``: the
+    judge of every run's verdict (:func:`judge_text`)."""
 
     pem_file: str | None = None
     model: str | None = None
     kind: str | None = None
     pem_classes: str | None = None
     pem_draws: int = 1
+    judge: str = DEFAULT_JUDGE
+
+
+def judge_text(spec: str | Sequence[str] | None) -> str:
+    """A judge setting as rows and summaries record it: its name (``paper``, ``default``,
+    ``strict``) or its failure kinds, comma-separated (:func:`sitcov.sim.normalize_judge`;
+    None is :data:`DEFAULT_JUDGE`).
+
+    Raises:
+        ConfigError: an unknown judge or failure kind.
+    """
+    from sitcov.sim import normalize_judge
+
+    canon = normalize_judge(DEFAULT_JUDGE if spec is None else spec)
+    return canon if isinstance(canon, str) else ",".join(canon)
 
 
 class SideRunner:
@@ -306,8 +331,10 @@ class SideRunner:
 
     def __init__(self, settings: SideSettings) -> None:
         from sitcov.generation import make_generator
+        from sitcov.sim import Judge
 
         self.settings = settings
+        self.judge = Judge.from_spec(settings.judge)
         self.generator = make_generator("random", _hyperspace(settings.kind))
         self._sides: dict[tuple[str, str], tuple[Any, Any]] = {}
         self._detector: Any = None
@@ -326,7 +353,7 @@ class SideRunner:
                     from sitcov.campaign._draws import PerceptionDraws
 
                     backend = PerceptionDraws(
-                        backend, self.settings.pem_draws, lambda o: bool(o.failed)
+                        backend, self.settings.pem_draws, lambda o: bool(self.judge(o).failed)
                     )
             else:
                 from sitcov.perception import SSDDetector
@@ -353,6 +380,7 @@ class SideRunner:
         else:
             outcome = backend.run(situation, stack, seed, perception_seed=sense)
         cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+        outcome = self.judge(outcome)
         return {
             **asdict(job),
             "situation_id": situation.id,
@@ -363,6 +391,7 @@ class SideRunner:
             "cpu_s": round(cpu, 4),
             "wall_s": round(wall, 4),
             "world_model": WORLD_MODEL_VERSION,
+            "judge": self.settings.judge,
         }
 
 
@@ -447,10 +476,13 @@ class RowsWriter:
 
 
 def _field(row: Mapping[str, Any], key: str) -> Any:
-    """``row[key]``; the stack of a row that names none is the reference stack, the world
-    model of a row written before rows recorded it is unknown (empty)."""
+    """``row[key]``; the stack of a row that names none is the reference stack, its judge
+    the backend's own (:data:`DEFAULT_JUDGE`), the world model of a row written before
+    rows recorded it is unknown (empty)."""
     if key == "stack":
         return row.get(key, DEFAULT_STACK)
+    if key == "judge":
+        return row.get(key) or DEFAULT_JUDGE
     if key == "world_model":
         return row.get(key)
     return row[key]
@@ -471,7 +503,12 @@ def read_rows(path: Path) -> list[dict[str, Any]]:
     if rows_format(path) == "jsonl":
         rows = [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
         return [
-            {**r, "stack": r.get("stack") or DEFAULT_STACK, "world_model": r.get("world_model")}
+            {
+                **r,
+                "stack": r.get("stack") or DEFAULT_STACK,
+                "world_model": r.get("world_model"),
+                "judge": r.get("judge") or DEFAULT_JUDGE,
+            }
             for r in rows
         ]
     with open(path, newline="") as fh:
@@ -496,6 +533,7 @@ def _typed(raw: Mapping[str, str]) -> dict[str, Any]:
         "wall_s": num(raw["wall_s"]),
         "stack": raw.get("stack") or DEFAULT_STACK,
         "world_model": int(raw["world_model"]) if raw.get("world_model") else None,
+        "judge": raw.get("judge") or DEFAULT_JUDGE,
     }
 
 
@@ -636,9 +674,14 @@ def pool_rows_files(paths: Sequence[Path], pairs: Sequence[str]) -> dict[str, An
                 )
             seen[key] = Path(path)
             rows.append(row)
+    judges = sorted({_field(r, "judge") for r in rows})
+    if len(judges) > 1:
+        raise ConfigError(field="judge", value=judges,
+                          expected="rows files of one judge (their verdicts differ)")  # fmt: skip
     seeds = sorted({r["seed"] for r in rows})
     return {
         "files": [str(p) for p in paths],
+        "judge": judges[0] if judges else DEFAULT_JUDGE,
         "seeds": seeds,
         "pairs": {pair: compare(rows, pair) for pair in pairs},
     }
@@ -803,6 +846,7 @@ def run_agreement(
     pem_classes: str | None = None,
     stacks: Sequence[str] = (DEFAULT_STACK,),
     pem_draws: int = 1,
+    judge: str | Sequence[str] | None = None,
     run_job: Callable[[Job], dict[str, Any]] | None = None,
     on_plan: Callable[[list[Job]], None] | None = None,
     progress: Callable[[dict[str, Any]], None] | None = None,
@@ -817,6 +861,9 @@ def run_agreement(
     ``kind``: pedestrian or cyclist situations only (their PEM: ``pem_classes``, whose
     calibration seeds are refused too). ``pem_draws``: each PEM run's verdict is the
     majority of that many perception draws of its world (odd; the camera side runs once).
+    ``judge``: the verdict of every run (a campaign's judge setting; None = ``paper``, the
+    backend's own status; ``default`` = what ``sitcov run`` judges by default); camera
+    rows are reused only from the same judge.
 
     Raises:
         ConfigError: bad arguments, or evaluation seeds the PEM was calibrated on.
@@ -829,6 +876,7 @@ def run_agreement(
     from sitcov.campaign._draws import check_draws
 
     check_draws(pem_draws, field="--pem-draws")
+    judge_name = judge_text(judge)
     rows_format(out)
     pem_path = Path(pem_file) if pem_file is not None else PEM_PARAMS_FILE
     pem_name = str(pem_file) if pem_file is not None else "sitcov/perception/data/pem.yaml"
@@ -843,7 +891,7 @@ def run_agreement(
     row_files = _row_files(camera_rows)
     reused: dict[tuple, dict[str, Any]] = {}
     for path in row_files:  # the first file that has a row gives it
-        for key, row in reusable_camera_rows(path, jobs).items():
+        for key, row in reusable_camera_rows(path, jobs, judge_name).items():
             reused.setdefault(key, row)
     jobs = [j for j in jobs if _job_key(j) not in reused]
     if run_job is None and any(j.perception == "camera" for j in jobs):
@@ -852,7 +900,7 @@ def run_agreement(
         model = str(model_path(model))
     settings = SideSettings(
         pem_file=None if pem_file is None else str(pem_file), model=model, kind=kind,
-        pem_classes=pem_classes, pem_draws=pem_draws,
+        pem_classes=pem_classes, pem_draws=pem_draws, judge=judge_name,
     )  # fmt: skip
     if on_plan is not None:
         on_plan(jobs)
@@ -891,6 +939,7 @@ def run_agreement(
         situations_per_seed=situations,
         pem_file=pem_name,
         pem_draws=pem_draws,
+        judge=judge_name,
         pem_sha256=hashlib.sha256(pem_path.read_bytes()).hexdigest(),
         sitcov_version=__version__,
         world_model=WORLD_MODEL_VERSION,
@@ -930,7 +979,9 @@ def _job_key(job: Job) -> tuple[int, int, str, str, str]:
     return (job.seed, job.index, job.perception, job.stream, job.stack)
 
 
-def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[str, Any]]:
+def reusable_camera_rows(
+    path: Path, jobs: Sequence[Job], judge: str = DEFAULT_JUDGE
+) -> dict[tuple, dict[str, Any]]:
     """The camera-mode rows of an earlier rows file that ``jobs`` would simulate again.
 
     A camera-mode run does not involve the PEM: after a recalibration its row is the same
@@ -939,7 +990,8 @@ def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[st
     planned camera job, it was judged (pass or fail) and it was simulated by this world
     model (``sitcov.sim.WORLD_MODEL_VERSION``): a row of another world model, or of a file
     written before rows recorded it, judged another world (other verdicts, road users
-    that did not react) and is simulated again.
+    that did not react) and is simulated again; so is a row of another ``judge``
+    (:func:`judge_text`; a row that names none has the backend's own verdict, ``paper``).
 
     Raises:
         ConfigError: the file cannot be read.
@@ -955,7 +1007,7 @@ def reusable_camera_rows(path: Path, jobs: Sequence[Job]) -> dict[tuple, dict[st
         job = wanted.get(key)
         if job is None or row["status"] not in _JUDGED:
             continue
-        if row.get("world_model") != WORLD_MODEL_VERSION:
+        if row.get("world_model") != WORLD_MODEL_VERSION or _field(row, "judge") != judge:
             continue
         if row["run_seed"] == stream_seed(job.stream, job.seed, job.index):
             out[key] = row
@@ -971,7 +1023,8 @@ CONSTRUCTION = (
     "pem-camera-shared-seed = camera@A vs pem@A; split pairs (named explicitly): stream AB = "
     "the world of run seed A with the perception draws of run seed B, "
     "camera-camera-shared-world = camera@A vs camera@AB, pem-pem-shared-world = pem@A vs "
-    "pem@AB; verdict = failed; runs that error or time out are left out of their pairs; "
+    "pem@AB; verdict = failed under the summary's judge (paper: the backend's own status); "
+    "runs that error or time out are left out of their pairs; "
     "intervals are Wilson 95 %"
 )
 
@@ -990,6 +1043,7 @@ def command_line(
     pem_classes: str | None = None,
     stacks: Sequence[str] = (DEFAULT_STACK,),
     pem_draws: int = 1,
+    judge: str = DEFAULT_JUDGE,
 ) -> str:
     """The ``sitcov experiment agreement`` command that reproduces a summary."""
     import shlex
@@ -1013,6 +1067,8 @@ def command_line(
             parts += ["--stack", name]
     if pem_draws != 1:
         parts += ["--pem-draws", str(pem_draws)]
+    if judge != DEFAULT_JUDGE:
+        parts += ["--judge", judge]
     return " ".join(p if i == 0 else shlex.quote(p) for i, p in enumerate(parts))
 
 
@@ -1071,7 +1127,8 @@ def _block_lines(summary: Mapping[str, Any]) -> list[str]:
     lines = [
         f"seeds {','.join(map(str, summary['seeds']))}, {summary['situations_per_seed']} "
         f"situations each; PEM {summary['pem_file']} (calibration seeds "
-        f"{summary['calibration_seeds']}); run seed A = run_seed(s, i), B = second stream",
+        f"{summary['calibration_seeds']}); run seed A = run_seed(s, i), B = second stream; "
+        f"judge {summary.get('judge', DEFAULT_JUDGE)}",
         head,
     ]
     for pair, result in summary["pairs"].items():

@@ -38,6 +38,7 @@ def fake_run(job: ag.Job) -> dict:
         "cpu_s": 0.5,
         "wall_s": 0.75,
         "world_model": WORLD_MODEL_VERSION,
+        "judge": ag.DEFAULT_JUDGE,
     }
 
 
@@ -178,7 +179,7 @@ def test_cli_refuses_calibration_seeds_in_one_line_before_any_run(tmp_path: Path
     assert err.count("\n") == 0 and "[7] calibrated the PEM" in err and "Traceback" not in err
     assert not out.exists()
     for bad in (["--seeds", "2,x"], ["--seeds", "2,2"], ["--pairs", "pem-cam"],
-                ["--out", str(tmp_path / "rows.txt")]):  # fmt: skip
+                ["--out", str(tmp_path / "rows.txt")], ["--judge", "crash"]):  # fmt: skip
         with pytest.raises(SystemExit) as exc:
             main([*args, "--situations", "2", *bad])
         assert exc.value.code == 2
