@@ -13,7 +13,12 @@ script asks the frames:
 3. their gain in frames-alone log-likelihood per frame on the fit file and on three
    held-out files; a term belongs in the PEM when it gains on all of them;
 4. P(score >= theta) per frame, observed and by the shipped PEM, by box height, in heavy
-   rain and dry weather, calm and windy, with the runs each cell's frames come from.
+   rain and dry weather, calm and windy, with the runs each cell's frames come from;
+5. a term the frame model does not have yet, profiled: the score noise's scale above
+   the median times ``exp(g * rain_wind * [h >= H])`` (a wider upper spread for a close
+   car in windy rain), for a few ``g`` and ``H``, with the rest held; the gain in
+   log-likelihood per frame on every file (``_frame_model._upper`` wrapped for the
+   measurement, :func:`upper_scale_profile`).
 
     PYTHONPATH=. python benchmarks/pem_rain_wind.py --json docs/data/pem-rain-wind.json
 """
@@ -25,6 +30,8 @@ import json
 import pickle
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -41,6 +48,8 @@ HELD_FILES = (
 THRESHOLDS = (0.5, 0.7)
 BANDS = (("< 40 px", 40.0), ("40-100 px", 100.0), (">= 100 px", float("inf")))
 TERM_SETS = (("rain", "rain_wind"), ("rain", "rain_wind", "rain_wind_size"))
+UPPER_GAINS = (0.2, 0.4, 0.6)
+UPPER_KNOTS_PX = (60.0, 100.0)
 HEAVY_RAIN = 50.0  # precipitation from which a run counts as heavy rain
 WINDY = 50.0  # wind_intensity from which a run counts as windy
 
@@ -108,6 +117,43 @@ def wind_table(paths: list[Path], params: Any) -> list[dict[str, Any]]:
     return out
 
 
+@contextmanager
+def _upper_scaled(column: np.ndarray, gain: float) -> Iterator[None]:
+    """``_frame_model._upper`` (the frame law's score scale above the median, per frame)
+    times ``exp(gain * column)`` inside the block, restored after: a measurement of a
+    term the frame model does not have, for one Tracks' frames (``column`` per frame)."""
+    from sitcov.calibration import _frame_model as fm
+
+    plain = fm._upper
+
+    def scaled(noise: Any, sig: Any, size: Any) -> Any:
+        return plain(noise, sig, size) * np.exp(gain * column)
+
+    fm._upper = scaled
+    try:
+        yield
+    finally:
+        fm._upper = plain
+
+
+def upper_scale_profile(base: Any, tracks: dict[str, Any]) -> list[dict[str, Any]]:
+    """Per knot H and gain g: the change in frames-alone log-likelihood per frame of
+    ``tracks`` (name -> Tracks) when the upper scale grows by ``exp(g * rain_wind *
+    [h >= H])``, the rest of ``base`` held."""
+    out = []
+    for knot in UPPER_KNOTS_PX:
+        for gain in UPPER_GAINS:
+            row: dict[str, Any] = {"knot_px": knot, "gain": gain}
+            for name, t in tracks.items():
+                h = np.asarray([f.height_px for f in t.feats])
+                n = max(1, len(t.score))
+                before = base.marginal_loglik(t)
+                with _upper_scaled(t.rain_wind * (h >= knot), gain):
+                    row[name] = round((base.marginal_loglik(t) - before) / n, 4)
+            out.append(row)
+    return out
+
+
 def _shown(path: Path) -> str:
     """``path`` relative to the checkout when it is inside it (the JSON names no host)."""
     full = path.resolve()
@@ -156,6 +202,7 @@ def main(argv: list[str] | None = None) -> int:
         | {k: round(per_frame(base, h), 4) for k, h in held.items()},
         "held_frames": {k: len(h.score) for k, h in held.items()},
         "held_terms": fits,
+        "upper_scale": upper_scale_profile(base, {"fit file": t, **held}),
         "table": wind_table([args.frames, *(p for _, p, _ in HELD_FILES[1:])], load_pem_params()),
         "cpu_s": round(time.process_time() - t0, 1),
     }  # fmt: skip
