@@ -42,8 +42,8 @@ DATA = ROOT / "docs" / "data"
 FIT_FILE = DATA / "pem-frames-top-seed1.jsonl.gz"
 HELD_FILES = (
     ("seed 2, odd runs", DATA / "pem-frames-top-seed2.jsonl.gz", "odd"),
-    ("seed 3", DATA / "pem-frames-top-seed3.jsonl.gz", None),
-    ("seed 4", DATA / "pem-frames-top-seed4.jsonl.gz", None),
+    ("seed 3", DATA / "pem-frames-top-seed3.jsonl.gz", "all"),
+    ("seed 4", DATA / "pem-frames-top-seed4.jsonl.gz", "all"),
 )
 THRESHOLDS = (0.5, 0.7)
 BANDS = (("< 40 px", 40.0), ("40-100 px", 100.0), (">= 100 px", float("inf")))
@@ -181,8 +181,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.save_base is not None:
             args.save_base.write_bytes(pickle.dumps(base))
     t = tracks_of(read_frames(args.frames)["car"])
-    held = {name: tracks_of(split_runs(read_frames(path)["car"], part) if part
-                            else read_frames(path)["car"])
+    held = {name: tracks_of(split_runs(read_frames(path)["car"], part))
             for name, path, part in HELD_FILES}  # fmt: skip
 
     def per_frame(fit: Any, tracks: Any) -> float:

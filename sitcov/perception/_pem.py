@@ -552,10 +552,9 @@ def example_view_array() -> list[float]:
     call divide by zero (numba "could not compile _pem_frame (ZeroDivisionError)", seen
     intermittently in CI until 28 Nov 2026: the frame kernel's example lacked the noise's
     bend gain and knot, added to the layout after it was written)."""
-    values = [*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8, 1.5,
-              0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0, 450.0, 0.0,
-              150.0]  # fmt: skip
-    return values
+    return [*coefficients(PEMParams()), 2.5, 1.0, 336.0, 800.0, 450.0, 4.6, 1.8, 1.5,
+            0.0, 0.0, 1.0, 0.0, 0.5, 0.2, 0.3, 0.1, 0.1, 0.0, 0.0, 0.0, 450.0, 0.0,
+            150.0]  # fmt: skip
 
 
 _VIEW_FN: Any = None
