@@ -6,19 +6,21 @@ wind (docs/weather.md, "The wind in the rain"). Does a wind term belong in the P
 script asks the frames:
 
 1. the car's shipped frame model is fitted again on the fit file (its chosen candidate
-   and held terms, from ``pem.yaml``'s meta; ``--base`` reads a pickled fit instead);
+   and held logit terms, from ``pem.yaml``'s meta: the model without the windy rain's
+   noise term; ``--base`` reads a pickled fit instead);
 2. held terms (``fit_held_terms``, everything else held): ``rain`` (a change of the rain
    gain), ``rain_wind`` (the run's precipitation times its wind) and ``rain_wind_size``
-   (that times the log size), fitted on the fit file;
+   (that times the log size), and the noise term ``up_rain_wind`` (the upper scale in
+   windy rain on a box of 100 px or more, shipped since 28 Nov 2026), fitted on the fit
+   file;
 3. their gain in frames-alone log-likelihood per frame on the fit file and on three
    held-out files; a term belongs in the PEM when it gains on all of them;
 4. P(score >= theta) per frame, observed and by the shipped PEM, by box height, in heavy
    rain and dry weather, calm and windy, with the runs each cell's frames come from;
-5. a term the frame model does not have yet, profiled: the score noise's scale above
-   the median times ``exp(g * rain_wind * [h >= H])`` (a wider upper spread for a close
-   car in windy rain), for a few ``g`` and ``H``, with the rest held; the gain in
-   log-likelihood per frame on every file (``_frame_model._upper`` wrapped for the
-   measurement, :func:`upper_scale_profile`).
+5. that noise term profiled: the score noise's scale above the median times ``exp(g *
+   rain_wind * [h >= H])`` (a wider upper spread for a close car in windy rain), for a
+   few ``g`` and ``H``, with the rest held; the gain in log-likelihood per frame on every
+   file (:func:`upper_scale_profile`; the profile chose the knot, the held fit the gain).
 
     PYTHONPATH=. python benchmarks/pem_rain_wind.py --json docs/data/pem-rain-wind.json
 """
@@ -30,8 +32,7 @@ import json
 import pickle
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -47,7 +48,7 @@ HELD_FILES = (
 )
 THRESHOLDS = (0.5, 0.7)
 BANDS = (("< 40 px", 40.0), ("40-100 px", 100.0), (">= 100 px", float("inf")))
-TERM_SETS = (("rain", "rain_wind"), ("rain", "rain_wind", "rain_wind_size"))
+TERM_SETS = (("rain", "rain_wind"), ("rain", "rain_wind", "rain_wind_size"), ("up_rain_wind",))
 UPPER_GAINS = (0.2, 0.4, 0.6)
 UPPER_KNOTS_PX = (60.0, 100.0)
 HEAVY_RAIN = 50.0  # precipitation from which a run counts as heavy rain
@@ -57,6 +58,7 @@ WINDY = 50.0  # wind_intensity from which a run counts as windy
 def base_fit(path: Path, starts: int) -> Any:
     """The car's shipped frame model fitted again on ``path`` (pem.yaml's meta)."""
     from sitcov.calibration._frame_model import (
+        NOISE_HELD_TERMS,
         candidates_for,
         fit_candidate,
         fit_held_terms,
@@ -67,7 +69,8 @@ def base_fit(path: Path, starts: int) -> Any:
 
     meta = read_yaml(Path(PEM_PARAMS_FILE), "PEM parameters")["meta"]["car"]
     chosen = meta["model_choice"]["chosen"]
-    held = tuple(meta.get("held_terms", {}).get("gains", {}))
+    gains = meta.get("held_terms", {}).get("gains", {})
+    held = tuple(n for n in gains if n not in NOISE_HELD_TERMS)
     t = tracks_of(read_frames(path)["car"])
     cand = next(c for c in candidates_for("car") if c[0] == chosen)
     fit = fit_candidate(t, cand, load_pem_params().size_ref_px, stages=2, starts=starts)
@@ -117,39 +120,18 @@ def wind_table(paths: list[Path], params: Any) -> list[dict[str, Any]]:
     return out
 
 
-@contextmanager
-def _upper_scaled(column: np.ndarray, gain: float) -> Iterator[None]:
-    """``_frame_model._upper`` (the frame law's score scale above the median, per frame)
-    times ``exp(gain * column)`` inside the block, restored after: a measurement of a
-    term the frame model does not have, for one Tracks' frames (``column`` per frame)."""
-    from sitcov.calibration import _frame_model as fm
-
-    plain = fm._upper
-
-    def scaled(noise: Any, sig: Any, size: Any) -> Any:
-        return plain(noise, sig, size) * np.exp(gain * column)
-
-    fm._upper = scaled
-    try:
-        yield
-    finally:
-        fm._upper = plain
-
-
 def upper_scale_profile(base: Any, tracks: dict[str, Any]) -> list[dict[str, Any]]:
     """Per knot H and gain g: the change in frames-alone log-likelihood per frame of
     ``tracks`` (name -> Tracks) when the upper scale grows by ``exp(g * rain_wind *
-    [h >= H])``, the rest of ``base`` held."""
+    [h >= H])`` (``Noise.uw``, ``Noise.uw_px``), the rest of ``base`` held."""
     out = []
     for knot in UPPER_KNOTS_PX:
         for gain in UPPER_GAINS:
             row: dict[str, Any] = {"knot_px": knot, "gain": gain}
+            fit = replace(base, noise=replace(base.noise, uw=gain, uw_px=knot))
             for name, t in tracks.items():
-                h = np.asarray([f.height_px for f in t.feats])
                 n = max(1, len(t.score))
-                before = base.marginal_loglik(t)
-                with _upper_scaled(t.rain_wind * (h >= knot), gain):
-                    row[name] = round((base.marginal_loglik(t) - before) / n, 4)
+                row[name] = round((fit.marginal_loglik(t) - base.marginal_loglik(t)) / n, 4)
             out.append(row)
     return out
 
@@ -190,7 +172,8 @@ def main(argv: list[str] | None = None) -> int:
     fits = []
     for names in TERM_SETS:
         fit = fit_held_terms(base, t, names)
-        gains = dict(zip(fit.extras[-len(names) :], fit.gains[-len(names) :], strict=True))
+        gains = dict(zip(fit.extras, fit.gains, strict=True)) | {"up_rain_wind": fit.noise.uw}
+        gains = {n: gains[n] for n in names}
         gain = {"fit file": round(per_frame(fit, t) - per_frame(base, t), 4)}
         gain |= {k: round(per_frame(fit, h) - per_frame(base, h), 4) for k, h in held.items()}
         fits.append({"terms": list(names), "gains": {k: round(v, 4) for k, v in gains.items()},

@@ -1265,8 +1265,10 @@ def calibrate_cmd(
         [],
         "--held-term",
         help="--frames-from: add this extra term (one with a PEM parameter, e.g. "
-        "cut_tent220) to the chosen model, its gain fitted with the rest held; repeatable "
-        '(docs/pem.md, "The mid-size cut car").',
+        "cut_tent220, or up_rain_wind: the score noise's upper scale in windy rain) to the "
+        "chosen model, its gain fitted with the rest held; repeatable (each term fitted in "
+        "turn, those before it held) "
+        '(docs/pem.md, "The mid-size cut car", "The wind in the rain").',
     ),
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
@@ -1398,11 +1400,12 @@ def _frame_model_cmd(
 
     from sitcov.calibration._calibrate import EXTRA_TERM_PARAMS
 
+    known = (*EXTRA_TERM_PARAMS, *fm.NOISE_HELD_TERMS)
     for name in held_terms:
-        if name not in EXTRA_TERM_PARAMS:
+        if name not in known:
             raise ConfigError(
                 field="--held-term", value=name,
-                expected=f"an extra term with a PEM parameter: {', '.join(EXTRA_TERM_PARAMS)}",
+                expected=f"a term with a PEM parameter: {', '.join(known)}",
             )  # fmt: skip
     cpu = time.process_time()
     wall = time.perf_counter()

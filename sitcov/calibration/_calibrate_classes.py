@@ -263,7 +263,7 @@ def read_samples(
     """What :func:`write_samples` wrote: per kind, the sweep frames and the recorded runs."""
     import json
 
-    from sitcov.calibration._camera_runs import RunFrame
+    from sitcov.calibration._camera_runs import RunFrame, stored_features
 
     out: dict[str, tuple[list[tuple[PEMFeatures, float]], list[CameraRun]]] = {}
     import gzip
@@ -282,8 +282,9 @@ def read_samples(
                     sweep.append((PEMFeatures(*row["sweep"]), float(row["score"])))
                     continue
                 run = dict(row["run"])
+                where = run.get("situation")
                 run["frames"] = tuple(
-                    RunFrame(**{**f, "features": PEMFeatures(*f["features"]),
+                    RunFrame(**{**f, "features": stored_features(f["features"], where),
                                 "box_error": None if f["box_error"] is None
                                 else tuple(f["box_error"])})
                     for f in run["frames"]

@@ -82,6 +82,18 @@ class CameraRun:
     wall_s: float = 0.0
 
 
+def stored_features(values: Sequence[float], situation: dict[str, Any] | None) -> PEMFeatures:
+    """A run frame's :class:`PEMFeatures` from its stored values: frames recorded before
+    ``rain_wind`` (one value fewer) get their run's (``situation``'s precipitation times
+    its wind, :func:`sitcov.weather.rain_wind_of`), the value the sensor gives them now."""
+    features = PEMFeatures(*values)
+    if len(values) < len(PEMFeatures._fields) and situation:
+        from sitcov.weather import rain_wind_of
+
+        features = features._replace(rain_wind=rain_wind_of(situation.get("values") or {}))
+    return features
+
+
 def match(truth: Sequence[float], detections: Sequence[Any]) -> tuple[float, Any]:
     """Score and box error of the top-scoring detection overlapping ``truth``.
 

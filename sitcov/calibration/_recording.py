@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 from sitcov.calibration._calibrate import Sample
-from sitcov.calibration._camera_runs import CameraRun, RunFrame
+from sitcov.calibration._camera_runs import CameraRun, RunFrame, stored_features
 from sitcov.errors import ConfigError
 from sitcov.perception._pem import PEMFeatures
 
@@ -105,7 +105,7 @@ def run_from_dict(row: dict[str, Any]) -> CameraRun:
         RunFrame(
             **{
                 **f,
-                "features": PEMFeatures(*f["features"]),
+                "features": stored_features(f["features"], row.get("situation")),
                 "box_error": None if f["box_error"] is None else tuple(f["box_error"]),
             }
         )

@@ -24,7 +24,9 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + yellow_blue_gain * yellow_blue                                      body hue
         + side_gain * side                                                    left/right
     score = sigmoid(z + (noise_sigma + rain_sigma * rain_noise) * s * r * n_t)
-    r = noise_up_ratio if n_t > 0 else 1     (the scores spread less upwards)
+    r = noise_up_ratio * w if n_t > 0 else 1     (the scores spread less upwards)
+    w = exp(noise_up_rain_wind_gain * rain_wind) if h >= noise_up_rain_wind_px else 1
+                                         (wider upwards on a close car in windy rain)
     s = (h' / size_ref_px) ** noise_size_gain * max(1, h' / noise_bend_px) ** noise_bend_gain
     h' = clamp(h, size_min_px, noise_size_max_px)
                                              (larger boxes, wider scores; 1 if the gains are 0)
@@ -34,6 +36,7 @@ with ``h`` and ``w`` the unclipped box height and width [px], ``cut`` the ramp
 actor's heading relative to the line of sight (+1 rear view, -1 front view), ``side`` its
 sine (+1 seen from the actor's left, moving right to left in the image, -1 from its right:
 the only feature that is not left/right symmetric; 0 in frames recorded before it),
+``rain_wind`` the scene's precipitation times its wind intensity (fractions),
 ``offset`` the
 distance of the box centre from the image centre as a fraction of half the image width
 (clamped to [0, 1]), ``contrast`` the luminance contrast of the body colour against the
@@ -122,6 +125,10 @@ class PEMFeatures(NamedTuple):
             left side, moving right to left in the image; -1 from its right side, moving
             left to right; a road user crossing from the ego's left has ``side`` < 0) [-]
             (default 0: frames recorded before it, which carry no side).
+        rain_wind: the scene's precipitation times its wind intensity, both as fractions
+            of 100 (:attr:`sitcov.weather.Conditions.rain_wind`): not in the logit, it
+            widens the score noise's upper side (``noise_up_rain_wind_gain``) [-]
+            (default 0; frames recorded before it get their run's value when read).
     """
 
     height_px: float
@@ -139,6 +146,12 @@ class PEMFeatures(NamedTuple):
     red_green: float = DEFAULT_RED_GREEN
     yellow_blue: float = DEFAULT_YELLOW_BLUE
     side: float = 0.0
+    rain_wind: float = 0.0
+
+
+#: How many of :class:`PEMFeatures`' values :func:`_logit` takes (all but ``rain_wind``,
+#: which acts on the noise only).
+LOGIT_FEATURES = 15
 
 
 _TINY = 1e-9  # floor inside logarithms [-]
@@ -183,6 +196,14 @@ def noise_scale(
     if bend_gain != 0.0 and h > bend_px:
         log_s += bend_gain * math.log(h / bend_px)
     return math.exp(log_s)
+
+
+def up_wind_factor(params: PEMParams, rain_wind: float) -> float:
+    """The upper noise scale's factor in windy rain on a box at least
+    ``noise_up_rain_wind_px`` high: ``exp(noise_up_rain_wind_gain * rain_wind)``; exactly
+    1 without the gain or without wind in the rain (files without it draw as before)."""
+    gain = params.noise_up_rain_wind_gain
+    return math.exp(gain * rain_wind) if gain != 0.0 and rain_wind != 0.0 else 1.0
 
 
 def detect_offset(features: PEMFeatures, params: PEMParams, image_width: float = 800.0) -> float:
@@ -266,7 +287,7 @@ def coefficients(params: PEMParams) -> tuple[float, ...]:
 
 def pem_logit(features: PEMFeatures, params: PEMParams) -> float:
     """The noise-free logit ``z`` of the detection score (formula in the module docstring)."""
-    return _logit(coefficients(params), *features)
+    return _logit(coefficients(params), *features[:LOGIT_FEATURES])
 
 
 def _logit(
@@ -353,8 +374,9 @@ def pass_probability(
     reaches ``max(threshold, floor)``, and rain does not drop the frame; averaged over the
     noise's AR(1) part ``u`` (Gauss-Hermite, 40 nodes). 0 for a box lower than
     ``size_min_px``. The noise ``n = sqrt(ar) u + sqrt(1 - ar) e`` enters the logit as
-    ``sigma n`` below 0 and ``sigma noise_up_ratio n`` above (module docstring), ``sigma``
-    times :func:`noise_scale` of the box's height."""
+    ``sigma n`` below 0 and ``sigma noise_up_ratio n`` above (module docstring; times
+    :func:`up_wind_factor` on a box of ``noise_up_rain_wind_px`` or more), ``sigma`` times
+    :func:`noise_scale` of the box's height."""
     if features.height_px < params.size_min_px:
         return 0.0
     nodes, weights = _hermite()
@@ -373,6 +395,8 @@ def pass_probability(
         upper *= noise_scale(params.noise_up_size_gain, features.height_px,
                              params.size_min_px, params.noise_size_max_px,
                              params.size_ref_px)  # fmt: skip
+    if features.height_px >= params.noise_up_rain_wind_px:
+        upper *= up_wind_factor(params, features.rain_wind)
     if sigma <= 0.0:
         need = -math.inf if gap >= 0.0 else math.inf
     else:
@@ -508,10 +532,11 @@ def _pem_view(
     q: Any, ex: float, ey: float, eyaw: float, ax: float, ay: float, ayaw: float
 ) -> tuple:
     """One actor at (ax, ay, ayaw) seen from the ego at (ex, ey, eyaw): ``(seen, x0, y0,
-    x1, y1, z, d, s)``, the box clipped to the image [px], the noise-free logit, what the
-    box's geometry adds to the detection term (:func:`detect_offset`) and the score
-    noise's scale factor (:func:`noise_scale`), or ``seen`` False (zeros, ``s`` 1) when
-    the box is not in the image or lower than ``size_min_px``.
+    x1, y1, z, d, s, h)``, the box clipped to the image [px], the noise-free logit, what
+    the box's geometry adds to the detection term (:func:`detect_offset`), the score
+    noise's scale factor (:func:`noise_scale`) and the unclipped box height [px], or
+    ``seen`` False (zeros, ``s`` 1) when the box is not in the image or lower than
+    ``size_min_px``.
 
     The projection (:func:`~sitcov.perception._camera._project`), the features and
     :func:`_logit` in one call, compiled by numba when it is there (``sitcov/_jit.py``;
@@ -524,7 +549,7 @@ def _pem_view(
     )  # fmt: skip
     height = v1 - v0
     if not ok or not visible or height < q[_SIZE_MIN]:
-        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0
     # the side's sine only when its gain is not 0 (0 times any side adds nothing)
     side = _heading_sine(ex, ey, eyaw, q[cam], ax, ay, ayaw) if q[_SIDE_GAIN] != 0.0 else 0.0
     z = _logit(
@@ -535,7 +560,7 @@ def _pem_view(
     d = -q[det] * trunc - q[det + 1] * fill_of(u1 - u0, q[cam + 3])
     s = noise_scale(q[det + 2], height, q[_SIZE_MIN], q[det + 3], q[_SIZE_REF], q[det + 4],
                     q[det + 5])  # fmt: skip
-    return True, x0, y0, x1, y1, z, d, s
+    return True, x0, y0, x1, y1, z, d, s, height
 
 
 #: The length of :func:`_pem_view`'s array: the layout above, ending with the detection
@@ -585,24 +610,27 @@ def _view_kernel() -> Any:
 #: vertical corner noise (``PEMParams.jitter_vertical``), then the outlier frames' cut of
 #: a standard normal (:func:`outlier_cut`) and their noise's scale ratio, then the upper
 #: scale's size exponent over the noise's (:func:`up_size_power`), then the lower tail's
-#: curvature (``noise_low_tail``).
+#: curvature (``noise_low_tail``), then the upper scale's factor in this scene's windy rain
+#: (:func:`up_wind_factor`) and the box height from which it acts
+#: (``noise_up_rain_wind_px``).
 _F_PHI, _F_SHARE, _F_FRESH, _F_SIGMA, _F_RAIN_SIGMA, _F_UP, _F_GAIN, _F_AR, _F_BIAS = range(9)
 _F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(9, 15)
 _F_BOX, _F_JITTER_Y, _F_OUT_CUT, _F_OUT_RATIO, _F_UP_POWER, _F_LOW_TAIL = 15, 19, 20, 21, 22, 23
+_F_UP_WIND, _F_UP_WIND_PX = 24, 25
 #: Most normals :func:`_pem_frame` takes for one actor and frame.
 FRAME_NORMALS = 11
 
 
 #: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
 #: ``track``'s 5, then the view array ``q``).
-_F_N = 24
+_F_N = 26
 
 
 def example_frame_state() -> list[float]:
     """A whole :func:`_pem_frame` state (its :data:`_F_N` constants, a fresh noise track
     of 5 and :func:`example_view_array`) for the compiled kernel's example call."""
     constants = [0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0, 800.0,
-                 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2]  # fmt: skip
+                 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2, 1.3, 100.0]  # fmt: skip
     return [*constants, *[0.0] * 5, *example_view_array()]
 
 
@@ -633,7 +661,7 @@ def _pem_frame(
     ``frame``: this frame's number.
     """
     c, track, q = state[:_F_N], state[_F_N : _F_N + 5], state[_F_N + 5 :]
-    seen, x0, y0, x1, y1, z, d, s = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
+    seen, x0, y0, x1, y1, z, d, s, height = _pem_view(q, ex, ey, eyaw, ax, ay, ayaw)
     if not seen:
         return 0, at, 0.0, 0.0, 0.0, 0.0, 0.0
     if track[4] == 0.0:
@@ -672,6 +700,8 @@ def _pem_frame(
             sig *= c[_F_UP]
         if c[_F_UP_POWER] != 0.0:  # the upper scale's own size gain: s ** (ku / k)
             sig *= s ** c[_F_UP_POWER]
+        if c[_F_UP_WIND] != 1.0 and height >= c[_F_UP_WIND_PX]:  # a close car, windy rain
+            sig *= c[_F_UP_WIND]
     elif n < -LOW_TAIL_KNEE and c[_F_LOW_TAIL] != 0.0 and not outlier:  # the lower tail
         n = low_tail(n, c[_F_LOW_TAIL])
     score = _sigmoid(z + sig * n)
@@ -877,6 +907,7 @@ class PEMSensor(Sensor):
             proj[7],
             *self._colors(actor.color, conditions),
             side,
+            conditions.rain_wind,
         )
 
     def _colors(self, color: Any, conditions: Conditions) -> tuple[float, ...]:
@@ -1068,7 +1099,8 @@ class PEMSensor(Sensor):
             float(self.camera.width), float(self.camera.height),
             p.box_dx0, p.box_dy0, p.box_dx1, p.box_dy1, p.jitter_vertical,
             outlier_cut(p.noise_outlier_share), p.noise_outlier_ratio, up_size_power(p),
-            p.noise_low_tail,
+            p.noise_low_tail, up_wind_factor(p, conditions.rain_wind),
+            p.noise_up_rain_wind_px,
         ]  # fmt: skip
         return np.array(values, dtype=np.float64)
 
@@ -1213,7 +1245,7 @@ class PEMSensor(Sensor):
         rain = conditions.rain_noise
         out = []
         for key, ((q, p, label), pose) in enumerate(actors):
-            seen, x0, y0, x1, y1, z, d, s = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
+            seen, x0, y0, x1, y1, z, d, s, height = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
             if not seen:
                 continue
             n, m = self._noise(key, normals, p)
@@ -1231,6 +1263,9 @@ class PEMSensor(Sensor):
                     sig *= p.noise_up_ratio  # the scores' narrower upper spread
                 if p.noise_up_size_gain != 0.0:  # narrower still on a large box
                     sig *= s ** up_size_power(p)
+                if height >= p.noise_up_rain_wind_px:  # a close car in windy rain
+                    wind = up_wind_factor(p, conditions.rain_wind)
+                    sig = sig * wind if wind != 1.0 else sig
             elif n < -LOW_TAIL_KNEE and p.noise_low_tail != 0.0 and not outlier:
                 n = low_tail(n, p.noise_low_tail)  # the lower tail's stretch
             score = _sigmoid(z + sig * n)

@@ -137,6 +137,14 @@ class PEMParams:
             ``noise_size_gain``): negative, the scores on a close road user reach a
             ceiling the ones on a small box do not (docs/pem.md); 0 (the default, files
             written before it) changes nothing [-].
+        noise_up_rain_wind_gain, noise_up_rain_wind_px: on a box at least
+            ``noise_up_rain_wind_px`` high (unclamped), the logit noise's scale above the
+            median is further times ``exp(noise_up_rain_wind_gain * rain_wind)``, with
+            ``rain_wind`` the scene's precipitation times its wind intensity as fractions
+            (:attr:`sitcov.weather.Conditions.rain_wind`): in windy rain the detector's
+            scores on a close car reach higher than in calm rain, at the same median
+            (the wind slants the rain streaks off the car; docs/pem.md, "The wind in the
+            rain"). 0 (the default, files written before it) changes nothing [-], [px].
         noise_low_tail: the score noise's lower tail beyond one standard unit below the
             median widens with its depth: a latent noise ``n = -1 + x``, ``x < 0``, moves
             the logit by ``sigma (n - noise_low_tail x**2)`` instead of ``sigma n``
@@ -217,6 +225,8 @@ class PEMParams:
     noise_low_tail: float = 0.0
     cut_gain: float = 0.0
     cut_tent_gain: float = 0.0
+    noise_up_rain_wind_gain: float = 0.0
+    noise_up_rain_wind_px: float = 100.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -241,7 +251,7 @@ class PEMParams:
 
     def _check(self, file: str | None) -> None:
         for name in ("size_ref_px", "size_min_px", "size_max_px", "noise_size_max_px",
-                     "noise_bend_px"):  # fmt: skip
+                     "noise_bend_px", "noise_up_rain_wind_px"):  # fmt: skip
             if getattr(self, name) <= 0:
                 raise ConfigError(file=file, field=name, value=getattr(self, name), expected="> 0")
         if self.size_max_px < self.size_min_px:

@@ -13,6 +13,7 @@ from sitcov.weather._conditions import (
     check_profile,
     conditions_from_values,
     fog_transmittance,
+    rain_wind_of,
 )
 
 __all__ = [
@@ -22,4 +23,5 @@ __all__ = [
     "check_profile",
     "conditions_from_values",
     "fog_transmittance",
+    "rain_wind_of",
 ]

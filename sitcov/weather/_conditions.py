@@ -36,6 +36,9 @@ class Conditions:
         illumination: relative scene illumination in (0, 1], 1 = clear noon.
         rain_noise: perception noise intensity in [0, 1] from rain, spray and glare.
         wind_speed: mean wind speed [m/s].
+        rain_wind: the precipitation times the wind intensity, both as fractions of 100
+            [-]: the rain the wind slants, which a camera's detector sees differently
+            (the PEM's ``noise_up_rain_wind_gain``; docs/pem.md, "The wind in the rain").
         wind_lateral_accel: RMS of the wind's lateral acceleration [m/s^2] (0 in the
             ``carla`` physics profile: CARLA's wind moves no vehicle).
         raw: the environment values as given (CARLA units), for renderers.
@@ -48,6 +51,7 @@ class Conditions:
     rain_noise: float = 0.0
     wind_speed: float = 0.0
     wind_lateral_accel: float = 0.0
+    rain_wind: float = 0.0
     raw: dict[str, Any] = field(default_factory=dict)
 
     def transmittance(self, distance: float) -> float:
@@ -175,6 +179,12 @@ def _fraction(values: Mapping[str, Any], name: str) -> float:
     return min(1.0, max(0.0, number / 100.0))
 
 
+def rain_wind_of(values: Mapping[str, Any]) -> float:
+    """:attr:`Conditions.rain_wind` of environment ``values`` (CARLA units): the
+    precipitation times the wind intensity, both as fractions of 100 [-]."""
+    return _fraction(values, "precipitation") * _fraction(values, "wind_intensity")
+
+
 def side_force_accel(wind_speed: float, mass: float = REFERENCE_MASS) -> float:
     """Lateral acceleration of a vehicle in a beam wind [m/s^2]: 0.5 rho C_y A v^2 / m."""
     return 0.5 * AIR_DENSITY * SIDE_FORCE_COEFF * SIDE_AREA * wind_speed * wind_speed / mass
@@ -283,5 +293,6 @@ def conditions_from_values(
         rain_noise=rain_noise,
         wind_speed=wind_speed,
         wind_lateral_accel=side_force_accel(wind_speed) * _RMS_SIN2 if physical else 0.0,
+        rain_wind=rain_wind_of(values),
         raw=raw,
     )

@@ -24,7 +24,7 @@ def _draw(
     fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
     near_gain: float = 0.0, hinge_gain: float = 0.0, outliers: tuple[float, float] = (0.0, 1.0),
     tail: float = 0.0, bend: tuple[float, float] = (0.0, 60.0),
-    rain: tuple[float, float] | None = None,
+    rain: tuple[float, float] | None = None, up_wind: float = 0.0,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -45,7 +45,9 @@ def _draw(
     the noise further scaled by ``max(1, h / knot) ** gain`` (its size gain changes at
     the knot). ``rain``: (gain, wind gain): each run in precipitation 0, 50 or 100 and
     wind 0 or 100 (its situation's values; fractions p and w), its frames' ``rain_noise``
-    0.6 p, and ``gain * 0.6 p - wind gain * p w`` taken from the logit."""
+    0.6 p, and ``gain * 0.6 p - wind gain * p w`` taken from the logit. ``up_wind``: on a
+    box of ``fm.UP_WIND_PX`` or more, a positive noise times ``exp(up_wind * p w)`` (the
+    upper spread in windy rain; needs ``rain``)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -56,7 +58,7 @@ def _draw(
         view = rng.uniform(0.0, math.pi / 2)
         side = 0.0 if side_gain is None else float(rng.choice([-1.0, 1.0])) * math.sin(view)
         situation: dict = {}
-        calm = windy = 0.0
+        calm = windy = p = w = 0.0
         if rain is not None:
             p, w = float(rng.choice([0.0, 0.5, 1.0])), float(rng.choice([0.0, 1.0]))
             situation = {"values": {"precipitation": 100 * p, "wind_intensity": 100 * w}}
@@ -78,6 +80,8 @@ def _draw(
                 noise = sigma * (unit - tail * (unit + 1.0) ** 2)
             if outliers[0] > 0.0 and rng.random() < outliers[0]:
                 noise = outliers[1] * sigma * rng.standard_normal()
+            if up_wind and noise > 0.0 and h >= fm.UP_WIND_PX:
+                noise *= math.exp(up_wind * p * w)
             z += widen * noise
             score = 1.0 / (1.0 + math.exp(-z))
             rec = score if score >= 0.05 else 0.0
@@ -864,6 +868,60 @@ def test_the_held_rain_wind_term_recovers_the_winds_part() -> None:
     assert abs(held_gain(0.0)[0]) < 0.15
 
 
+@pytest.mark.slow
+def test_the_held_upper_wind_term_recovers_the_windy_rains_upper_spread() -> None:
+    """The noise term ``up_rain_wind`` (``--held-term up_rain_wind``): frames whose score
+    noise above the median widens by ``exp(0.6 p w)`` on a box of 100 px or more in rain
+    ``p`` and wind ``w``. Held, its gain comes out near 0.6 and raises the likelihood;
+    drawn without it, near 0. It is written as ``noise_up_rain_wind_gain`` (and the knot as
+    ``noise_up_rain_wind_px``), and the PEM's P(score >= θ) then widens as the fit's."""
+    from sitcov.perception._pem import pass_probability
+
+    def held(up_wind: float) -> tuple[fm.FrameFit, fm.FrameFit, fm.Tracks]:
+        data = _draw(71, runs=240, length=40, share=0.3, rho=0.6, rain=(1.0, 0.0),
+                     up_wind=up_wind)  # fmt: skip
+        t = fm.tracks_of(data)
+        fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0)
+        return fit, fm.fit_held_terms(fit, t, ("up_rain_wind",)), t
+
+    fit, wide, t = held(0.6)
+    assert wide.noise.uw == pytest.approx(0.6, abs=0.25)
+    assert wide.extras == fit.extras and wide.noise.uw_px == fm.UP_WIND_PX
+    assert wide.marginal_loglik(t) - fit.marginal_loglik(t) > 5.0
+    assert wide.loglik(t) > fit.loglik(t)
+    assert abs(held(0.0)[1].noise.uw) < 0.15
+    with pytest.raises(SitcovError, match="already"):
+        fm.fit_held_terms(wide, t, ("up_rain_wind",))
+    params = fm.to_params(wide, PEMParams(), t, [])
+    assert params.noise_up_rain_wind_gain == pytest.approx(wide.noise.uw, abs=1e-4)
+    assert params.noise_up_rain_wind_px == fm.UP_WIND_PX
+    close = PEMFeatures(150.0, 0.3, 0.0, width_px=375.0, facing=1.0, rain_wind=1.0)
+    plain = fm.to_params(fit, PEMParams(), t, [])
+    z = pem_logit(close, params)
+    above = 1.0 / (1.0 + math.exp(-(z + 0.5)))
+    assert pass_probability(close, params, above) > pass_probability(close, plain, above)
+
+
+def test_the_wind_column_is_the_rain_wind_on_a_close_box_only() -> None:
+    """``wind_column``: a frame's ``rain_wind`` on a box of ``uw_px`` or more, 0 below
+    it; None without the gain (the likelihood then reads no column). A run frame stored
+    without ``rain_wind`` (one value fewer, recorded before it) reads its run's."""
+    from sitcov.calibration._camera_runs import stored_features
+
+    data = _draw(5, runs=12, length=40, rain=(1.0, 0.0))
+    t = fm.tracks_of(data)
+    noise = fm.Noise(0.5, 0.5, 0.8, uw=0.4)
+    col = fm.wind_column(t, noise)
+    h = np.array([f.height_px for f in t.feats])
+    assert col == pytest.approx(np.where(h >= 100.0, t.rain_wind, 0.0))
+    assert (col > 0).any() and (h < 100.0).any()
+    assert fm.wind_column(t, fm.Noise(0.5, 0.5, 0.8)) is None
+    values = list(PEMFeatures(120.0, 0.2, 0.0))[:-1]
+    situation = {"values": {"precipitation": 50, "wind_intensity": 80}}
+    assert stored_features(values, situation).rain_wind == pytest.approx(0.4)
+    assert stored_features([*values, 0.1], situation).rain_wind == 0.1
+
+
 def test_the_rain_wind_columns_are_the_runs_rain_times_its_wind() -> None:
     """``rain_wind`` per frame: the run's recorded precipitation times its wind, as
     fractions (0 for a sweep frame and a run without weather values); ``rain_wind_size``
@@ -946,3 +1004,17 @@ def test_calibrate_adds_a_held_term_and_refuses_one_without_a_parameter(
     assert "--held-term cut_tent220" in doc["meta"]["command"]
     assert doc["meta"]["car"]["held_terms"]["gains"] == {"cut_tent220": 0.0}  # none cut
     assert doc["params"]["cut_tent_gain"] == 0.0
+    # the windy rain's noise term after the tent: each fitted in turn, those before held
+    write_frames(fit_file, {"car": _draw(3, runs=40, length=40, rain=(1.0, 0.0), up_wind=0.8)})
+    code, _, err = run_cli(capsys, *args, "--held-term", "cut_tent220", "--held-term",
+                           "up_rain_wind", "--no-refit-with-heldout")  # fmt: skip
+    assert code == 0, err
+    doc = yaml.safe_load(out.read_text())
+    gains = doc["meta"]["car"]["held_terms"]["gains"]
+    assert set(gains) == {"cut_tent220", "up_rain_wind"} and gains["up_rain_wind"] > 0.2
+    assert doc["params"]["noise_up_rain_wind_gain"] == gains["up_rain_wind"]
+    assert doc["params"]["noise_up_rain_wind_px"] == fm.UP_WIND_PX
+    t = fm.tracks_of(read_frames(fit_file)["car"])
+    fit = fm.fit_candidate(t, fm.CANDIDATES[1], PEMParams().size_ref_px, stages=2)
+    in_turn = fm.fit_held_terms(fm.fit_held_terms(fit, t, ("cut_tent220",)), t, ("up_rain_wind",))
+    assert gains["up_rain_wind"] == pytest.approx(in_turn.noise.uw, abs=1e-4)

@@ -461,12 +461,14 @@ def test_detections_are_valid(name):
 N_FRAMES, TOLERANCE = 1500, 0.06
 
 
-def _sampled_rate(sensor: PEMSensor, actor: ActorView, theta: float, rng) -> float:
+def _sampled_rate(
+    sensor: PEMSensor, actor: ActorView, theta: float, rng, conditions: Conditions = CLEAR
+) -> float:
     """The share of :data:`N_FRAMES` independent frames (a fresh noise track each) in
-    which ``sensor`` reports ``actor`` with a score >= ``theta``."""
+    which ``sensor`` reports ``actor`` with a score >= ``theta`` (in ``conditions``)."""
     hits = sum(
         any(d.score >= theta for d in sensor.detect(
-            EGO, (actor,), CLEAR, np.random.default_rng(rng.integers(1 << 62))))
+            EGO, (actor,), conditions, np.random.default_rng(rng.integers(1 << 62))))
         for _ in range(N_FRAMES)
     )  # fmt: skip
     return hits / N_FRAMES
@@ -531,6 +533,50 @@ def test_outlier_frames_and_the_upper_size_gain_are_sampled_as_the_model_says():
         PEMParams.from_mapping({"noise_size_gain": 0.0, "noise_up_size_gain": -0.3})
     with pytest.raises(ConfigError, match="noise_outlier_share"):
         PEMParams.from_mapping({"noise_outlier_share": 1.5})
+
+
+def test_the_upper_spread_in_windy_rain_is_sampled_as_the_model_says():
+    """``noise_up_rain_wind_gain``/``_px``: in windy rain, sampled frames of a close car
+    (box above the knot) and a far one reach θ = 0.5 and 0.7 as often as
+    ``pass_probability`` says; the wind raises the close car's P(score >= θ) for a θ above
+    its noise-free score and leaves the far car's and the calm rain's as they were; a
+    gain of 0 is the model without it; a knot of 0 px is refused."""
+    base = {"bias": 1.0, "noise_sigma": 0.5, "noise_tau": 0.0, "noise_frame_share": 0.0,
+            "noise_run_share": 0.0, "noise_up_ratio": 0.8, "rain_miss": 0.0,
+            "rain_sigma": 0.0, "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0,
+            "noise_size_gain": 0.0, "noise_low_tail": 0.0, "noise_outlier_share": 0.0,
+            "noise_up_size_gain": 0.0, "noise_up_rain_wind_gain": 0.0,
+            "noise_up_rain_wind_px": 50.0}  # fmt: skip
+    plain = PEMSensor(base)  # (the shipped car PEM has a gain of its own)
+    windy_pem = PEMSensor({**base, "noise_up_rain_wind_gain": 0.8})
+    windy = conditions_from_values({"precipitation": 80, "wind_intensity": 80})
+    calm = conditions_from_values({"precipitation": 80, "wind_intensity": 0})
+    assert windy.rain_wind == pytest.approx(0.64) and calm.rain_wind == 0.0
+    near, far = car(6.0, 0.0, math.pi / 2), car(25.0, -2.0, 0.3)
+    f_near, f_far = (windy_pem.features(EGO, a, windy) for a in (near, far))
+    assert f_near.height_px >= 50.0 > f_far.height_px
+    assert f_near.rain_wind == pytest.approx(0.64)
+    rng = np.random.default_rng(23)
+    for actor, f in ((near, f_near), (far, f_far)):
+        for theta in (0.5, 0.7):
+            expected = pass_probability(f, windy_pem.params, theta)
+            rate = _sampled_rate(windy_pem, actor, theta, rng, windy)
+            assert rate == pytest.approx(expected, abs=TOLERANCE)
+    z = pem_logit(f_near, plain.params)
+    above = 1.0 / (1.0 + math.exp(-(z + 0.5)))  # the upper spread decides
+    assert (
+        pass_probability(f_near, windy_pem.params, above)
+        > pass_probability(f_near, plain.params, above) + 0.05
+    )
+    f_calm = windy_pem.features(EGO, near, calm)
+    assert pass_probability(f_calm, windy_pem.params, above) == pass_probability(
+        f_calm, plain.params, above
+    )
+    assert pass_probability(f_far, windy_pem.params, 0.7) == pass_probability(
+        f_far, plain.params, 0.7
+    )
+    with pytest.raises(ConfigError, match="noise_up_rain_wind_px"):
+        PEMParams.from_mapping({"noise_up_rain_wind_px": 0.0})
 
 
 def test_the_lower_tail_is_sampled_as_the_model_says():
