@@ -151,7 +151,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", type=Path, help="write the result here")
     args = ap.parse_args(argv)
 
-    from sitcov.calibration._frame_model import fit_held_terms, split_runs, tracks_of
+    from sitcov.calibration._frame_model import (
+        UP_RAIN_WIND,
+        fit_held_terms,
+        split_runs,
+        tracks_of,
+    )
     from sitcov.calibration._frames import read_frames
     from sitcov.perception._pem_params import load_pem_params
 
@@ -172,7 +177,7 @@ def main(argv: list[str] | None = None) -> int:
     fits = []
     for names in TERM_SETS:
         fit = fit_held_terms(base, t, names)
-        gains = dict(zip(fit.extras, fit.gains, strict=True)) | {"up_rain_wind": fit.noise.uw}
+        gains = dict(zip(fit.extras, fit.gains, strict=True)) | {UP_RAIN_WIND: fit.noise.uw}
         gains = {n: gains[n] for n in names}
         gain = {"fit file": round(per_frame(fit, t) - per_frame(base, t), 4)}
         gain |= {k: round(per_frame(fit, h) - per_frame(base, h), 4) for k, h in held.items()}

@@ -610,10 +610,12 @@ def _kernel(u: np.ndarray, rho: float) -> np.ndarray:
 #: better on every file (``benchmarks/pem_rain_wind.py``; docs/pem.md, "The wind in the
 #: rain, on frames").
 UP_WIND_PX = 100.0
+#: The held term of the upper scale's gain in windy rain on a box of :data:`UP_WIND_PX` or
+#: more (``Noise.uw``).
+UP_RAIN_WIND = "up_rain_wind"
 #: Held terms of the score noise rather than of the logit (:func:`fit_held_terms`) and
-#: their PEM parameter: ``up_rain_wind`` the upper scale's gain in windy rain on a box of
-#: :data:`UP_WIND_PX` or more (``Noise.uw``).
-NOISE_HELD_TERMS = {"up_rain_wind": "noise_up_rain_wind_gain"}
+#: their PEM parameter.
+NOISE_HELD_TERMS = {UP_RAIN_WIND: "noise_up_rain_wind_gain"}
 
 
 @dataclass(frozen=True)
@@ -1181,8 +1183,8 @@ def fit_held_terms(fit: FrameFit, t: Tracks, names: Sequence[str]) -> FrameFit:
     if not names:
         return fit
     clash = [n for n in names if n in fit.extras]
-    if "up_rain_wind" in names and fit.noise.uw != 0.0:
-        clash.append("up_rain_wind")
+    if UP_RAIN_WIND in names and fit.noise.uw != 0.0:
+        clash.append(UP_RAIN_WIND)
     if clash:
         raise SitcovError(f"held terms {clash} are already terms of the fit")
     y, obs = _observed(t)
@@ -1608,7 +1610,7 @@ def fit_kind(
         "marginal_loglik_per_frame": round(fit.marginal_loglik(t) / max(1, len(t.score)), 4),
     }
     if held_terms:
-        gains = dict(zip(fit.extras, fit.gains, strict=True)) | {"up_rain_wind": nz.uw}
+        gains = dict(zip(fit.extras, fit.gains, strict=True)) | {UP_RAIN_WIND: nz.uw}
         summary["held_terms"] = {
             "gains": {n: round(gains[n], 4) for n in held_terms},
             "marginal_loglik_per_frame_without": round(before, 4),
