@@ -1263,9 +1263,8 @@ class PEMSensor(Sensor):
                     sig *= p.noise_up_ratio  # the scores' narrower upper spread
                 if p.noise_up_size_gain != 0.0:  # narrower still on a large box
                     sig *= s ** up_size_power(p)
-                if height >= p.noise_up_rain_wind_px:  # a close car in windy rain
-                    wind = up_wind_factor(p, conditions.rain_wind)
-                    sig = sig * wind if wind != 1.0 else sig
+                if height >= p.noise_up_rain_wind_px:  # a close car in windy rain (x 1: same)
+                    sig *= up_wind_factor(p, conditions.rain_wind)
             elif n < -LOW_TAIL_KNEE and p.noise_low_tail != 0.0 and not outlier:
                 n = low_tail(n, p.noise_low_tail)  # the lower tail's stretch
             score = _sigmoid(z + sig * n)

@@ -36,11 +36,11 @@ class Conditions:
         illumination: relative scene illumination in (0, 1], 1 = clear noon.
         rain_noise: perception noise intensity in [0, 1] from rain, spray and glare.
         wind_speed: mean wind speed [m/s].
+        wind_lateral_accel: RMS of the wind's lateral acceleration [m/s^2] (0 in the
+            ``carla`` physics profile: CARLA's wind moves no vehicle).
         rain_wind: the precipitation times the wind intensity, both as fractions of 100
             [-]: the rain the wind slants, which a camera's detector sees differently
             (the PEM's ``noise_up_rain_wind_gain``; docs/pem.md, "The wind in the rain").
-        wind_lateral_accel: RMS of the wind's lateral acceleration [m/s^2] (0 in the
-            ``carla`` physics profile: CARLA's wind moves no vehicle).
         raw: the environment values as given (CARLA units), for renderers.
     """
 
