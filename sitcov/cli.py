@@ -1277,8 +1277,17 @@ def calibrate_cmd(
         None,
         "--check-by",
         help="--check: split each class and band further by approach (the side the road "
-        "user comes from), view (front, side, rear), rain (the situation's precipitation) "
-        "or cut (the box cut by the image edge or whole).",
+        "user comes from), view (front, side, rear), rain (the situation's precipitation), "
+        "cut (the box cut by the image edge or whole) or bin:ELEMENT (the run's bin of a "
+        "hyperspace element, e.g. bin:intsit).",
+    ),
+    check_tracks: bool = typer.Option(
+        False,
+        "--check-tracks",
+        help="--check: judge tracks, not frames: the share of road users' tracks with "
+        "some frame in the band at or above θ, against the PEM's chance of it (its noise "
+        "carried from frame to frame); --check-by then takes approach, rain or bin:ELEMENT "
+        '(docs/pem.md, "The law over consecutive frames").',
     ),
     check: Optional[Path] = typer.Option(  # noqa: UP045
         None,
@@ -1298,7 +1307,8 @@ def calibrate_cmd(
     from rich.progress import Progress
 
     if check is not None:
-        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs, seed, check_by)
+        _check_frames_cmd(check, kinds, pem, pem_classes, check_runs, seed, check_by,
+                          check_tracks)  # fmt: skip
         return
     if frames_from:
         _frame_model_cmd(frames_from, cv_folds or 5, seed, out, classes_out, workers, heldout,
@@ -1459,11 +1469,12 @@ def _frame_model_cmd(
 
 def _check_frames_cmd(
     path: Path, kinds: str, pem: Path | None, pem_classes: Path | None, part: str = "all",
-    seed: int = 0, split: str | None = None,
+    seed: int = 0, split: str | None = None, tracks: bool = False,
 ) -> None:  # fmt: skip
     """``sitcov calibrate --check``: the frame model's done-when table (docs/pem.md), each
     cell with its run-bootstrap interval (drawn from ``seed``); ``split`` (``--check-by``)
-    cuts each class and band further (``_frame_check.SPLITS``)."""
+    cuts each class and band further (``_frame_check.SPLITS`` or a bin split); ``tracks``
+    (``--check-tracks``) judges road users' tracks instead of frames."""
     import numpy as np
 
     from sitcov.calibration import _frame_check as fc
@@ -1477,8 +1488,14 @@ def _check_frames_cmd(
 
     if part not in ("all", "odd", "even"):
         raise ConfigError(field="--check-runs", value=part, expected="all | odd | even")
-    if split is not None and split not in fc.SPLITS:
-        raise ConfigError(field="--check-by", value=split, expected=" | ".join(fc.SPLITS))
+    if split is not None:
+        by_run = (*fc.RUN_SPLITS, f"{fc.BIN_SPLIT}ELEMENT")
+        known = split in (fc.RUN_SPLITS if tracks else fc.SPLITS) or (
+            split.startswith(fc.BIN_SPLIT) and len(split) > len(fc.BIN_SPLIT)
+        )
+        if not known:
+            expected = " | ".join(by_run) if tracks else fc.split_names()
+            raise ConfigError(field="--check-by", value=split, expected=expected)
     frames = {k: split_runs(v, part) for k, v in read_frames(path).items() if k in names}
     classes = load_class_params(pem_classes)
     lacking = sorted(k for k in frames if k != "car" and k not in classes)
@@ -1490,7 +1507,11 @@ def _check_frames_cmd(
             field="classes", value=",".join(lacking), expected="an entry for every kind checked",
         )  # fmt: skip
     params = {k: load_pem_params(pem) if k == "car" else classes[k][1] for k in frames}
-    rows = fc.check_frames(frames, params, rng=np.random.default_rng(seed), split=split)
+    check = fc.check_tracks if tracks else fc.check_frames
+    rows = check(frames, params, rng=np.random.default_rng(seed), split=split)
+    if tracks:
+        console.print("per track: n counts tracks; detector and PEM: P(some frame of the "
+                      "track in the band reaches θ)", highlight=False, markup=False)  # fmt: skip
     for line in fc.table_lines(rows):
         console.print(line, highlight=False, markup=False, soft_wrap=True)
     if not all(r.get("ok", True) for r in rows):

@@ -20,6 +20,14 @@ colour, model, path and the detector's bursts. So each difference carries a 95 %
 interval from a bootstrap over the recorded runs (:func:`run_interval`, resampled whole),
 and a cell whose interval lies wholly outside ±:data:`TOLERANCE` is a *significant*
 miss: the frames show the PEM off there, not only the sample's scatter.
+
+A frame's law is not yet a verdict's: a stack brakes on the first frame that passes its
+test, so what decides a run is whether *some* frame of the road user's track reaches θ,
+which depends on how the noise runs from frame to frame (its AR(1) state, ``noise_tau``).
+``tracks`` (:func:`check_tracks`, ``--check-tracks``) judges that law: per (class, band,
+θ), the share of tracks (one road user's frames in one run) with a frame in the band at or
+above θ, against the PEM's chance of it (:func:`track_pass_probability`, a filter over the
+AR state on the same frames).
 """
 
 from __future__ import annotations
@@ -30,10 +38,11 @@ from typing import Any
 
 import numpy as np
 
+from sitcov.calibration._camera_runs import FRAME_PERIOD
 from sitcov.calibration._frames import KIND_LABEL, KindFrames
 from sitcov.errors import SitcovError
 from sitcov.hyperspace._situation import approach_side
-from sitcov.perception._pem import PEMParams
+from sitcov.perception._pem import PEMParams, pass_given_state
 from sitcov.perception._pem import pass_probability as _pass
 
 #: Distance bands [m] of the check (lower bound inclusive).
@@ -94,6 +103,13 @@ SPLITS: dict[str, tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]
     "rain": (_rain, ("dry", "light rain", "heavy rain", "unknown")),
     "cut": (_cut, ("whole", "cut")),
 }
+#: A split by the run's bin of one hyperspace element: ``bin:`` and the element's name
+#: (``bin:intsit``, ``bin:wind_intensity``); its groups are the bins found, in natural
+#: order (``unknown`` for a run without that element).
+BIN_SPLIT = "bin:"
+#: The splits whose group is the run's, the same for every frame of a track (the only
+#: ones :func:`check_tracks` can use; besides :data:`BIN_SPLIT`).
+RUN_SPLITS = ("approach", "rain")
 
 
 def pass_probability(params: PEMParams, feats: Any, theta: float) -> float:
@@ -119,13 +135,39 @@ def frames_of(
 
 
 def _split(name: str) -> tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]]:
-    """:data:`SPLITS` ``[name]``, or an error naming the splits there are."""
+    """:data:`SPLITS` ``[name]`` or a :data:`BIN_SPLIT` (its groups empty: found in the
+    data), or an error naming the splits there are."""
+    if name.startswith(BIN_SPLIT) and name[len(BIN_SPLIT) :]:
+        element = name[len(BIN_SPLIT) :]
+        return (lambda feats, situation: str(situation.get("bins", {}).get(element, "unknown"))), ()
     try:
         return SPLITS[name]
     except KeyError:
         raise SitcovError(
-            f"unknown split {name!r} of the check; expected one of {', '.join(SPLITS)}"
+            f"unknown split {name!r} of the check; expected one of {', '.join(SPLITS)} or "
+            f"{BIN_SPLIT}ELEMENT (a hyperspace element, e.g. {BIN_SPLIT}intsit)"
         ) from None
+
+
+def split_names() -> str:
+    """The splits :func:`check_frames` takes, for messages."""
+    return " | ".join((*SPLITS, f"{BIN_SPLIT}ELEMENT"))
+
+
+def _natural(label: str) -> tuple[Any, ...]:
+    """Sort key of a bin label: its runs of digits as numbers (``IntSit-2`` before
+    ``IntSit-10``, ``20`` before ``100``)."""
+    import re
+
+    return tuple(int(p) if p.isdigit() else p for p in re.split(r"(\d+)", label))
+
+
+def _groups(split: str | None, found: Sequence[str]) -> tuple[str, ...]:
+    """The groups of ``split`` in print order (those found in the data for a bin split;
+    ``("",)`` without a split)."""
+    if not split:
+        return ("",)
+    return _split(split)[1] or tuple(sorted(set(found), key=_natural))
 
 
 def run_interval(
@@ -158,10 +200,10 @@ def check_frames(
     (``significant``). With ``split`` (a name of :data:`SPLITS`) one row per (kind, band,
     group, θ) instead, ``group`` naming the group (a group with no frames in the band is
     left out)."""
-    groups = _split(split)[1] if split else ("",)
     rows = []
     for kind, data in frames.items():
         got = frames_of(data, split)
+        groups = _groups(split, [g for *_, g in got])
         for lo, hi in bands:
             for group in groups:
                 sel = [(f, s, r) for f, s, d, r, g in got if lo <= d < hi and g == group]
@@ -186,6 +228,136 @@ def _cell_rows(
         if len(sel) >= MIN_FRAMES:
             hit = np.asarray([s >= theta for _, s, _ in sel])
             prob = np.asarray([pass_probability(p, f, theta) for f, _, _ in sel])
+            det, pem = float(np.mean(hit)), float(np.mean(prob))
+            row.update(detector=round(det, 4), pem=round(pem, 4),
+                       difference=round(pem - det, 4),
+                       ok=abs(pem - det) <= TOLERANCE)  # fmt: skip
+            if rng is not None:
+                low, high = run_interval(prob, hit, run, rng)
+                row.update(low=round(low, 4), high=round(high, 4),
+                           significant=low > TOLERANCE or high < -TOLERANCE)  # fmt: skip
+        rows.append(row)
+    return rows
+
+
+#: Nodes of the AR(1) state's grid in :func:`track_pass_probability`, over
+#: ±:data:`TRACK_GRID_HALF` standard units (41 give every shipped class's track chances
+#: within 0.002 of 161's on the recorded frames: ``tests/calibration/test_frame_check.py``).
+TRACK_GRID = 41
+TRACK_GRID_HALF = 5.0
+
+
+def track_pass_probability(
+    params: PEMParams, frames: Sequence[tuple[int, Any]], theta: float,
+    frame_dt: float = FRAME_PERIOD, nodes: int = TRACK_GRID,
+) -> float:  # fmt: skip
+    """The PEM's chance that some frame of one road user's track reaches ``theta``:
+    ``frames`` its (frame number, features) in time order, frames ``frame_dt`` [s] apart.
+
+    The frames share the noise's AR(1) state ``u`` (coefficient ``exp(-frame_dt /
+    noise_tau)`` per frame, ``phi ** gap`` across a gap); given it, each frame passes
+    independently (:func:`sitcov.perception._pem.pass_given_state`: its detection, its
+    fresh noise, its outlier draw). So P(no frame passes) is a forward filter over ``u``
+    on a grid of ``nodes`` points, each frame's step multiplying by P(it does not pass |
+    u). A file with a noise part constant over a run (``noise_run_share`` > 0) is refused:
+    the filter would need that part too (every shipped class has none)."""
+    from sitcov.calibration._frame_model import _kernel
+
+    _need_no_run_share(params)
+    u = np.linspace(-TRACK_GRID_HALF, TRACK_GRID_HALF, nodes)
+    alpha = np.exp(-0.5 * u * u)
+    alpha /= alpha.sum()
+    phi = math.exp(-frame_dt / params.noise_tau) if params.noise_tau > 0.0 else 0.0
+    kernels: dict[int, np.ndarray] = {}
+    prev = None
+    for number, feats in frames:
+        if prev is not None:
+            gap = max(1, int(number) - prev)
+            if gap not in kernels:
+                kernels[gap] = _kernel(u, phi**gap)
+            alpha = alpha @ kernels[gap]
+        alpha = alpha * (1.0 - np.asarray(pass_given_state(feats, params, theta, u)))
+        prev = int(number)
+    return float(1.0 - alpha.sum())
+
+
+def _need_no_run_share(params: PEMParams) -> None:
+    """Refuse parameters with a noise part constant over a run (the filter has no state
+    for it)."""
+    if params.noise_run_share > 0.0:
+        raise SitcovError(
+            f"the track check needs noise_run_share 0 (a noise part constant over a run is "
+            f"not filtered); these parameters have {params.noise_run_share}"
+        )
+
+
+def tracks_of_runs(
+    data: KindFrames, band: tuple[float, float], split: str | None = None
+) -> list[tuple[list[tuple[int, Any, float]], int, str]]:
+    """Each road user's track in each run, cut to its frames in the distance ``band``
+    (``lo <= d < hi``): ((frame number, features, score) in time order, run number, group
+    of :data:`RUN_SPLITS` or a bin split, "" without one); a track with no frame there is
+    left out. Frames without a recorded number (-1) count as consecutive."""
+    if split and not (split in RUN_SPLITS or split.startswith(BIN_SPLIT)):
+        raise SitcovError(
+            f"the track check splits by the run only ({', '.join(RUN_SPLITS)} or "
+            f"{BIN_SPLIT}ELEMENT); {split!r} changes from frame to frame"
+        )
+    group = _split(split)[0] if split else None
+    lo, hi = band
+    out = []
+    for i, run in enumerate(data.runs):
+        situation = run.situation or {}
+        by_actor: dict[int, list[tuple[int, Any, float]]] = {}
+        for k, f in enumerate(run.frames):
+            if f.features.height_px >= 1.0 and f.distance >= 0.0 and lo <= f.distance < hi:
+                number = f.frame if f.frame >= 0 else k
+                by_actor.setdefault(f.actor, []).append((number, f.features, f.score))
+        g = group(None, situation) if group else ""
+        out += [(sorted(t, key=lambda x: x[0]), i, g) for t in by_actor.values()]
+    return out
+
+
+def check_tracks(
+    frames: Mapping[str, KindFrames], params: Mapping[str, PEMParams],
+    thetas: Sequence[float] = THETAS, bands: Sequence[tuple[float, float]] = BANDS,
+    rng: np.random.Generator | None = None, split: str | None = None,
+) -> list[dict[str, Any]]:  # fmt: skip
+    """:func:`check_frames` per track: one row per (kind, band, [group,] θ) whose ``n``
+    counts tracks, ``detector`` the share of them with a frame in the band whose
+    recorded score reaches θ and ``pem`` the mean of :func:`track_pass_probability` over
+    them; the interval (with ``rng``) resamples the runs, whole. ``split``: one of
+    :data:`RUN_SPLITS` or a bin split."""
+    for p in params.values():
+        _need_no_run_share(p)
+    rows = []
+    for kind, data in frames.items():
+        for lo, hi in bands:
+            got = tracks_of_runs(data, (lo, hi), split)
+            for group in _groups(split, [g for *_, g in got]):
+                sel = [(t, r) for t, r, g in got if g == group]
+                if split and not sel:
+                    continue
+                head = {"kind": kind, "label": KIND_LABEL[kind], "band": f"{lo:g}-{hi:g} m"}
+                head.update({"group": group} if split else {})
+                rows += _track_rows(head, sel, params[kind], thetas, rng)
+    return rows
+
+
+def _track_rows(
+    head: Mapping[str, Any], sel: Sequence[tuple[Sequence[tuple[int, Any, float]], int]],
+    p: PEMParams, thetas: Sequence[float], rng: np.random.Generator | None,
+) -> list[dict[str, Any]]:  # fmt: skip
+    """:func:`check_tracks`' rows of one cell's tracks ``sel`` (frames, run), one per θ."""
+    run = np.asarray([r for _, r in sel], dtype=int)
+    rows = []
+    for theta in thetas:
+        row: dict[str, Any] = {**head, "theta": theta, "n": len(sel), "runs": len(np.unique(run))}
+        if len(sel) >= MIN_FRAMES:
+            hit = np.asarray([any(s >= theta for _, _, s in t) for t, _ in sel])
+            prob = np.asarray([
+                track_pass_probability(p, [(n, f) for n, f, _ in t], theta) for t, _ in sel
+            ])  # fmt: skip
             det, pem = float(np.mean(hit)), float(np.mean(prob))
             row.update(detector=round(det, 4), pem=round(pem, 4),
                        difference=round(pem - det, 4),

@@ -377,49 +377,102 @@ def pass_probability(
     ``sigma n`` below 0 and ``sigma noise_up_ratio n`` above (module docstring; times
     :func:`up_wind_factor` on a box of ``noise_up_rain_wind_px`` or more), ``sigma`` times
     :func:`noise_scale` of the box's height."""
-    if features.height_px < params.size_min_px:
+    law = _PassLaw.of(features, params, threshold, image_width)
+    if law is None:
         return 0.0
     nodes, weights = _hermite()
-    theta = min(max(threshold, params.floor, 1e-12), 1.0 - 1e-12)
-    sigma = params.noise_sigma + params.rain_sigma * features.rain_noise
-    sigma *= noise_scale(params.noise_size_gain, features.height_px, params.size_min_px,
-                         params.noise_size_max_px, params.size_ref_px,
-                         params.noise_bend_gain, params.noise_bend_px)  # fmt: skip
-    z = pem_logit(features, params)
-    gap = z - math.log(theta / (1.0 - theta))
-    keep = 1.0 - params.rain_miss * features.rain_noise
-    ar = 1.0 - params.noise_run_share - params.noise_frame_share
-    ar = ar if ar > 0.0 else 0.0
-    upper = sigma * params.noise_up_ratio
-    if params.noise_up_size_gain != 0.0:
-        upper *= noise_scale(params.noise_up_size_gain, features.height_px,
-                             params.size_min_px, params.noise_size_max_px,
-                             params.size_ref_px)  # fmt: skip
-    if features.height_px >= params.noise_up_rain_wind_px:
-        upper *= up_wind_factor(params, features.rain_wind)
-    if sigma <= 0.0:
-        need = -math.inf if gap >= 0.0 else math.inf
-    else:
-        need = -gap / sigma if gap > 0.0 else -gap / upper
-        if params.noise_low_tail != 0.0:  # the lower tail (below its knee only)
-            need = low_tail_inverse(need, params.noise_low_tail)
-    base = params.detect_bias + params.detect_gain * z
-    base += detect_offset(features, params, image_width)
-    share, outlier = params.noise_outlier_share, 0.0
-    if share > 0.0:  # P(an outlier frame's wide noise reaches θ), independent of u
-        wide = sigma * params.noise_outlier_ratio
-        outlier = _normal_cdf(gap / wide) if wide > 0.0 else float(gap >= 0.0)
     total = 0.0
     for u, w in zip(nodes, weights, strict=True):
-        out = base + params.detect_ar * u
+        detected, passes = law.at(u)
+        total += w * detected * passes
+    return law.keep * total
+
+
+def pass_given_state(
+    features: PEMFeatures, params: PEMParams, threshold: float, states: Sequence[float],
+    image_width: float = 800.0,
+) -> list[float]:  # fmt: skip
+    """P(the sensor reports this frame's actor with a score >= ``threshold``) given the
+    noise's AR(1) state ``u`` (one value per entry of ``states``): the law
+    :func:`pass_probability` averages over ``u``. A track's frames share that state
+    (``u_t = phi u_{t-1} + ...``), so the chance that *some* frame of a track reaches a
+    threshold is a filter over it (``sitcov.calibration._frame_check.track_pass_probability``).
+    The rain's frame drops (``rain_miss``) are taken as independent of ``u``."""
+    law = _PassLaw.of(features, params, threshold, image_width)
+    if law is None:
+        return [0.0] * len(states)
+    out = []
+    for u in states:
+        detected, passes = law.at(u)
+        out.append(law.keep * detected * passes)
+    return out
+
+
+class _PassLaw(NamedTuple):
+    """One frame's law of reaching a threshold, given the AR(1) state (the constants of
+    :func:`pass_probability`): the detection term's argument without the state ``base``,
+    the standard units the noise must reach ``need``, the AR part's variance share ``ar``,
+    the outlier frames' share and their chance ``outlier``, the rain's keep share ``keep``
+    and the detection term's gain on the state ``detect_ar``."""
+
+    base: float
+    need: float
+    ar: float
+    share: float
+    outlier: float
+    keep: float
+    detect_ar: float
+
+    @classmethod
+    def of(
+        cls, features: PEMFeatures, params: PEMParams, threshold: float, image_width: float
+    ) -> _PassLaw | None:
+        """The law of ``features`` (None for a box lower than ``size_min_px``)."""
+        if features.height_px < params.size_min_px:
+            return None
+        theta = min(max(threshold, params.floor, 1e-12), 1.0 - 1e-12)
+        sigma = params.noise_sigma + params.rain_sigma * features.rain_noise
+        sigma *= noise_scale(params.noise_size_gain, features.height_px, params.size_min_px,
+                             params.noise_size_max_px, params.size_ref_px,
+                             params.noise_bend_gain, params.noise_bend_px)  # fmt: skip
+        z = pem_logit(features, params)
+        gap = z - math.log(theta / (1.0 - theta))
+        keep = 1.0 - params.rain_miss * features.rain_noise
+        ar = 1.0 - params.noise_run_share - params.noise_frame_share
+        ar = ar if ar > 0.0 else 0.0
+        upper = sigma * params.noise_up_ratio
+        if params.noise_up_size_gain != 0.0:
+            upper *= noise_scale(params.noise_up_size_gain, features.height_px,
+                                 params.size_min_px, params.noise_size_max_px,
+                                 params.size_ref_px)  # fmt: skip
+        if features.height_px >= params.noise_up_rain_wind_px:
+            upper *= up_wind_factor(params, features.rain_wind)
+        if sigma <= 0.0:
+            need = -math.inf if gap >= 0.0 else math.inf
+        else:
+            need = -gap / sigma if gap > 0.0 else -gap / upper
+            if params.noise_low_tail != 0.0:  # the lower tail (below its knee only)
+                need = low_tail_inverse(need, params.noise_low_tail)
+        base = params.detect_bias + params.detect_gain * z
+        base += detect_offset(features, params, image_width)
+        share, outlier = params.noise_outlier_share, 0.0
+        if share > 0.0:  # P(an outlier frame's wide noise reaches θ), independent of u
+            wide = sigma * params.noise_outlier_ratio
+            outlier = _normal_cdf(gap / wide) if wide > 0.0 else float(gap >= 0.0)
+        return cls(base, need, ar, share, outlier, keep, params.detect_ar)
+
+    def at(self, u: float) -> tuple[float, float]:
+        """(P(the detector outputs the actor), P(its score reaches the threshold)) given
+        the AR(1) state ``u``."""
+        out = self.base + self.detect_ar * u
+        ar, need = self.ar, self.need
         if ar >= 1.0 or math.isinf(need):
             passes = 1.0 if math.sqrt(ar) * u >= need else 0.0
         else:
             passes = _normal_cdf((math.sqrt(ar) * u - need) / math.sqrt(1.0 - ar))
-        if share > 0.0:
-            passes = (1.0 - share) * passes + share * outlier
-        total += w * _normal_cdf(out) * passes
-    return keep * total
+        if self.share > 0.0:
+            passes = (1.0 - self.share) * passes + self.share * self.outlier
+        return _normal_cdf(out), passes
 
 
 _HERMITE: tuple[list[float], list[float]] | None = None
