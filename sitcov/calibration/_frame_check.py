@@ -42,7 +42,7 @@ from sitcov.calibration._camera_runs import FRAME_PERIOD
 from sitcov.calibration._frames import KIND_LABEL, KindFrames
 from sitcov.errors import SitcovError
 from sitcov.hyperspace._situation import approach_side
-from sitcov.perception._pem import PEMParams, pass_given_state
+from sitcov.perception._pem import PEMParams, pass_given_state, tau_steps
 from sitcov.perception._pem import pass_probability as _pass
 
 #: Distance bands [m] of the check (lower bound inclusive).
@@ -254,8 +254,9 @@ def track_pass_probability(
     """The PEM's chance that some frame of one road user's track reaches ``theta``:
     ``frames`` its (frame number, features) in time order, frames ``frame_dt`` [s] apart.
 
-    The frames share the noise's AR(1) state ``u`` (coefficient ``exp(-frame_dt /
-    noise_tau)`` per frame, ``phi ** gap`` across a gap); given it, each frame passes
+    The frames share the noise's AR(1) state ``u`` (coefficient ``phi = exp(-frame_dt /
+    noise_tau)`` per frame, ``phi ** (gap * tau_steps)`` across a gap into a frame,
+    :func:`sitcov.perception._pem.tau_steps` of its box); given it, each frame passes
     independently (:func:`sitcov.perception._pem.pass_given_state`: its detection, its
     fresh noise, its outlier draw). So P(no frame passes) is a forward filter over ``u``
     on a grid of ``nodes`` points, each frame's step multiplying by P(it does not pass |
@@ -268,14 +269,14 @@ def track_pass_probability(
     alpha = np.exp(-0.5 * u * u)
     alpha /= alpha.sum()
     phi = math.exp(-frame_dt / params.noise_tau) if params.noise_tau > 0.0 else 0.0
-    kernels: dict[int, np.ndarray] = {}
+    kernels: dict[float, np.ndarray] = {}
     prev = None
     for number, feats in frames:
         if prev is not None:
-            gap = max(1, int(number) - prev)
-            if gap not in kernels:
-                kernels[gap] = _kernel(u, phi**gap)
-            alpha = alpha @ kernels[gap]
+            steps = max(1, int(number) - prev) * tau_steps(params, feats.height_px)
+            if steps not in kernels:
+                kernels[steps] = _kernel(u, phi**steps)
+            alpha = alpha @ kernels[steps]
         alpha = alpha * (1.0 - np.asarray(pass_given_state(feats, params, theta, u)))
         prev = int(number)
     return float(1.0 - alpha.sum())

@@ -605,6 +605,13 @@ def _kernel(u: np.ndarray, rho: float) -> np.ndarray:
     return k / k.sum(axis=1, keepdims=True)
 
 
+def _kernels(u: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """:func:`_kernel` for each coefficient of ``rho`` (an array: one kernel each)."""
+    sd = np.sqrt(np.maximum(1e-12, 1.0 - rho * rho))[:, None, None]
+    k = np.exp(-0.5 * ((u[None, None, :] - rho[:, None, None] * u[None, :, None]) / sd) ** 2)
+    return k / k.sum(axis=2, keepdims=True)
+
+
 #: The box height [px] from which the windy rain's upper-scale term acts (``Noise.uw_px``,
 #: PEM ``noise_up_rain_wind_px``): profiled at 60 and 100 px on the car's frames, 100 the
 #: better on every file (``benchmarks/pem_rain_wind.py``; docs/pem.md, "The wind in the
@@ -613,9 +620,13 @@ UP_WIND_PX = 100.0
 #: The held term of the upper scale's gain in windy rain on a box of :data:`UP_WIND_PX` or
 #: more (``Noise.uw``).
 UP_RAIN_WIND = "up_rain_wind"
+#: The held term of the AR part's size gain of its time constant (``Noise.kt``), fitted
+#: with the AR coefficient by the sequence likelihood (:func:`fit_tau_size`): the only
+#: held term the frames-alone likelihood cannot see.
+TAU_SIZE = "tau_size"
 #: Held terms of the score noise rather than of the logit (:func:`fit_held_terms`) and
 #: their PEM parameter.
-NOISE_HELD_TERMS = {UP_RAIN_WIND: "noise_up_rain_wind_gain"}
+NOISE_HELD_TERMS = {UP_RAIN_WIND: "noise_up_rain_wind_gain", TAU_SIZE: "noise_tau_size_gain"}
 
 
 @dataclass(frozen=True)
@@ -636,7 +647,9 @@ class Noise:
     the size gain ``k`` becomes ``k + kb`` (PEM ``noise_bend_gain``, ``noise_bend_px``);
     on a box at least ``uw_px`` high the scale above the median is further times
     ``exp(uw * rain_wind)`` (the run's precipitation times its wind, :func:`wind_column`;
-    PEM ``noise_up_rain_wind_gain``, ``noise_up_rain_wind_px``)."""
+    PEM ``noise_up_rain_wind_gain``, ``noise_up_rain_wind_px``); a step of ``g`` frames
+    into a frame of log size ``s`` (:func:`scale_size`) has the AR coefficient ``rho **
+    (g exp(kt s))`` (PEM ``noise_tau_size_gain``: a close box's noise forgets faster)."""
 
     sigma: float
     share: float
@@ -658,6 +671,7 @@ class Noise:
     kb_at: float = 0.0
     uw: float = 0.0
     uw_px: float = UP_WIND_PX
+    kt: float = 0.0
 
 
 #: The log curvature at or below which the tail is off (0): its value while the rest of
@@ -821,8 +835,11 @@ def track_loglik(
     filter over the AR state's grid; ``m`` the PEM logit per frame, ``y``/``obs`` the
     logit score and whether one >= CENSOR was recorded, ``geom`` the frames'
     :func:`geometry` (computed from ``t`` when the noise needs it and it is not given),
-    ``size`` their log apparent size (for the noise's size gain ``k``), ``wind`` their
-    :func:`wind_column` (computed from ``t`` when the noise needs it and it is not given)."""
+    ``size`` their log apparent size (for the noise's size gain ``k`` and the AR
+    coefficient's ``kt``: needed then), ``wind`` their :func:`wind_column` (computed from
+    ``t`` when the noise needs it and it is not given)."""
+    if noise.kt != 0.0 and size is None:
+        raise ValueError("track_loglik: the AR coefficient's size gain needs the frames' size")
     n_tracks = int(t.track.max()) + 1 if len(t.track) else 0
     u, prior = _grid(noise)
     if geom is None and (noise.dt != 0.0 or noise.df != 0.0):
@@ -844,7 +861,10 @@ def track_loglik(
         active = int(np.sum(lengths > step))
         idx = starts[:active] + step
         a = alpha[:active]
-        if step > 0:
+        if step > 0 and noise.kt != 0.0:  # a coefficient per frame (its box's size)
+            steps = t.gap[idx] * np.exp(noise.kt * np.asarray(size)[idx])
+            a = np.einsum("ti,tij->tj", a, _kernels(u, noise.rho**steps))
+        elif step > 0:
             new = np.empty_like(a)
             gaps = t.gap[idx]
             for g in np.unique(gaps):
@@ -899,7 +919,7 @@ class FrameFit:
         frame when the fit has detection-only terms) of ``t``: what both likelihoods pass
         to the frame law besides the logit."""
         nz = self.noise
-        needs_size = nz.k != 0.0 or nz.ku != 0.0 or nz.kb != 0.0
+        needs_size = nz.k != 0.0 or nz.ku != 0.0 or nz.kb != 0.0 or nz.kt != 0.0
         size = scale_size(t, self.size_ref, nz.cap) if needs_size else None
         det = self.extra(t, detection=True)
         return size, None if np.isscalar(det) else np.asarray(det)
@@ -1182,6 +1202,10 @@ def fit_held_terms(fit: FrameFit, t: Tracks, names: Sequence[str]) -> FrameFit:
     names = tuple(names)
     if not names:
         return fit
+    if TAU_SIZE in names:
+        if len(names) > 1:
+            raise SitcovError(f"{TAU_SIZE} is fitted alone (by the sequence likelihood)")
+        return fit_tau_size(fit, t)
     clash = [n for n in names if n in fit.extras]
     if UP_RAIN_WIND in names and fit.noise.uw != 0.0:
         clash.append(UP_RAIN_WIND)
@@ -1220,6 +1244,47 @@ def fit_held_terms(fit: FrameFit, t: Tracks, names: Sequence[str]) -> FrameFit:
     best = min((zero, start, np.atleast_1d(res.x)), key=nll)
     return replace(fit, noise=noise_at(best), extras=fit.extras + logit_names,
                    gains=fit.gains + tuple(float(g) for g in best[~in_noise]))  # fmt: skip
+
+
+def fit_tau_size(fit: FrameFit, t: Tracks) -> FrameFit:
+    """``fit`` with the AR coefficient's size gain ``kt`` (the held term :data:`TAU_SIZE`)
+    and the coefficient ``rho`` (at the reference size) fitted by the sequence likelihood
+    of ``t`` (:func:`track_loglik`), every other parameter held: the gain first on
+    :data:`TAU_GRID` (``rho`` fitted at each), then both by Powell's search from the best;
+    0 and the fit's own ``rho`` if nothing is better. A frame's own law does not depend
+    on either, so the frames-alone likelihood (:func:`fit_held_terms`'s) cannot fit them."""
+    from scipy.optimize import minimize, minimize_scalar
+
+    if fit.noise.kt != 0.0:
+        raise SitcovError(f"held terms ['{TAU_SIZE}'] are already terms of the fit")
+    if fit.noise.share <= 0.0:
+        return fit  # no AR part: nothing to correlate
+    y, obs = _observed(t)
+    m = fit.logit(t)
+    size = scale_size(t, fit.size_ref, fit.noise.cap)
+    det = fit._frame_inputs(t)[1]
+
+    def nll(rho: float, kt: float) -> float:
+        noise = replace(fit.noise, rho=rho, kt=kt)
+        return -float(track_loglik(m, y, obs, t, noise, size=size, det=det).sum())
+
+    def best_rho(kt: float) -> tuple[float, float]:
+        res = minimize_scalar(lambda r: nll(r, kt), bounds=(0.05, 0.995), method="bounded",
+                              options={"xatol": 1e-4})  # fmt: skip
+        return float(res.fun), float(res.x)
+
+    kept = (nll(fit.noise.rho, 0.0), fit.noise.rho, 0.0)
+    grid = [(*best_rho(kt), kt) for kt in TAU_GRID]
+    start = min(grid)
+    res = minimize(lambda x: nll(min(0.995, max(0.05, x[0])), x[1]), [start[1], start[2]],
+                   method="Powell", options={"xtol": 1e-4, "ftol": 1e-10})  # fmt: skip
+    end = (float(res.fun), min(0.995, max(0.05, float(res.x[0]))), float(res.x[1]))
+    _, rho, kt = min(kept, start, end)
+    return replace(fit, noise=replace(fit.noise, rho=rho, kt=kt))
+
+
+#: The size gains of the AR coefficient :func:`fit_tau_size` tries first.
+TAU_GRID = (-0.25, 0.0, 0.25, 0.5)
 
 
 def _with_tail(
@@ -1481,6 +1546,7 @@ def to_params(
         noise_bend_px=_bend_px(fit, base),
         noise_up_rain_wind_gain=round(nz.uw, 4),
         noise_up_rain_wind_px=nz.uw_px if nz.uw != 0.0 else base.noise_up_rain_wind_px,
+        noise_tau_size_gain=round(nz.kt, 4),
         side_gain=round(fit.side_gain, 4),
         **{param: round(gains.get(term, 0.0), 4) for term, param in EXTRA_TERM_PARAMS.items()},
         rain_sigma=0.0,
@@ -1610,7 +1676,8 @@ def fit_kind(
         "marginal_loglik_per_frame": round(fit.marginal_loglik(t) / max(1, len(t.score)), 4),
     }
     if held_terms:
-        gains = dict(zip(fit.extras, fit.gains, strict=True)) | {UP_RAIN_WIND: nz.uw}
+        noise_gains = {UP_RAIN_WIND: nz.uw, TAU_SIZE: nz.kt}
+        gains = dict(zip(fit.extras, fit.gains, strict=True)) | noise_gains
         summary["held_terms"] = {
             "gains": {n: round(gains[n], 4) for n in held_terms},
             "marginal_loglik_per_frame_without": round(before, 4),

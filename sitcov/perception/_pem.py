@@ -48,7 +48,9 @@ optionally correlated in time:
     n_t = sqrt(noise_run_share) * a + sqrt(1 - noise_run_share - noise_frame_share) * u_t
           + sqrt(noise_frame_share) * e_t
     a ~ N(0, 1)                 drawn once per run and actor ("this car is hard to see")
-    u_t = phi * u_{t-1} + sqrt(1 - phi^2) * N(0, 1),   phi = exp(-frame_dt / noise_tau)
+    u_t = phi * u_{t-1} + sqrt(1 - phi^2) * N(0, 1),   phi = exp(-frame_dt k / noise_tau)
+    k = (h'' / size_ref_px) ** noise_tau_size_gain,  h'' = clamp(h, 1, noise_size_max_px)
+                              (a close road user's noise forgets faster; 1 without the gain)
     e_t ~ N(0, 1)               drawn afresh every frame (the detector's flicker)
 
 (the shipped parameters: the frame model of :mod:`sitcov.calibration._frame_model`,
@@ -204,6 +206,19 @@ def up_wind_factor(params: PEMParams, rain_wind: float) -> float:
     1 without the gain or without wind in the rain (files without it draw as before)."""
     gain = params.noise_up_rain_wind_gain
     return math.exp(gain * rain_wind) if gain != 0.0 and rain_wind != 0.0 else 1.0
+
+
+def tau_steps(params: PEMParams, height_px: float) -> float:
+    """How many reference-size frames one frame of a box ``height_px`` high counts for in
+    the noise's AR(1) part: ``(h / size_ref_px) ** noise_tau_size_gain``, ``h`` clamped to
+    [1, ``noise_size_max_px``] (the AR coefficient of a step of ``g`` frames into this
+    frame is ``phi ** (g * tau_steps)``); exactly 1 without the gain."""
+    gain = params.noise_tau_size_gain
+    if gain == 0.0:
+        return 1.0
+    h = 1.0 if height_px < 1.0 else height_px
+    h = params.noise_size_max_px if h > params.noise_size_max_px else h
+    return (h / params.size_ref_px) ** gain
 
 
 def detect_offset(features: PEMFeatures, params: PEMParams, image_width: float = 800.0) -> float:
@@ -665,25 +680,27 @@ def _view_kernel() -> Any:
 #: scale's size exponent over the noise's (:func:`up_size_power`), then the lower tail's
 #: curvature (``noise_low_tail``), then the upper scale's factor in this scene's windy rain
 #: (:func:`up_wind_factor`) and the box height from which it acts
-#: (``noise_up_rain_wind_px``).
+#: (``noise_up_rain_wind_px``), then the AR part's size gain of its time constant
+#: (``noise_tau_size_gain``), its reference size and its clamp (:func:`tau_steps`).
 _F_PHI, _F_SHARE, _F_FRESH, _F_SIGMA, _F_RAIN_SIGMA, _F_UP, _F_GAIN, _F_AR, _F_BIAS = range(9)
 _F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(9, 15)
 _F_BOX, _F_JITTER_Y, _F_OUT_CUT, _F_OUT_RATIO, _F_UP_POWER, _F_LOW_TAIL = 15, 19, 20, 21, 22, 23
-_F_UP_WIND, _F_UP_WIND_PX = 24, 25
+_F_UP_WIND, _F_UP_WIND_PX, _F_TAU_GAIN, _F_TAU_REF, _F_TAU_CAP = 24, 25, 26, 27, 28
 #: Most normals :func:`_pem_frame` takes for one actor and frame.
 FRAME_NORMALS = 11
 
 
 #: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
 #: ``track``'s 5, then the view array ``q``).
-_F_N = 26
+_F_N = 29
 
 
 def example_frame_state() -> list[float]:
     """A whole :func:`_pem_frame` state (its :data:`_F_N` constants, a fresh noise track
     of 5 and :func:`example_view_array`) for the compiled kernel's example call."""
     constants = [0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0, 800.0,
-                 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2, 1.3, 100.0]  # fmt: skip
+                 450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2, 1.3, 100.0, 0.25,
+                 25.0, 450.0]  # fmt: skip
     return [*constants, *[0.0] * 5, *example_view_array()]
 
 
@@ -724,7 +741,12 @@ def _pem_frame(
     else:
         e_u, e_m = normals[at], normals[at + 1]
         at += 2
-        phi = c[_F_PHI] ** (frame - track[3])
+        steps = frame - track[3]
+        if c[_F_TAU_GAIN] != 0.0:  # a close box's noise forgets faster (tau_steps)
+            h = 1.0 if height < 1.0 else height
+            h = c[_F_TAU_CAP] if h > c[_F_TAU_CAP] else h
+            steps *= (h / c[_F_TAU_REF]) ** c[_F_TAU_GAIN]
+        phi = c[_F_PHI] ** steps
         keep = 1.0 - phi * phi
         keep = math.sqrt(keep if keep > 0.0 else 0.0)
         track[1] = phi * track[1] + keep * e_u
@@ -1014,17 +1036,23 @@ class PEMSensor(Sensor):
         tau = (self.params if p is None else p).noise_tau
         return math.exp(-self.frame_dt / tau) if tau > 0.0 else 0.0
 
-    def _noise(self, key: int, normals: NormalStream, p: PEMParams) -> tuple[float, float]:
+    def _noise(
+        self, key: int, normals: NormalStream, p: PEMParams, height_px: float
+    ) -> tuple[float, float]:
         """Advance actor ``key``'s noise to this frame: (score noise, miss noise), N(0, 1)
         each (the AR(1) part stays in ``self._tracks[key].u``), by the noise process of its
-        class's parameters ``p`` (its ``noise_tau``, run share and frame share)."""
+        class's parameters ``p`` (its ``noise_tau``, run share and frame share; the step's
+        length by :func:`tau_steps` of the box ``height_px`` high)."""
         track = self._tracks.get(key)
         if track is None:
             a, u, m = normals.take(3)
             track = self._tracks[key] = _Track(a, u, m, self._frame)
         else:
             e_u, e_m = normals.take(2)
-            phi = self._phi(p) ** (self._frame - track.frame)
+            steps = self._frame - track.frame
+            if p.noise_tau_size_gain != 0.0:  # (x 1 without the gain: the same bits)
+                steps *= tau_steps(p, height_px)
+            phi = self._phi(p) ** steps
             keep = math.sqrt(max(0.0, 1.0 - phi * phi))
             track.u = phi * track.u + keep * e_u
             track.m = phi * track.m + keep * e_m
@@ -1153,7 +1181,7 @@ class PEMSensor(Sensor):
             p.box_dx0, p.box_dy0, p.box_dx1, p.box_dy1, p.jitter_vertical,
             outlier_cut(p.noise_outlier_share), p.noise_outlier_ratio, up_size_power(p),
             p.noise_low_tail, up_wind_factor(p, conditions.rain_wind),
-            p.noise_up_rain_wind_px,
+            p.noise_up_rain_wind_px, p.noise_tau_size_gain, p.size_ref_px, p.noise_size_max_px,
         ]  # fmt: skip
         return np.array(values, dtype=np.float64)
 
@@ -1301,7 +1329,7 @@ class PEMSensor(Sensor):
             seen, x0, y0, x1, y1, z, d, s, height = view(q, ex, ey, eyaw, pose.x, pose.y, pose.yaw)
             if not seen:
                 continue
-            n, m = self._noise(key, normals, p)
+            n, m = self._noise(key, normals, p, height)
             if rain > 0.0 and p.rain_miss > 0.0 and _normal_cdf(m) < p.rain_miss * rain:
                 continue
             sig = p.noise_sigma + p.rain_sigma * rain

@@ -40,7 +40,7 @@ OWN_TERMS = (
     "box_dy0", "box_dx1", "box_dy1", "jitter_y", "size_hinge40_gain", "size_hinge80_gain",
     "view_hinge40_gain", "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain",
     "noise_low_tail", "cut_gain", "cut_tent_gain", "noise_up_rain_wind_gain",
-    "noise_up_rain_wind_px",
+    "noise_up_rain_wind_px", "noise_tau_size_gain",
 )  # fmt: skip
 #: Kinds scored by the car PEM (``data/pem.yaml``), reported as ``car``.
 VEHICLE_KINDS = ("car", "truck")

@@ -145,6 +145,13 @@ class PEMParams:
             scores on a close car reach higher than in calm rain, at the same median
             (the wind slants the rain streaks off the car; docs/pem.md, "The wind in the
             rain"). 0 (the default, files written before it) changes nothing [-], [px].
+        noise_tau_size_gain: the AR(1) part's correlation time is ``noise_tau`` for a box
+            ``size_ref_px`` high and ``noise_tau * (h / size_ref_px) ** -gain`` for one
+            ``h`` high (``h`` clamped to [1, ``noise_size_max_px``]): positive, the
+            detector's noise on a close road user, whose image changes more from frame to
+            frame, forgets faster than on a far one (docs/pem.md, "The law over
+            consecutive frames"). Only the law over frames changes, not any frame's own;
+            0 (the default, files written before it) changes nothing [-].
         noise_low_tail: the score noise's lower tail beyond one standard unit below the
             median widens with its depth: a latent noise ``n = -1 + x``, ``x < 0``, moves
             the logit by ``sigma (n - noise_low_tail x**2)`` instead of ``sigma n``
@@ -227,6 +234,7 @@ class PEMParams:
     cut_tent_gain: float = 0.0
     noise_up_rain_wind_gain: float = 0.0
     noise_up_rain_wind_px: float = 100.0
+    noise_tau_size_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

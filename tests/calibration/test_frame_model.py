@@ -24,7 +24,7 @@ def _draw(
     fill_miss: float = 0.0, spread: float = 0.0, side_gain: float | None = None,
     near_gain: float = 0.0, hinge_gain: float = 0.0, outliers: tuple[float, float] = (0.0, 1.0),
     tail: float = 0.0, bend: tuple[float, float] = (0.0, 60.0),
-    rain: tuple[float, float] | None = None, up_wind: float = 0.0,
+    rain: tuple[float, float] | None = None, up_wind: float = 0.0, tau_gain: float = 0.0,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -47,7 +47,9 @@ def _draw(
     wind 0 or 100 (its situation's values; fractions p and w), its frames' ``rain_noise``
     0.6 p, and ``gain * 0.6 p - wind gain * p w`` taken from the logit. ``up_wind``: on a
     box of ``fm.UP_WIND_PX`` or more, a positive noise times ``exp(up_wind * p w)`` (the
-    upper spread in windy rain; needs ``rain``)."""
+    upper spread in windy rain; needs ``rain``). ``tau_gain``: the AR step into a frame
+    of a box ``h`` high has the coefficient ``rho ** ((h / 25) ** tau_gain)`` (a larger
+    box's noise forgets faster)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -66,9 +68,10 @@ def _draw(
         a = rng.standard_normal()
         frames = []
         for k in range(length):
-            if k:
-                a = rho * a + math.sqrt(1 - rho * rho) * rng.standard_normal()
             h = h0 * 1.05**k
+            if k:
+                phi = rho ** ((h / 25.0) ** tau_gain)
+                a = phi * a + math.sqrt(1 - phi * phi) * rng.standard_normal()
             widen = (h / 25.0) ** spread * max(1.0, h / bend[1]) ** bend[0]
             z = bias + gain * math.log(min(h, 60.0) / 25.0) + (side_gain or 0.0) * side
             z += near_gain * (1.45 * 336 / h < 10.0)
@@ -1018,3 +1021,50 @@ def test_calibrate_adds_a_held_term_and_refuses_one_without_a_parameter(
     fit = fm.fit_candidate(t, fm.CANDIDATES[1], PEMParams().size_ref_px, stages=2)
     in_turn = fm.fit_held_terms(fm.fit_held_terms(fit, t, ("cut_tent220",)), t, ("up_rain_wind",))
     assert gains["up_rain_wind"] == pytest.approx(in_turn.noise.uw, abs=1e-4)
+
+
+@pytest.mark.slow
+def test_the_held_tau_size_term_recovers_a_noise_that_forgets_faster_on_a_larger_box() -> None:
+    """The held term ``tau_size`` (``--held-term tau_size``): frames whose AR coefficient
+    per step is ``0.85 ** ((h / 25) ** 0.6)``. Fitted by the sequence likelihood with the
+    rest held, its gain comes out near 0.6 with the coefficient near 0.85 and the
+    sequence likelihood rises while the frames-alone one does not move; drawn without
+    it, the gain is near 0. Written as ``noise_tau_size_gain`` and ``noise_tau`` (the
+    time constant at the reference size)."""
+
+    def held(tau_gain: float) -> tuple[fm.FrameFit, fm.FrameFit, fm.Tracks]:
+        t = fm.tracks_of(_draw(73, runs=200, length=40, share=0.8, rho=0.85,
+                               tau_gain=tau_gain))  # fmt: skip
+        fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0)
+        return fit, fm.fit_held_terms(fit, t, (fm.TAU_SIZE,)), t
+
+    fit, fast, t = held(0.6)
+    assert fast.noise.kt == pytest.approx(0.6, abs=0.25)
+    assert fast.noise.rho == pytest.approx(0.85, abs=0.05)
+    assert fast.loglik(t) - fit.loglik(t) > 5.0
+    assert fast.marginal_loglik(t) == pytest.approx(fit.marginal_loglik(t), abs=1e-6)
+    assert abs(held(0.0)[1].noise.kt) < 0.2
+    with pytest.raises(SitcovError, match="already"):
+        fm.fit_held_terms(fast, t, (fm.TAU_SIZE,))
+    with pytest.raises(SitcovError, match="alone"):
+        fm.fit_held_terms(fit, t, (fm.TAU_SIZE, "near"))
+    params = fm.to_params(fast, PEMParams(), t, [])
+    assert params.noise_tau_size_gain == pytest.approx(fast.noise.kt, abs=1e-4)
+    assert params.noise_tau == pytest.approx(-0.1 / math.log(fast.noise.rho), abs=1e-4)
+
+
+def test_a_per_frame_coefficient_of_gain_zero_is_the_plain_filter() -> None:
+    """``track_loglik`` with the AR coefficient's size gain: at a gain of 0 it equals the
+    plain filter's (to rounding), a gain changes it, and without the frames' size it is
+    refused."""
+    t = fm.tracks_of(_draw(5, runs=20, length=20, share=0.8, rho=0.85))
+    fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0)
+    y, obs = fm._observed(t)
+    m, size = fit.logit(t), fm.scale_size(t, 25.0, fit.noise.cap)
+    plain = fm.track_loglik(m, y, obs, t, fit.noise, size=size)
+    tiny = fm.track_loglik(m, y, obs, t, replace(fit.noise, kt=1e-12), size=size)
+    assert tiny == pytest.approx(plain, rel=1e-9, abs=1e-9)
+    other = fm.track_loglik(m, y, obs, t, replace(fit.noise, kt=0.8), size=size)
+    assert np.max(np.abs(other - plain)) > 0.01
+    with pytest.raises(ValueError, match="size"):
+        fm.track_loglik(m, y, obs, t, replace(fit.noise, kt=0.8))
