@@ -295,9 +295,21 @@ COEFFICIENTS = (
 ) = range(len(COEFFICIENTS))
 
 
+#: :func:`coefficients`' values per ``id(params)``, with the parameters they are of (held,
+#: so the id stays theirs): ``PEMParams`` is frozen, and a run reads them once per actor.
+_COEFFICIENTS: dict[int, tuple[PEMParams, tuple[float, ...]]] = {}
+
+
 def coefficients(params: PEMParams) -> tuple[float, ...]:
-    """``params``' values named in :data:`COEFFICIENTS`, in that order."""
-    return tuple(getattr(params, name) for name in COEFFICIENTS)
+    """``params``' values named in :data:`COEFFICIENTS`, in that order (made once per
+    parameters object: about 60 attribute reads, some of them properties)."""
+    held = _COEFFICIENTS.get(id(params))
+    if held is None or held[0] is not params:
+        if len(_COEFFICIENTS) >= 64:
+            _COEFFICIENTS.clear()
+        values = tuple(getattr(params, name) for name in COEFFICIENTS)
+        held = _COEFFICIENTS[id(params)] = (params, values)
+    return held[1]
 
 
 def pem_logit(features: PEMFeatures, params: PEMParams) -> float:
