@@ -414,7 +414,9 @@ class EmbeddedBackend(Backend):
         world = World(ego, actors, driver, wind, cond.mu, self.dt)
         monitors = self._monitors(world)
         reason = world.end_reason = run_loop(world, monitors, n_max, record)
-        return self._outcome(plan, world, monitors, cond, wind_direction, reason, record)
+        outcome = self._outcome(plan, world, monitors, cond, wind_direction, reason, record)
+        world.release()  # no reference cycles left: the run's objects go with it
+        return outcome
 
     def _driver(self, situation, av_stack, ego, cond, rng, seed, sense_seed=None) -> EgoDriver:
         """Reset the stack and the sensor for a run; the ego's controller. ``rng`` and

@@ -106,6 +106,11 @@ class EgoDriver:
             # command's branches for it alone, decided once (an instance attribute)
             self.command = self._command_plain  # type: ignore[method-assign]
 
+    def release(self) -> None:
+        """The run is over: forget the plain path's bound ``command`` (an instance
+        attribute holding this driver: a reference cycle; ``World.release``)."""
+        self.__dict__.pop("command", None)
+
     def _detect_prepared(self, world: Any) -> Any:
         """The PEM's detections for this frame through ``PEMSensor.detect_prepared``."""
         looks = self._looks

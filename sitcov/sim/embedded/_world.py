@@ -114,6 +114,18 @@ class World:
             if a.active:
                 a.record(t)
 
+    def release(self) -> None:
+        """Drop the references that tie a finished run's objects into cycles (each actor's
+        watcher, which holds the actor; the driver's own bound ``command``), so that
+        reference counting frees them when the run's last reference goes. Why: as cycles
+        they waited for the garbage collector, whose passes over a campaign's process
+        cost about 2 % of its time. The world is not stepped afterwards."""
+        for a in self.actors:
+            a.watcher = None
+        release = getattr(self.driver, "release", None)
+        if release is not None:
+            release()
+
     def step(self) -> None:
         """One control period for every actor (see the module docstring)."""
         stepper = self._stepper
