@@ -1511,7 +1511,8 @@ def _check_frames_cmd(
     rows = check(frames, params, rng=np.random.default_rng(seed), split=split)
     if tracks:
         console.print("per track: n counts tracks; detector and PEM: P(some frame of the "
-                      "track in the band reaches θ)", highlight=False, markup=False)  # fmt: skip
+                      "track in the band reaches θ)", highlight=False, markup=False,
+                      soft_wrap=True)  # fmt: skip
     for line in fc.table_lines(rows):
         console.print(line, highlight=False, markup=False, soft_wrap=True)
     if not all(r.get("ok", True) for r in rows):
