@@ -67,14 +67,7 @@ def profile(base: Any, tracks: dict[str, Any], gains: tuple[float, ...]) -> list
 
     from sitcov.calibration import _frame_model as fm
 
-    fit_t = tracks["fit file"]
-    y, obs = fm._observed(fit_t)
-    m, size = base.logit(fit_t), fm.scale_size(fit_t, base.size_ref, base.noise.cap)
-    det = base._frame_inputs(fit_t)[1]
-
-    def nll(rho: float, kt: float) -> float:
-        noise = replace(base.noise, rho=rho, kt=kt)
-        return -float(fm.track_loglik(m, y, obs, fit_t, noise, size=size, det=det).sum())
+    nll = fm.persistence_nll(base, tracks["fit file"])
 
     ref = {k: base.loglik(t) for k, t in tracks.items()}
     out = []

@@ -209,10 +209,15 @@ def check_frames(
                 sel = [(f, s, r) for f, s, d, r, g in got if lo <= d < hi and g == group]
                 if split and not sel:
                     continue
-                head = {"kind": kind, "label": KIND_LABEL[kind], "band": f"{lo:g}-{hi:g} m"}
-                head.update({"group": group} if split else {})
+                head = _cell_head(kind, (lo, hi), group if split else None)
                 rows += _cell_rows(head, sel, params[kind], thetas, rng)
     return rows
+
+
+def _cell_head(kind: str, band: tuple[float, float], group: str | None) -> dict[str, Any]:
+    """The leading fields of a cell's rows: its kind, label, band and (split) group."""
+    head = {"kind": kind, "label": KIND_LABEL[kind], "band": f"{band[0]:g}-{band[1]:g} m"}
+    return head | ({"group": group} if group is not None else {})
 
 
 def _cell_rows(
@@ -221,13 +226,28 @@ def _cell_rows(
 ) -> list[dict[str, Any]]:  # fmt: skip
     """:func:`check_frames`' rows of one cell's frames ``sel`` (features, score, run), one
     per θ, each starting with ``head``."""
-    run = np.asarray([r for _, _, r in sel], dtype=int)
+
+    def outcome(theta: float) -> tuple[np.ndarray, np.ndarray]:
+        hit = np.asarray([s >= theta for _, s, _ in sel])
+        return hit, np.asarray([pass_probability(p, f, theta) for f, _, _ in sel])
+
+    return _judged_rows(head, np.asarray([r for _, _, r in sel], dtype=int), thetas, outcome, rng)
+
+
+def _judged_rows(
+    head: Mapping[str, Any], run: np.ndarray, thetas: Sequence[float],
+    outcome: Callable[[float], tuple[np.ndarray, np.ndarray]], rng: np.random.Generator | None,
+) -> list[dict[str, Any]]:  # fmt: skip
+    """One row per θ for a cell of ``len(run)`` items (frames or tracks; ``run`` the run
+    of each): ``outcome(θ)`` gives whether each item's recorded score reached θ and the
+    PEM's probability of it; a cell of at least :data:`MIN_FRAMES` items is judged
+    (rates, difference, within :data:`TOLERANCE`; with ``rng`` the run-bootstrap interval
+    and whether it lies wholly outside the tolerance)."""
     rows = []
     for theta in thetas:
-        row: dict[str, Any] = {**head, "theta": theta, "n": len(sel), "runs": len(np.unique(run))}
-        if len(sel) >= MIN_FRAMES:
-            hit = np.asarray([s >= theta for _, s, _ in sel])
-            prob = np.asarray([pass_probability(p, f, theta) for f, _, _ in sel])
+        row: dict[str, Any] = {**head, "theta": theta, "n": len(run), "runs": len(np.unique(run))}
+        if len(run) >= MIN_FRAMES:
+            hit, prob = outcome(theta)
             det, pem = float(np.mean(hit)), float(np.mean(prob))
             row.update(detector=round(det, 4), pem=round(pem, 4),
                        difference=round(pem - det, 4),
@@ -241,8 +261,8 @@ def _cell_rows(
 
 
 #: Nodes of the AR(1) state's grid in :func:`track_pass_probability`, over
-#: ±:data:`TRACK_GRID_HALF` standard units (41 give every shipped class's track chances
-#: within 0.002 of 161's on the recorded frames: ``tests/calibration/test_frame_check.py``).
+#: ±:data:`TRACK_GRID_HALF` standard units (41 give the car's track chances within 0.002
+#: of 161's on recorded tracks: ``tests/calibration/test_frame_check_tracks.py``).
 TRACK_GRID = 41
 TRACK_GRID_HALF = 5.0
 
@@ -339,8 +359,7 @@ def check_tracks(
                 sel = [(t, r) for t, r, g in got if g == group]
                 if split and not sel:
                     continue
-                head = {"kind": kind, "label": KIND_LABEL[kind], "band": f"{lo:g}-{hi:g} m"}
-                head.update({"group": group} if split else {})
+                head = _cell_head(kind, (lo, hi), group if split else None)
                 rows += _track_rows(head, sel, params[kind], thetas, rng)
     return rows
 
@@ -350,25 +369,13 @@ def _track_rows(
     p: PEMParams, thetas: Sequence[float], rng: np.random.Generator | None,
 ) -> list[dict[str, Any]]:  # fmt: skip
     """:func:`check_tracks`' rows of one cell's tracks ``sel`` (frames, run), one per θ."""
-    run = np.asarray([r for _, r in sel], dtype=int)
-    rows = []
-    for theta in thetas:
-        row: dict[str, Any] = {**head, "theta": theta, "n": len(sel), "runs": len(np.unique(run))}
-        if len(sel) >= MIN_FRAMES:
-            hit = np.asarray([any(s >= theta for _, _, s in t) for t, _ in sel])
-            prob = np.asarray([
-                track_pass_probability(p, [(n, f) for n, f, _ in t], theta) for t, _ in sel
-            ])  # fmt: skip
-            det, pem = float(np.mean(hit)), float(np.mean(prob))
-            row.update(detector=round(det, 4), pem=round(pem, 4),
-                       difference=round(pem - det, 4),
-                       ok=abs(pem - det) <= TOLERANCE)  # fmt: skip
-            if rng is not None:
-                low, high = run_interval(prob, hit, run, rng)
-                row.update(low=round(low, 4), high=round(high, 4),
-                           significant=low > TOLERANCE or high < -TOLERANCE)  # fmt: skip
-        rows.append(row)
-    return rows
+
+    def outcome(theta: float) -> tuple[np.ndarray, np.ndarray]:
+        hit = np.asarray([any(s >= theta for _, _, s in t) for t, _ in sel])
+        prob = [track_pass_probability(p, [(n, f) for n, f, _ in t], theta) for t, _ in sel]
+        return hit, np.asarray(prob)
+
+    return _judged_rows(head, np.asarray([r for _, r in sel], dtype=int), thetas, outcome, rng)
 
 
 def table_lines(rows: Sequence[Mapping[str, Any]]) -> list[str]:

@@ -1259,14 +1259,7 @@ def fit_tau_size(fit: FrameFit, t: Tracks) -> FrameFit:
         raise SitcovError(f"held terms ['{TAU_SIZE}'] are already terms of the fit")
     if fit.noise.share <= 0.0:
         return fit  # no AR part: nothing to correlate
-    y, obs = _observed(t)
-    m = fit.logit(t)
-    size = scale_size(t, fit.size_ref, fit.noise.cap)
-    det = fit._frame_inputs(t)[1]
-
-    def nll(rho: float, kt: float) -> float:
-        noise = replace(fit.noise, rho=rho, kt=kt)
-        return -float(track_loglik(m, y, obs, t, noise, size=size, det=det).sum())
+    nll = persistence_nll(fit, t)
 
     def best_rho(kt: float) -> tuple[float, float]:
         res = minimize_scalar(lambda r: nll(r, kt), bounds=(0.05, 0.995), method="bounded",
@@ -1281,6 +1274,22 @@ def fit_tau_size(fit: FrameFit, t: Tracks) -> FrameFit:
     end = (float(res.fun), min(0.995, max(0.05, float(res.x[0]))), float(res.x[1]))
     _, rho, kt = min(kept, start, end)
     return replace(fit, noise=replace(fit.noise, rho=rho, kt=kt))
+
+
+def persistence_nll(fit: FrameFit, t: Tracks) -> Any:
+    """``nll(rho, kt)``: minus the sequence log-likelihood of ``t`` under ``fit`` with the
+    AR coefficient ``rho`` (at the reference size) and its size gain ``kt``, every other
+    parameter held (the frames' logit, size and detection shift computed once)."""
+    y, obs = _observed(t)
+    m = fit.logit(t)
+    size = scale_size(t, fit.size_ref, fit.noise.cap)
+    det = fit._frame_inputs(t)[1]
+
+    def nll(rho: float, kt: float) -> float:
+        noise = replace(fit.noise, rho=rho, kt=kt)
+        return -float(track_loglik(m, y, obs, t, noise, size=size, det=det).sum())
+
+    return nll
 
 
 #: The size gains of the AR coefficient :func:`fit_tau_size` tries first.
