@@ -1488,14 +1488,8 @@ def _check_frames_cmd(
 
     if part not in ("all", "odd", "even"):
         raise ConfigError(field="--check-runs", value=part, expected="all | odd | even")
-    if split is not None:
-        by_run = (*fc.RUN_SPLITS, f"{fc.BIN_SPLIT}ELEMENT")
-        known = split in (fc.RUN_SPLITS if tracks else fc.SPLITS) or (
-            split.startswith(fc.BIN_SPLIT) and len(split) > len(fc.BIN_SPLIT)
-        )
-        if not known:
-            expected = " | ".join(by_run) if tracks else fc.split_names()
-            raise ConfigError(field="--check-by", value=split, expected=expected)
+    if split is not None and not fc.known_split(split, tracks):
+        raise ConfigError(field="--check-by", value=split, expected=fc.split_names(tracks))
     frames = {k: split_runs(v, part) for k, v in read_frames(path).items() if k in names}
     classes = load_class_params(pem_classes)
     lacking = sorted(k for k in frames if k != "car" and k not in classes)

@@ -137,7 +137,7 @@ def frames_of(
 def _split(name: str) -> tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]]:
     """:data:`SPLITS` ``[name]`` or a :data:`BIN_SPLIT` (its groups empty: found in the
     data), or an error naming the splits there are."""
-    if name.startswith(BIN_SPLIT) and name[len(BIN_SPLIT) :]:
+    if _is_bin_split(name):
         element = name[len(BIN_SPLIT) :]
         return (lambda feats, situation: str(situation.get("bins", {}).get(element, "unknown"))), ()
     try:
@@ -149,9 +149,22 @@ def _split(name: str) -> tuple[Callable[[Any, Mapping[str, Any]], str], tuple[st
         ) from None
 
 
-def split_names() -> str:
-    """The splits :func:`check_frames` takes, for messages."""
-    return " | ".join((*SPLITS, f"{BIN_SPLIT}ELEMENT"))
+def _is_bin_split(name: str) -> bool:
+    """Whether ``name`` is a :data:`BIN_SPLIT` with an element named."""
+    return name.startswith(BIN_SPLIT) and len(name) > len(BIN_SPLIT)
+
+
+def known_split(name: str, tracks: bool = False) -> bool:
+    """Whether ``name`` is a split of the frame check (:data:`SPLITS`) or, with
+    ``tracks``, of the track check (:data:`RUN_SPLITS`: a track's frames share the run's
+    group), or a bin split (both)."""
+    return name in (RUN_SPLITS if tracks else SPLITS) or _is_bin_split(name)
+
+
+def split_names(tracks: bool = False) -> str:
+    """The splits the frame check (or, with ``tracks``, the track check) takes, for
+    messages."""
+    return " | ".join((*(RUN_SPLITS if tracks else SPLITS), f"{BIN_SPLIT}ELEMENT"))
 
 
 def _natural(label: str) -> tuple[Any, ...]:
@@ -319,7 +332,7 @@ def tracks_of_runs(
     (``lo <= d < hi``): ((frame number, features, score) in time order, run number, group
     of :data:`RUN_SPLITS` or a bin split, "" without one); a track with no frame there is
     left out. Frames without a recorded number (-1) count as consecutive."""
-    if split and not (split in RUN_SPLITS or split.startswith(BIN_SPLIT)):
+    if split and not known_split(split, tracks=True):
         raise SitcovError(
             f"the track check splits by the run only ({', '.join(RUN_SPLITS)} or "
             f"{BIN_SPLIT}ELEMENT); {split!r} changes from frame to frame"
