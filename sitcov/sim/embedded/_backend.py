@@ -556,12 +556,13 @@ class EmbeddedBackend(Backend):
         )
 
 
-def world_draws(rng: np.random.Generator, n_max: int) -> tuple[float, list[float]]:
+def world_draws(rng: np.random.Generator, n_max: int) -> tuple[float, np.ndarray]:
     """The world's draws from a run's generator, in this order: the wind's direction
-    [rad] and the ``n_max + 1`` unit normals of its OU gusts (drawn up front so the
-    stream's order is fixed; in the ``carla`` profile the wind has no force, the normals
-    are drawn all the same). The sensor's draws follow them."""
-    return float(rng.uniform(-math.pi, math.pi)), rng.standard_normal(n_max + 1).tolist()
+    [rad] and the ``n_max + 1`` unit normals of its OU gusts as a float array (drawn up
+    front so the stream's order is fixed; in the ``carla`` profile the wind has no force,
+    the normals are drawn all the same, and ``Wind`` reads only the first). The sensor's
+    draws follow them."""
+    return float(rng.uniform(-math.pi, math.pi)), rng.standard_normal(n_max + 1)
 
 
 def perception_rng(seed: int, n_max: int) -> np.random.Generator:
