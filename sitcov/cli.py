@@ -1278,6 +1278,7 @@ def calibrate_cmd(
         "--check-by",
         help="--check: split each class and band further by approach (the side the road "
         "user comes from), view (front, side, rear), rain (the situation's precipitation), "
+        "wind (dry, calm rain or windy rain: wind intensity 50 or more), "
         "cut (the box cut by the image edge or whole) or bin:ELEMENT (the run's bin of a "
         "hyperspace element, e.g. bin:intsit).",
     ),
@@ -1286,7 +1287,8 @@ def calibrate_cmd(
         "--check-tracks",
         help="--check: judge tracks, not frames: the share of road users' tracks with "
         "some frame in the band at or above θ, against the PEM's chance of it (its noise "
-        "carried from frame to frame); --check-by then takes approach, rain or bin:ELEMENT "
+        "carried from frame to frame); --check-by then takes approach, rain, wind or "
+        "bin:ELEMENT "
         '(docs/pem.md, "The law over consecutive frames").',
     ),
     check: Optional[Path] = typer.Option(  # noqa: UP045

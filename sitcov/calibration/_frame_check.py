@@ -66,6 +66,9 @@ CUT = 0.05
 #: The situation's precipitation (the hyperspace element, 0-100) from which the ``rain``
 #: split counts a run as heavy rain.
 HEAVY_RAIN = 50.0
+#: The situation's wind intensity (the hyperspace element, 0-100) from which the
+#: ``wind`` split counts a rainy run as windy.
+WINDY = 50.0
 
 
 def _approach(feats: Any, situation: Mapping[str, Any]) -> str:
@@ -86,6 +89,16 @@ def _rain(feats: Any, situation: Mapping[str, Any]) -> str:
     return "dry" if rain <= 0.0 else ("heavy rain" if rain >= HEAVY_RAIN else "light rain")
 
 
+def _wind(feats: Any, situation: Mapping[str, Any]) -> str:
+    values = situation.get("values", {})
+    rain, wind = values.get("precipitation"), values.get("wind_intensity")
+    if not all(isinstance(v, (int, float)) for v in (rain, wind)):
+        return "unknown"
+    if rain <= 0.0:
+        return "dry"
+    return "windy rain" if wind >= WINDY else "calm rain"
+
+
 def _cut(feats: Any, situation: Mapping[str, Any]) -> str:
     return "cut" if feats.truncation > CUT else "whole"
 
@@ -96,11 +109,15 @@ def _cut(feats: Any, situation: Mapping[str, Any]) -> str:
 #: ahead and any other, :func:`sitcov.hyperspace._situation.approach_side`); ``view``: the
 #: road user seen within 45 degrees of its front or of its rear, else from the side;
 #: ``rain``: the situation's precipitation 0, below :data:`HEAVY_RAIN`, or from it
-#: (``unknown`` without that element); ``cut``: the box cut by the image edge or whole.
+#: (``unknown`` without that element); ``wind``: a dry run, or a rainy one with a wind
+#: intensity below :data:`WINDY` or from it (in camera mode the wind slants the rain
+#: streaks: docs/pem.md, "The wind in the rain"); ``cut``: the box cut by the image edge
+#: or whole.
 SPLITS: dict[str, tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]]] = {
     "approach": (_approach, ("from left", "from right", "ahead/other")),
     "view": (_view, ("front", "side", "rear")),
     "rain": (_rain, ("dry", "light rain", "heavy rain", "unknown")),
+    "wind": (_wind, ("dry", "calm rain", "windy rain", "unknown")),
     "cut": (_cut, ("whole", "cut")),
 }
 #: A split by the run's bin of one hyperspace element: ``bin:`` and the element's name
@@ -109,7 +126,7 @@ SPLITS: dict[str, tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]
 BIN_SPLIT = "bin:"
 #: The splits whose group is the run's, the same for every frame of a track (the only
 #: ones :func:`check_tracks` can use; besides :data:`BIN_SPLIT`).
-RUN_SPLITS = ("approach", "rain")
+RUN_SPLITS = ("approach", "rain", "wind")
 
 
 def pass_probability(params: PEMParams, feats: Any, theta: float) -> float:

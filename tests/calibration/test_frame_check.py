@@ -40,8 +40,9 @@ def _score(feats: PEMFeatures, u: float, shift: float) -> float:
 
 def _frames(seed: int, left_shift: float = 0.0, runs: int = 90) -> KindFrames:
     """Runs of a car closing from 40 to 4 m, a third from each side, each seen from the
-    front, side or rear, in dry or heavy rain, some cut by the image edge; scores drawn
-    from :data:`PARAMS`' law, those of runs from the left moved by ``left_shift`` logit."""
+    front, side or rear, in dry, light or heavy rain, calm or windy, some cut by the image
+    edge; scores drawn from :data:`PARAMS`' law, those of runs from the left moved by
+    ``left_shift`` logit."""
     rng = np.random.default_rng(seed)
     out = KindFrames()
     for r in range(runs):
@@ -57,7 +58,8 @@ def _frames(seed: int, left_shift: float = 0.0, runs: int = 90) -> KindFrames:
                                 width_px=2.0 * h, facing=facing)  # fmt: skip
             score = _score(feats, float(rng.uniform()), shift)
             frames.append(RunFrame(feats, score, None, 2.0 * h, k, 0, float(d)))
-        values = {"precipitation": rain, "intsit": ROUTES[side]}
+        wind = 80.0 if (r // 3) % 2 else 0.0  # not drawn: the other draws stay as they were
+        values = {"precipitation": rain, "wind_intensity": wind, "intsit": ROUTES[side]}
         out.runs.append(CameraRun(r, r, {"values": values}, False, None, tuple(frames)))
     return out
 
@@ -96,6 +98,22 @@ def test_a_miss_confined_to_one_group_shows_in_that_group() -> None:
     assert max(r.get("difference", 0.0) for r in by_view) < 0.8 * worst_left
 
 
+@pytest.mark.parametrize(
+    ("values", "group"),
+    [
+        ({"precipitation": 0.0, "wind_intensity": 100.0}, "dry"),
+        ({"precipitation": 30.0, "wind_intensity": 40.0}, "calm rain"),
+        ({"precipitation": 100.0, "wind_intensity": 50.0}, "windy rain"),
+        ({"precipitation": 100.0}, "unknown"),
+    ],
+)
+def test_the_wind_split_puts_a_rainy_run_by_its_wind(values: dict, group: str) -> None:
+    """The wind slants only the rain (camera mode): a dry run is dry at any wind; a rainy
+    one is windy from :data:`fc.WINDY`; a run without both elements is unknown."""
+    split, groups = fc.SPLITS["wind"]
+    assert split(None, {"values": values}) == group and group in groups
+
+
 def test_check_by_prints_a_group_column_and_names_a_wrong_split(tmp_path: Path, capsys) -> None:
     """``sitcov calibrate --check FILE --check-by rain``: a row per group (dry, light and
     heavy rain); an unknown split is one error line, exit 2."""
@@ -119,5 +137,5 @@ def test_check_by_prints_a_group_column_and_names_a_wrong_split(tmp_path: Path, 
 
 
 def test_an_unknown_split_names_the_ones_there_are() -> None:
-    with pytest.raises(SitcovError, match="approach, view, rain, cut"):
+    with pytest.raises(SitcovError, match="approach, view, rain, wind, cut"):
         fc.check_frames({"car": _frames(4, runs=3)}, {"car": PARAMS}, split="colour")
