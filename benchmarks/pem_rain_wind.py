@@ -136,6 +136,37 @@ def upper_scale_profile(base: Any, tracks: dict[str, Any]) -> list[dict[str, Any
     return out
 
 
+def add_base_options(ap: argparse.ArgumentParser) -> None:
+    """The options of the scripts that start from the shipped car model fitted again
+    (this one's :func:`base_fit`): its starts, a pickled base fit instead, the JSON out."""
+    ap.add_argument("--starts", type=int, default=3, help="the base fit's starts (pem.yaml: 3)")
+    ap.add_argument("--base", type=Path, help="a pickled base fit (skips its refit)")
+    ap.add_argument("--json", type=Path, help="write the result here")
+
+
+def load_base(args: argparse.Namespace) -> Any:
+    """The base fit :func:`add_base_options`' ``args`` ask for: pickled, or fitted again."""
+    return pickle.loads(args.base.read_bytes()) if args.base else base_fit(FIT_FILE, args.starts)
+
+
+def car_tracks() -> dict[str, Any]:
+    """The car's tracks of the fit file (``"fit file"``) and of each of :data:`HELD_FILES`."""
+    from sitcov.calibration._frame_model import split_runs, tracks_of
+    from sitcov.calibration._frames import read_frames
+
+    tracks = {"fit file": tracks_of(read_frames(FIT_FILE)["car"])}
+    return tracks | {name: tracks_of(split_runs(read_frames(path)["car"], part))
+                     for name, path, part in HELD_FILES}  # fmt: skip
+
+
+def write_result(result: dict[str, Any], path: Path | None) -> None:
+    """Print ``result`` as JSON and write it to ``path`` too (when given)."""
+    text = json.dumps(result, indent=2, ensure_ascii=False)
+    print(text)
+    if path is not None:
+        path.write_text(text + "\n")
+
+
 def _shown(path: Path) -> str:
     """``path`` relative to the checkout when it is inside it (the JSON names no host)."""
     full = path.resolve()
@@ -193,10 +224,7 @@ def main(argv: list[str] | None = None) -> int:
         "table": wind_table([args.frames, *(p for _, p, _ in HELD_FILES[1:])], load_pem_params()),
         "cpu_s": round(time.process_time() - t0, 1),
     }  # fmt: skip
-    text = json.dumps(result, indent=2)
-    print(text)
-    if args.json is not None:
-        args.json.write_text(text + "\n")
+    write_result(result, args.json)
     return 0
 
 

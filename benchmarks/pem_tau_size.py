@@ -21,9 +21,7 @@ frames"). This script asks the car's recorded frames two things:
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import pickle
 import sys
 import time
 from dataclasses import replace
@@ -31,7 +29,15 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pem_rain_wind import FIT_FILE, HELD_FILES, _shown, base_fit  # noqa: E402
+from pem_rain_wind import (  # noqa: E402
+    FIT_FILE,
+    HELD_FILES,
+    _shown,
+    add_base_options,
+    car_tracks,
+    load_base,
+    write_result,
+)
 
 #: The time constants [s] of the per-track check's variants (no size gain).
 TAUS = (0.25, 0.5, 1.0)
@@ -85,22 +91,16 @@ def profile(base: Any, tracks: dict[str, Any], gains: tuple[float, ...]) -> list
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--starts", type=int, default=3, help="the base fit's starts (pem.yaml: 3)")
-    ap.add_argument("--base", type=Path, help="a pickled base fit (skips its refit)")
-    ap.add_argument("--json", type=Path, help="write the result here")
+    add_base_options(ap)
     args = ap.parse_args(argv)
 
-    from sitcov.calibration._frame_model import split_runs, tracks_of
-    from sitcov.calibration._frames import read_frames
     from sitcov.perception._pem_params import load_pem_params
 
     t0 = time.process_time()
     shipped = load_pem_params()
-    base = pickle.loads(args.base.read_bytes()) if args.base else base_fit(FIT_FILE, args.starts)
+    base = load_base(args)
     base = replace(base, noise=replace(base.noise, uw=shipped.noise_up_rain_wind_gain, kt=0.0))
-    tracks = {"fit file": tracks_of(read_frames(FIT_FILE)["car"])}
-    tracks |= {name: tracks_of(split_runs(read_frames(path)["car"], part))
-               for name, path, part in HELD_FILES}  # fmt: skip
+    tracks = car_tracks()
     plain = replace(shipped, noise_tau_size_gain=0.0)
     checks = {f"noise_tau {tau}": track_cells(replace(plain, noise_tau=tau)) for tau in TAUS}
     checks["shipped"] = track_cells(shipped)
@@ -115,10 +115,7 @@ def main(argv: list[str] | None = None) -> int:
         "frames": {k: len(t.score) for k, t in tracks.items()},
         "cpu_s": round(time.process_time() - t0, 1),
     }
-    text = json.dumps(result, indent=2, ensure_ascii=False)
-    print(text)
-    if args.json is not None:
-        args.json.write_text(text + "\n")
+    write_result(result, args.json)
     return 0
 
 

@@ -23,8 +23,6 @@ is what is missing.
 from __future__ import annotations
 
 import argparse
-import json
-import pickle
 import sys
 import time
 from dataclasses import replace
@@ -32,7 +30,15 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pem_rain_wind import FIT_FILE, HELD_FILES, _shown, base_fit  # noqa: E402
+from pem_rain_wind import (  # noqa: E402
+    FIT_FILE,
+    HELD_FILES,
+    _shown,
+    add_base_options,
+    car_tracks,
+    load_base,
+    write_result,
+)
 
 #: The upper spread's gains profiled (0: no term; the shipped gain is added).
 GAINS = (0.0, 0.5, 0.8, 1.2)
@@ -94,22 +100,16 @@ def with_shipped_persistence(base: Any, fit_tracks: Any, kt: float) -> Any:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--starts", type=int, default=3, help="the base fit's starts (pem.yaml: 3)")
-    ap.add_argument("--base", type=Path, help="a pickled base fit (skips its refit)")
-    ap.add_argument("--json", type=Path, help="write the result here")
+    add_base_options(ap)
     args = ap.parse_args(argv)
 
-    from sitcov.calibration._frame_model import split_runs, tracks_of
-    from sitcov.calibration._frames import read_frames
     from sitcov.perception._pem_params import load_pem_params
 
     t0 = time.process_time()
     shipped = load_pem_params()
     gains = tuple(sorted({*GAINS, shipped.noise_up_rain_wind_gain}))
-    base = pickle.loads(args.base.read_bytes()) if args.base else base_fit(FIT_FILE, args.starts)
-    tracks = {"fit file": tracks_of(read_frames(FIT_FILE)["car"])}
-    tracks |= {name: tracks_of(split_runs(read_frames(path)["car"], part))
-               for name, path, part in HELD_FILES}  # fmt: skip
+    base = load_base(args)
+    tracks = car_tracks()
     base = replace(base, noise=replace(base.noise, uw=shipped.noise_up_rain_wind_gain))
     base = with_shipped_persistence(base, tracks["fit file"], shipped.noise_tau_size_gain)
     result = {
@@ -122,10 +122,7 @@ def main(argv: list[str] | None = None) -> int:
         "frames": {k: len(t.score) for k, t in tracks.items()},
         "cpu_s": round(time.process_time() - t0, 1),
     }
-    text = json.dumps(result, indent=2, ensure_ascii=False)
-    print(text)
-    if args.json is not None:
-        args.json.write_text(text + "\n")
+    write_result(result, args.json)
     return 0
 
 
