@@ -1277,7 +1277,8 @@ def calibrate_cmd(
         None,
         "--check-by",
         help="--check: split each class and band further by approach (the side the road "
-        "user comes from), view (front, side, rear), rain (the situation's precipitation), "
+        "user comes from), view (front, side, rear), angle (head-on, oblique or side-on, "
+        "front or rear), rain (the situation's precipitation), "
         "wind (dry, calm rain or windy rain: wind intensity 50 or more), "
         "cut (the box cut by the image edge or whole) or bin:ELEMENT (the run's bin of a "
         "hyperspace element, e.g. bin:intsit).",

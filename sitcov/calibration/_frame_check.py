@@ -66,6 +66,9 @@ CUT = 0.05
 #: The situation's precipitation (the hyperspace element, 0-100) from which the ``rain``
 #: split counts a run as heavy rain.
 HEAVY_RAIN = 50.0
+#: View angle [rad] within which the ``angle`` split counts a road user as seen head-on
+#: (front or rear), and three times which as seen from the side: 22.5 and 67.5 degrees.
+HEAD_ON = math.pi / 8.0
 #: The situation's wind intensity (the hyperspace element, 0-100) from which the
 #: ``wind`` split counts a rainy run as windy.
 WINDY = 50.0
@@ -89,6 +92,13 @@ def _rain(feats: Any, situation: Mapping[str, Any]) -> str:
     return "dry" if rain <= 0.0 else ("heavy rain" if rain >= HEAVY_RAIN else "light rain")
 
 
+def _angle(feats: Any, situation: Mapping[str, Any]) -> str:
+    if feats.view_angle >= 3.0 * HEAD_ON:
+        return "side"
+    end = "front" if feats.facing < 0.0 else "rear"
+    return f"head-on {end}" if feats.view_angle < HEAD_ON else f"oblique {end}"
+
+
 def _wind(feats: Any, situation: Mapping[str, Any]) -> str:
     values = situation.get("values", {})
     rain, wind = values.get("precipitation"), values.get("wind_intensity")
@@ -108,6 +118,10 @@ def _cut(feats: Any, situation: Mapping[str, Any]) -> str:
 #: ``approach``: where the run's road user comes from, seen by the ego (left, right, or
 #: ahead and any other, :func:`sitcov.hyperspace._situation.approach_side`); ``view``: the
 #: road user seen within 45 degrees of its front or of its rear, else from the side;
+#: ``angle``: finer, within :data:`HEAD_ON` of its front or rear, oblique, or within
+#: :data:`HEAD_ON` of side-on (the detector scores a close car seen head-on lower and one
+#: seen obliquely higher than the PEM does: docs/pem.md, "The check split by view
+#: angle");
 #: ``rain``: the situation's precipitation 0, below :data:`HEAVY_RAIN`, or from it
 #: (``unknown`` without that element); ``wind``: a dry run, or a rainy one with a wind
 #: intensity below :data:`WINDY` or from it (in camera mode the wind slants the rain
@@ -116,6 +130,7 @@ def _cut(feats: Any, situation: Mapping[str, Any]) -> str:
 SPLITS: dict[str, tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]]] = {
     "approach": (_approach, ("from left", "from right", "ahead/other")),
     "view": (_view, ("front", "side", "rear")),
+    "angle": (_angle, ("head-on front", "oblique front", "side", "oblique rear", "head-on rear")),
     "rain": (_rain, ("dry", "light rain", "heavy rain", "unknown")),
     "wind": (_wind, ("dry", "calm rain", "windy rain", "unknown")),
     "cut": (_cut, ("whole", "cut")),

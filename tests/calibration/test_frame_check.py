@@ -114,6 +114,25 @@ def test_the_wind_split_puts_a_rainy_run_by_its_wind(values: dict, group: str) -
     assert split(None, {"values": values}) == group and group in groups
 
 
+@pytest.mark.parametrize(
+    ("view_deg", "facing", "group"),
+    [
+        (10.0, -0.98, "head-on front"),
+        (30.0, -0.87, "oblique front"),
+        (80.0, -0.17, "side"),
+        (80.0, 0.17, "side"),
+        (50.0, 0.64, "oblique rear"),
+        (0.0, 1.0, "head-on rear"),
+    ],
+)
+def test_the_angle_split_puts_a_frame_by_its_view(view_deg: float, facing: float, group: str):
+    """Within 22.5 degrees of the front or rear: head-on; within 22.5 of side-on: side;
+    between: oblique, front or rear by the facing's sign."""
+    feats = PEMFeatures(100.0, math.radians(view_deg), 0.0, facing=facing)
+    split, groups = fc.SPLITS["angle"]
+    assert split(feats, {}) == group and group in groups
+
+
 def test_check_by_prints_a_group_column_and_names_a_wrong_split(tmp_path: Path, capsys) -> None:
     """``sitcov calibrate --check FILE --check-by rain``: a row per group (dry, light and
     heavy rain); an unknown split is one error line, exit 2."""
@@ -137,5 +156,5 @@ def test_check_by_prints_a_group_column_and_names_a_wrong_split(tmp_path: Path, 
 
 
 def test_an_unknown_split_names_the_ones_there_are() -> None:
-    with pytest.raises(SitcovError, match="approach, view, rain, wind, cut"):
+    with pytest.raises(SitcovError, match="approach, view, angle, rain, wind, cut"):
         fc.check_frames({"car": _frames(4, runs=3)}, {"car": PARAMS}, split="colour")
