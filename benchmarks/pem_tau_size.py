@@ -69,8 +69,6 @@ def profile(base: Any, tracks: dict[str, Any], gains: tuple[float, ...]) -> list
     """Per size gain: the AR coefficient fitted on ``tracks["fit file"]`` by the sequence
     likelihood (the rest of ``base`` held) and the gain in sequence log-likelihood per
     frame over ``base`` on every file."""
-    from scipy.optimize import minimize_scalar
-
     from sitcov.calibration import _frame_model as fm
 
     nll = fm.persistence_nll(base, tracks["fit file"])
@@ -78,11 +76,10 @@ def profile(base: Any, tracks: dict[str, Any], gains: tuple[float, ...]) -> list
     ref = {k: base.loglik(t) for k, t in tracks.items()}
     out = []
     for kt in gains:
-        res = minimize_scalar(lambda r, kt=kt: nll(r, kt), bounds=(0.05, 0.995),
-                              method="bounded", options={"xatol": 1e-4})  # fmt: skip
-        fit = replace(base, noise=replace(base.noise, rho=float(res.x), kt=kt))
-        row: dict[str, Any] = {"size_gain": kt, "rho": round(float(res.x), 4),
-                               "tau_s_at_ref": round(-0.1 / math.log(float(res.x)), 4)}  # fmt: skip
+        rho = fm.best_rho(nll, kt)[1]
+        fit = replace(base, noise=replace(base.noise, rho=rho, kt=kt))
+        row: dict[str, Any] = {"size_gain": kt, "rho": round(rho, 4),
+                               "tau_s_at_ref": round(-0.1 / math.log(rho), 4)}  # fmt: skip
         for k, t in tracks.items():
             row[k] = round((fit.loglik(t) - ref[k]) / max(1, len(t.score)), 4)
         out.append(row)

@@ -88,14 +88,10 @@ def likelihood_profile(
 def with_shipped_persistence(base: Any, fit_tracks: Any, kt: float) -> Any:
     """``base`` with the shipped time constant's size gain ``kt`` and the AR coefficient
     fitted for it on ``fit_tracks`` by the sequence likelihood (the rest held)."""
-    from scipy.optimize import minimize_scalar
-
     from sitcov.calibration import _frame_model as fm
 
-    nll = fm.persistence_nll(base, fit_tracks)
-    res = minimize_scalar(lambda r: nll(r, kt), bounds=(0.05, 0.995), method="bounded",
-                          options={"xatol": 1e-4})  # fmt: skip
-    return replace(base, noise=replace(base.noise, rho=float(res.x), kt=kt))
+    rho = fm.best_rho(fm.persistence_nll(base, fit_tracks), kt)[1]
+    return replace(base, noise=replace(base.noise, rho=rho, kt=kt))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1253,21 +1253,15 @@ def fit_tau_size(fit: FrameFit, t: Tracks) -> FrameFit:
     :data:`TAU_GRID` (``rho`` fitted at each), then both by Powell's search from the best;
     0 and the fit's own ``rho`` if nothing is better. A frame's own law does not depend
     on either, so the frames-alone likelihood (:func:`fit_held_terms`'s) cannot fit them."""
-    from scipy.optimize import minimize, minimize_scalar
+    from scipy.optimize import minimize
 
     if fit.noise.kt != 0.0:
         raise SitcovError(f"held terms ['{TAU_SIZE}'] are already terms of the fit")
     if fit.noise.share <= 0.0:
         return fit  # no AR part: nothing to correlate
     nll = persistence_nll(fit, t)
-
-    def best_rho(kt: float) -> tuple[float, float]:
-        res = minimize_scalar(lambda r: nll(r, kt), bounds=(0.05, 0.995), method="bounded",
-                              options={"xatol": 1e-4})  # fmt: skip
-        return float(res.fun), float(res.x)
-
     kept = (nll(fit.noise.rho, 0.0), fit.noise.rho, 0.0)
-    grid = [(*best_rho(kt), kt) for kt in TAU_GRID]
+    grid = [(*best_rho(nll, kt), kt) for kt in TAU_GRID]
     start = min(grid)
     res = minimize(lambda x: nll(min(0.995, max(0.05, x[0])), x[1]), [start[1], start[2]],
                    method="Powell", options={"xtol": 1e-4, "ftol": 1e-10})  # fmt: skip
@@ -1290,6 +1284,16 @@ def persistence_nll(fit: FrameFit, t: Tracks) -> Any:
         return -float(track_loglik(m, y, obs, t, noise, size=size, det=det).sum())
 
     return nll
+
+
+def best_rho(nll: Any, kt: float) -> tuple[float, float]:
+    """``(nll, rho)`` at the AR coefficient that minimises ``nll(rho, kt)``
+    (:func:`persistence_nll`) for the size gain ``kt``: a bounded search on [0.05, 0.995]."""
+    from scipy.optimize import minimize_scalar
+
+    res = minimize_scalar(lambda r: nll(r, kt), bounds=(0.05, 0.995), method="bounded",
+                          options={"xatol": 1e-4})  # fmt: skip
+    return float(res.fun), float(res.x)
 
 
 #: The size gains of the AR coefficient :func:`fit_tau_size` tries first.
