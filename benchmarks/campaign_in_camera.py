@@ -27,6 +27,8 @@ run seed (stream B, ``second_run_seed(campaign seed, index)``) instead of the st
 the camera's own reproducibility across run seeds on the campaign's situations. With
 ``--against ROWS`` (the same stack's rows at the stored seeds) it prints the agreement of
 camera@A with camera@B (the ceiling), with PEM@B (across run seeds) and PEM@A with PEM@B.
+``--pem FILE`` runs the PEM side with that car PEM file instead of the shipped one (a
+candidate's verdicts on the same worlds; with ``--camera-rows`` only the PEM side runs).
 ``--by precipitation>=50,wind_intensity>=50`` adds the rates and the agreement in each
 group of runs by the situations' bins (an element's bin, or below / from a value on).
 Needs the camera extra (the detector model: ``sitcov models fetch``).
@@ -54,13 +56,15 @@ def _verdicts(job: dict[str, Any]) -> dict[str, Any]:
     from sitcov.av import make_stack
     from sitcov.campaign._draws import PerceptionDraws
     from sitcov.hyperspace import Situation
+    from sitcov.perception import PEMSensor
     from sitcov.sim._judge import Judge
     from sitcov.sim.embedded._backend import EmbeddedBackend
 
-    key = (job["av"], job["physics"], job["judge"], job["draws"])
+    key = (job["av"], job["physics"], job["judge"], job["draws"], job["pem"])
     if _WORKER.get("key") != key:  # one backend per mode and one stack per worker and setup
         judge = Judge.from_spec(job["judge"])
-        pem = EmbeddedBackend(perception="pem", physics=job["physics"])
+        sensor = PEMSensor(job["pem"]) if job["pem"] is not None else None
+        pem = EmbeddedBackend(perception="pem", physics=job["physics"], sensor=sensor)
         if job["draws"] > 1:
             pem = PerceptionDraws(pem, job["draws"], lambda o: judge(o).failed)
         camera = EmbeddedBackend(perception="camera", physics=job["physics"])
@@ -117,13 +121,15 @@ def rerun(
     second_seed: bool = False,
     pem_draws: int = 1,
     camera_rows: Path | None = None,
+    pem_file: Path | None = None,
 ) -> list[dict[str, Any]]:
     """Every judged run of ``campaign`` in camera mode (resuming ``out``): the rows. With
     ``stack`` (another than the campaign's) its situations and run seeds are run with that
     stack in both modes; with ``second_seed`` both modes run at stream B's run seeds; with
     ``pem_draws`` > 1 the PEM verdict is the majority of that many perception draws
     (``sitcov run --perception-draws``); ``camera_rows``: the camera verdicts of these
-    runs from an earlier rows file of the same campaign, stack and seeds (not run again)."""
+    runs from an earlier rows file of the same campaign, stack and seeds (not run again);
+    ``pem_file``: the PEM side's car PEM file (default: the shipped one)."""
     from sitcov.campaign._agreement import second_run_seed
     from sitcov.hyperspace._situation import approach_side
 
@@ -131,7 +137,8 @@ def rerun(
     if not runs:
         raise SystemExit(f"{db}: no judged runs of campaign {campaign!r}")
     av, physics, judge = _setup(runs[0])
-    with_pem = second_seed or pem_draws > 1 or (stack is not None and stack != av)
+    with_pem = second_seed or pem_draws > 1 or pem_file is not None
+    with_pem = with_pem or (stack is not None and stack != av)
     av = stack or av
     base_seed = int(runs[0].config.get("seed") or 0)
 
@@ -151,7 +158,7 @@ def rerun(
     jobs = [
         {"index": r.index, "situation": r.situation.to_dict(), "seed": seed_of(r), "av": av,
          "physics": physics, "judge": judge, "with_pem": with_pem, "draws": pem_draws,
-         "camera": r.index not in known}
+         "camera": r.index not in known, "pem": None if pem_file is None else str(pem_file)}
         for r in runs
         if r.index not in done
     ]  # fmt: skip
@@ -291,13 +298,14 @@ def main() -> None:
     parser.add_argument(
         "--camera-rows", type=Path, default=None, help="camera verdicts of an earlier rows file"
     )
+    parser.add_argument("--pem", type=Path, default=None, help="the PEM side's car PEM file")
     parser.add_argument(
         "--by", default=None, help="also by ELEMENT or ELEMENT>=VALUE, comma-separated (crossed)"
     )
     args = parser.parse_args()
     start = time.perf_counter()
     rows = rerun(args.db, args.campaign, args.out, args.workers, args.stack, args.second_seed,
-                 args.pem_draws, args.camera_rows)  # fmt: skip
+                 args.pem_draws, args.camera_rows, args.pem)  # fmt: skip
     for line in report(rows):
         print(line)
     if args.against is not None:

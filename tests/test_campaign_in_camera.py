@@ -87,6 +87,49 @@ def test_pem_draws_rerun_takes_the_camera_verdicts_from_a_rows_file(tmp_path) ->
         assert int(row["camera_failed"]) == run.index % 2 and float(row["cpu_s"]) == 1.5
 
 
+def test_a_pem_file_reruns_the_pem_side_with_that_file(tmp_path) -> None:
+    """--pem FILE: the PEM side runs (one draw, even without --pem-draws) with that car
+    PEM file: a PEM that never reports the car fails every run that the same worlds fail
+    with the file's sensor, more than the stored (shipped PEM) verdicts."""
+    import csv
+
+    import yaml
+
+    from sitcov.av import make_stack
+    from sitcov.campaign import CampaignConfig, open_store, run_campaign
+    from sitcov.perception import PEMSensor
+    from sitcov.perception._pem_params import load_pem_params
+    from sitcov.sim import Judge
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    bench = load_benchmark("campaign_in_camera")
+    db = tmp_path / "c.db"
+    store = open_store(db)
+    run_campaign(CampaignConfig(runs=8, executor="serial", workers=1), store)
+    runs = store.runs()
+    store.close()
+    blind = tmp_path / "blind.yaml"
+    params = load_pem_params().to_dict() | {"bias": -40.0}  # no score reaches the floor
+    blind.write_text(yaml.safe_dump({"params": params}))
+    known = tmp_path / "camera.csv"
+    with known.open("w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=bench.FIELDS)
+        writer.writeheader()
+        for r in runs:
+            writer.writerow({"index": r.index, "intsit": "-", "side": "-", "pem_failed": 9,
+                             "camera_failed": 0, "camera_status": "x", "cpu_s": 1.0})  # fmt: skip
+    rows = bench.rerun(db, "default", tmp_path / "out.csv", 1, camera_rows=known, pem_file=blind)
+    judge = Judge.from_spec("default")
+    backend = EmbeddedBackend(sensor=PEMSensor(blind))
+    stack = make_stack("reference")
+    for run, row in zip(runs, rows, strict=True):
+        assert int(row["pem_failed"]) == int(
+            judge(backend.run(run.situation, stack, run.seed)).failed
+        )
+    stored = sum(r.status == "fail" for r in runs)
+    assert sum(int(row["pem_failed"]) for row in rows) > stored  # the file, not the shipped PEM
+
+
 def test_rates_by_situation_bins_cross_elements_and_cut_at_values() -> None:
     """--by: groups by an element's bin or by below / from a value on, crossed."""
     bench = load_benchmark("campaign_in_camera")

@@ -201,7 +201,8 @@ def _design(features: Sequence[PEMFeatures], size_min: float, size_max: float, r
 #: The frame model's extra terms (:data:`sitcov.calibration._frame_model.EXTRA_TERMS`) that
 #: have a PEM parameter, and that parameter: the cube of the log size, the size term's
 #: bends at 40 and 80 px, the side-on bend at 40 px, the step of a box cut by the image
-#: edge and that step's tent at 220 px (``CUT_TENT_PX``).
+#: edge and that step's tent at 220 px (``CUT_TENT_PX``), the close car seen head-on
+#: from the front (``head_on``).
 EXTRA_TERM_PARAMS = {
     "size3": "size3_gain",
     "hinge40": "size_hinge40_gain",
@@ -209,6 +210,7 @@ EXTRA_TERM_PARAMS = {
     "view_hinge40": "view_hinge40_gain",
     "cut": "cut_gain",
     f"cut_tent{CUT_TENT_PX:.0f}": "cut_tent_gain",
+    "head_on": "head_on_gain",
 }
 #: The gains of the frame model's candidate terms (:mod:`sitcov.calibration._frame_model`):
 #: the side's and the extra terms'.

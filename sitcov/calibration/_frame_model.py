@@ -86,7 +86,15 @@ import numpy as np
 from sitcov.calibration._calibrate import _LINEAR, EXTRA_TERM_PARAMS, _design, _jitter
 from sitcov.calibration._frames import KindFrames
 from sitcov.errors import SitcovError
-from sitcov.perception._pem import CUT_RAMP, FRAME_DT, LOW_TAIL_KNEE, PEMFeatures, PEMParams
+from sitcov.perception._pem import (
+    CUT_RAMP,
+    FRAME_DT,
+    HEAD_ON_DEG,
+    HEAD_ON_PX,
+    LOW_TAIL_KNEE,
+    PEMFeatures,
+    PEMParams,
+)
 
 #: Scores below this count as censored (only "below" is used) [-]: the recording kept
 #: scores down to 0.05, but below ~0.2 the detector's box is a stray weak one (the frames
@@ -431,7 +439,9 @@ NEAR_M = 10.0
 #: image shows the box; measured, as ``cut_hinge``); ``cut_tent<N>`` the ``cut`` ramp
 #: times a tent in the log box height, ``max(0, 1 - |ln(h / N)| / ln 2)`` (a mid-size box
 #: cut by the edge: the PEM parameter ``cut_tent_gain`` at ``N`` = 220, ``CUT_TENT_PX``;
-#: docs/pem.md, "The mid-size cut car"); ``size3`` the cube of
+#: docs/pem.md, "The mid-size cut car"); ``head_on`` a car seen from the front within
+#: ``HEAD_ON_DEG`` of head-on on a box of ``HEAD_ON_PX`` times a tent in the view angle, 1
+#: head-on (the PEM parameter ``head_on_gain``: :func:`head_on_column`); ``size3`` the cube of
 #: the log apparent size; ``hinge<N>`` (any whole ``N`` px, e.g. ``hinge40``) the hinge
 #: ``max(0, ln(h / N))`` of the box height ``h`` [px] (unclamped: a piecewise-linear
 #: bend of the size term at ``N`` px, which the quadratic in the clamped log size cannot
@@ -450,8 +460,8 @@ NEAR_M = 10.0
 EXTRA_TERMS = ("side", "side_near", "side_mid", "side_far", "side_offset", "lane",
                "lane_near", "from_left", "from_right", "near", "offset_near", "trunc_near",
                "trunc_side", "cut", "trunc_hinge<N>", "cut_hinge<N>", "vis_hinge<N>",
-               "cut_tent<N>", "size3", "hinge<N>", "view_hinge<N>", "size", "size2",
-               "rain", "rain_wind", "rain_wind_size", "det_<term>")  # fmt: skip
+               "cut_tent<N>", "head_on", "size3", "hinge<N>", "view_hinge<N>", "size",
+               "size2", "rain", "rain_wind", "rain_wind_size", "det_<term>")  # fmt: skip
 
 
 def is_detection_term(name: str) -> bool:
@@ -488,6 +498,7 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
         "trunc_near": lambda: -x[:, 8] * near,
         "trunc_side": lambda: -x[:, 8] * side,
         "cut": lambda: _cut_ramp(x),
+        "head_on": lambda: head_on_column(t),
         "size3": lambda: x[:, 1] ** 3,
         "size": lambda: x[:, 1],
         "size2": lambda: x[:, 2],
@@ -518,6 +529,18 @@ def extra_columns(t: Tracks, x: np.ndarray, names: Sequence[str]) -> np.ndarray:
 #: The size terms' name prefixes (each followed by a whole knot ``N`` > 0 [px]): the
 #: three that end in ``hinge`` before ``hinge`` itself.
 _HINGE_PREFIXES = ("view_hinge", "cut_hinge", "vis_hinge", "hinge", "cut_tent")
+
+
+def head_on_column(t: Tracks) -> np.ndarray:
+    """Per frame of ``t``: ``max(0, 1 - view / HEAD_ON_DEG)`` for a car seen from the front
+    (``facing`` < 0) on a box of ``HEAD_ON_PX`` [px] (from the lower bound to below the
+    upper), else 0: what the PEM's ``head_on_gain`` multiplies (its logit computes it
+    per frame the same way)."""
+    view = np.asarray([f.view_angle for f in t.feats], dtype=float)
+    front = np.asarray([f.facing < 0.0 for f in t.feats], dtype=bool)
+    h = np.asarray([f.height_px for f in t.feats], dtype=float)
+    inside = front & (h >= HEAD_ON_PX[0]) & (h < HEAD_ON_PX[1])
+    return np.where(inside, np.maximum(0.0, 1.0 - view / math.radians(HEAD_ON_DEG)), 0.0)
 
 
 def _hinge_knot(name: str) -> tuple[str | None, int]:

@@ -14,6 +14,8 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
         + facing_gain * facing + facing2_gain * (2 * facing^2 - 1)             rear/front
         - trunc_gain * truncation                                             image edge
         + cut_tent_gain * cut * max(0, 1 - |ln(h / 220)| / ln 2)   a mid-size box cut by it
+        + head_on_gain * front * max(0, 1 - view / 22.5 deg) * [80 <= h < 500]
+                                                        a close car seen head-on, front
         + fog_gain   * ln(transmittance(distance))                            fog contrast
         + illum_gain * ln(illumination)                                       darkness
         - rain_gain  * rain_noise                                             rain, spray
@@ -32,12 +34,13 @@ detector would draw; the PEM turns what makes that box hard to detect into a sco
                                              (larger boxes, wider scores; 1 if the gains are 0)
 
 with ``h`` and ``w`` the unclipped box height and width [px], ``cut`` the ramp
-``min(1, truncation / 0.1)`` (``CUT_RAMP``), ``facing`` the cosine of the
-actor's heading relative to the line of sight (+1 rear view, -1 front view), ``side`` its
-sine (+1 seen from the actor's left, moving right to left in the image, -1 from its right:
-the only feature that is not left/right symmetric; 0 in frames recorded before it),
-``rain_wind`` the scene's precipitation times its wind intensity (fractions),
-``offset`` the
+``min(1, truncation / 0.1)`` (``CUT_RAMP``), ``front`` 1 for a front view (``facing``
+< 0) and 0 else (the head-on window: ``HEAD_ON_DEG``, ``HEAD_ON_PX``), ``facing`` the
+cosine of the actor's heading relative to the line of sight (+1 rear view, -1 front
+view), ``side`` its sine (+1 seen from the actor's left, moving right to left in the
+image, -1 from its right: the only feature that is not left/right symmetric; 0 in frames
+recorded before it), ``rain_wind`` the scene's precipitation times its wind intensity
+(fractions), ``offset`` the
 distance of the box centre from the image centre as a fraction of half the image width
 (clamped to [0, 1]), ``contrast`` the luminance contrast of the body colour against the
 road and sky under the scene's light and ``detail`` its contrast against the car's own
@@ -164,6 +167,12 @@ CUT_RAMP = 0.1
 #: Box height [px] at which ``cut_tent_gain``'s tent peaks; it falls to 0 at half and at
 #: twice this height.
 CUT_TENT_PX = 220.0
+#: View angle [deg] at which ``head_on_gain``'s tent falls to 0 (it is 1 head-on), and the
+#: box heights [px] it acts on, from the lower bound to below the upper: the close car
+#: seen from the front (docs/pem.md, "The head-on front car").
+HEAD_ON_DEG = 22.5
+HEAD_ON_PX = (80.0, 500.0)
+_HEAD_ON_RAD = math.radians(HEAD_ON_DEG)
 _LN2 = math.log(2.0)
 #: Where the score noise's lower tail widens (``noise_low_tail``), in standard units of
 #: the latent noise below the median [-].
@@ -261,6 +270,7 @@ COEFFICIENTS = (
     "view_hinge40_gain",
     "cut_gain",
     "cut_tent_gain",
+    "head_on_gain",
 )
 (
     _BIAS,
@@ -292,6 +302,7 @@ COEFFICIENTS = (
     _VIEW_HINGE40,
     _CUT,
     _CUT_TENT,
+    _HEAD_ON,
 ) = range(len(COEFFICIENTS))
 
 
@@ -363,6 +374,10 @@ def _logit(
         if tent > 0.0:
             ramp = 1.0 if truncation > CUT_RAMP else truncation / CUT_RAMP
             bend += c[_CUT_TENT] * ramp * tent
+    if c[_HEAD_ON] != 0.0 and facing < 0.0 and HEAD_ON_PX[0] <= height_px < HEAD_ON_PX[1]:
+        tent = 1.0 - view_angle / _HEAD_ON_RAD  # (0: the same bits)
+        if tent > 0.0:
+            bend += c[_HEAD_ON] * tent
     return (
         c[_BIAS]
         + (c[_SIZE] + c[_SIZE2] * size + c[_SIDE_SIZE] * side) * size

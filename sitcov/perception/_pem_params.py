@@ -173,6 +173,14 @@ class PEMParams:
             mid-size cut car"). Fitted after the rest, which is held
             (``sitcov calibrate --held-term cut_tent220``); 0 (the default, files written
             before it) changes nothing [-].
+        head_on_gain: added to the logit of a car seen from the front within 22.5 degrees
+            of head-on (``HEAD_ON_DEG``), times a tent that is 1 head-on and 0 at that
+            angle, on a box of 80 to 500 px (``HEAD_ON_PX``): the detector scores a close
+            car coming straight at the camera lower than the view terms say, which rise
+            smoothly with the view's sine (docs/pem.md, "The head-on front car"). Fitted
+            after the rest, which is held (``sitcov calibrate --held-term head_on``); not in
+            the shipped file (it fits the frames better and the verdicts no better); 0
+            (the default) changes nothing [-].
     """
 
     bias: float = 0.5
@@ -235,6 +243,7 @@ class PEMParams:
     noise_up_rain_wind_gain: float = 0.0
     noise_up_rain_wind_px: float = 100.0
     noise_tau_size_gain: float = 0.0
+    head_on_gain: float = 0.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:

@@ -976,6 +976,39 @@ def test_the_cut_tent_is_the_pems_cut_tent_gain() -> None:
         assert pem_logit(feats[i], params) == pytest.approx(logits[i], abs=1e-9)
 
 
+def test_the_head_on_term_is_the_pems_head_on_gain() -> None:
+    """``head_on``: a tent in the view angle (1 head-on, 0 at ``HEAD_ON_DEG``) on a front
+    view (``facing`` < 0) of a box of ``HEAD_ON_PX``, 0 on a rear view, an oblique one or
+    a smaller box. Written as ``head_on_gain``, the PEM's logit of every frame is then
+    the fit's."""
+    from sitcov.calibration._calibrate import _LINEAR
+    from sitcov.perception._pem import HEAD_ON_DEG, HEAD_ON_PX
+
+    base = fm.tracks_of(_draw(23, runs=5, length=60))
+    n = len(base.feats)
+    view = np.resize([0.0, 0.2, 0.5], n)  # head-on, inside the tent, outside it [rad]
+    facing = np.resize([-0.9, 0.9], n)  # front and rear views
+    feats = [f._replace(view_angle=float(v), facing=float(c))
+             for f, v, c in zip(base.feats, view, facing, strict=True)]  # fmt: skip
+    t = replace(base, feats=feats)
+    h = np.array([f.height_px for f in feats])
+    col = fm.extra_columns(t, np.zeros((n, 14)), ("head_on",))[:, 0]
+    inside = (facing < 0.0) & (h >= HEAD_ON_PX[0]) & (h < HEAD_ON_PX[1])
+    tent = np.maximum(0.0, 1.0 - view / math.radians(HEAD_ON_DEG))
+    assert np.allclose(col, np.where(inside, tent, 0.0))
+    assert col[facing > 0.0].max() == 0.0 and col[h < HEAD_ON_PX[0]].max() == 0.0
+    assert col[view == 0.5].max() == 0.0 and (col == 1.0).sum() > 5 and (col > 1e-3).sum() > 10
+    beta = np.random.default_rng(2).uniform(-0.5, 0.5, len(_LINEAR))
+    fit = fm.FrameFit(beta, 150.0, 25.0, fm.Noise(0.3, 0.5, 0.8), 0.0, ("head_on",), (-0.6,))
+    params = fm.to_params(fit, PEMParams(size_ref_px=25.0), t, [])
+    assert params.head_on_gain == -0.6
+    exact = replace(fit, beta=np.asarray([getattr(params, n) for n in _LINEAR]))
+    logits = exact.logit(t)
+    for i, f in enumerate(feats):
+        if f.height_px >= params.size_min_px:
+            assert pem_logit(f, params) == pytest.approx(logits[i], abs=1e-9)
+
+
 def test_calibrate_adds_a_held_term_and_refuses_one_without_a_parameter(
     tmp_path, capsys, monkeypatch
 ) -> None:

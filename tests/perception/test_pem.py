@@ -783,8 +783,18 @@ def documented_logit(f: PEMFeatures, p: PEMParams) -> float:
         + p.yellow_blue_gain * f.yellow_blue
         + p.side_gain * f.side
         + p.size3_gain * size * size * size
-        + _bends(f.height_px, side, p, f.truncation)
+        + (_bends(f.height_px, side, p, f.truncation) + _head_on(f, p))  # one sum, as the PEM
     )
+
+
+def _head_on(f: PEMFeatures, p: PEMParams) -> float:
+    """The close car seen head-on from the front: ``head_on_gain`` times a tent in the view
+    angle (1 head-on, 0 at ``HEAD_ON_DEG``) on a front view of a box of ``HEAD_ON_PX``."""
+    from sitcov.perception._pem import HEAD_ON_DEG, HEAD_ON_PX
+
+    inside = f.facing < 0.0 and HEAD_ON_PX[0] <= f.height_px < HEAD_ON_PX[1]
+    tent = 1.0 - f.view_angle / math.radians(HEAD_ON_DEG)
+    return p.head_on_gain * tent if p.head_on_gain != 0.0 and inside and tent > 0.0 else 0.0
 
 
 def _bends(h: float, view_sine: float, p: PEMParams, truncation: float = 0.0) -> float:
@@ -817,6 +827,7 @@ def test_pem_logit_is_the_documented_formula_bit_for_bit(name):
     p = replace(PARAM_SETS[name], contrast_gain=0.4, chroma_gain=-0.3, yellow_blue_gain=0.2)
     p = replace(p, side_gain=-0.35, size3_gain=-0.4, view_hinge40_gain=0.3)
     p = replace(p, cut_gain=0.2, cut_tent_gain=0.45)  # the cut box's step and tent
+    p = replace(p, head_on_gain=-0.6)  # and the close car seen head-on from the front
     rng = np.random.default_rng(11)
     features = [f._replace(side=rng.uniform(-1.0, 1.0)) for f in random_features(rng, 400)]
     features += [
@@ -830,6 +841,7 @@ def test_pem_logit_is_the_documented_formula_bit_for_bit(name):
             strict=False,
         )
     ]
+    assert sum(_head_on(f, p) != 0.0 for f in features) > 10  # the head-on term is tried
     for f in features:
         assert repr(pem_logit(f, p)) == repr(documented_logit(f, p)), f
 
@@ -844,6 +856,7 @@ def test_detect_scores_as_features_then_pem_logit(monkeypatch):
     p = replace(p, side_gain=0.45)  # the side's term computed in the view too
     p = replace(p, view_hinge40_gain=0.3)  # and the side-on bend
     p = replace(p, cut_gain=0.2, cut_tent_gain=0.45)  # and the cut box's step and tent
+    p = replace(p, head_on_gain=-0.6)  # and the close car seen head-on from the front
     sensor = PEMSensor(p)
     rng = np.random.default_rng(12)
     detected = 0
