@@ -232,5 +232,6 @@ def _kernel() -> Any:
         from sitcov._jit import compiled
 
         example = (0.0, 0.0, 0.0, 10.0, 1.0, 0.3, 4.6, 1.8, 1.5, 1.5, 1.3, 800.0, 640.0, 480.0)
-        _PROJECT = compiled(_project, *example, helpers=(_clip_near, _view_angle)) or _project
+        helpers = (_clip_near, _view_angle)  # _clip_near makes a list: numba's NRT
+        _PROJECT = compiled(_project, *example, helpers=helpers, nrt=True) or _project
     return _PROJECT

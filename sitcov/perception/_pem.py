@@ -691,7 +691,8 @@ def _view_kernel() -> Any:
         q = np.array(example_view_array())
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit,
                    fill_of, noise_scale, _heading_sine)  # fmt: skip
-        _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers)
+        # the projection's helpers make lists: numba's NRT (_jit.compiled)
+        _VIEW_FN = compiled(_pem_view, q, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3, helpers=helpers, nrt=True)
         _VIEW_FN = typed_entry(_VIEW_FN) or _pem_view
     return _VIEW_FN
 
@@ -863,7 +864,8 @@ def _frame_kernel() -> Any:
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
         helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid, low_tail)
         example = (state, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
-        _FRAME_FN = typed_entry(compiled(_pem_frame, *example, helpers=helpers)) or False
+        fast = compiled(_pem_frame, *example, helpers=helpers, nrt=True)  # lists: as the view's
+        _FRAME_FN = typed_entry(fast) or False
     return _FRAME_FN
 
 

@@ -200,7 +200,7 @@ def test_a_kernel_that_fails_its_example_from_the_cache_is_compiled_afresh(
     real = _jit._build
     caches = []
 
-    def damaged(fn, helpers, *, cache):
+    def damaged(fn, helpers, *, cache, **options):
         caches.append(cache)
         if cache:
 
@@ -208,7 +208,7 @@ def test_a_kernel_that_fails_its_example_from_the_cache_is_compiled_afresh(
                 raise ZeroDivisionError("division by zero")
 
             return broken
-        return real(fn, helpers, cache=cache)
+        return real(fn, helpers, cache=cache, **options)
 
     k = _dynamics.Vehicle(_dynamics.default_params(), 0.0, 0.0, 0.0)._k
     example = (k, *_cases(1, 3)[0], 0.05, 2)
