@@ -1265,10 +1265,11 @@ def calibrate_cmd(
         [],
         "--held-term",
         help="--frames-from: add this extra term (one with a PEM parameter, e.g. "
-        "cut_tent220, or up_rain_wind: the score noise's upper scale in windy rain) to the "
-        "chosen model, its gain fitted with the rest held; repeatable (each term fitted in "
-        "turn, those before it held) "
-        '(docs/pem.md, "The mid-size cut car", "The wind in the rain").',
+        "cut_tent220 or head_on, or up_rain_wind: the score noise's upper scale in windy "
+        "rain) to the chosen model, its gain fitted with the rest held; repeatable (each "
+        "term fitted in turn, those before it held) "
+        '(docs/pem.md, "The mid-size cut car", "The wind in the rain", "The head-on front '
+        'car").',
     ),
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."
