@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from benchmark_modules import load_benchmark
 
 
@@ -51,32 +53,42 @@ def test_across_seeds_pairs_the_two_streams_by_index() -> None:
     assert lines[2].split()[3] == "95/95"
 
 
-def test_pem_draws_rerun_takes_the_camera_verdicts_from_a_rows_file(tmp_path) -> None:
-    """With --pem-draws and --camera-rows only the PEM side runs: its verdicts are the
-    majorities PerceptionDraws gives for the stored situations and seeds, the camera's are
-    the file's."""
+def _stored_campaign(tmp_path, runs: int, bench: Any) -> tuple[Any, list, Any]:
+    """A default campaign of ``runs`` runs stored in ``tmp_path``, and a camera rows file
+    for it in ``bench``'s fields (the loaded benchmark: loaded once per test, its worker
+    function pickles by that module) with the camera failing the odd-index runs, 1.5 CPU-s
+    each: (database, its runs, the rows file)."""
     import csv
 
-    from sitcov.av import make_stack
     from sitcov.campaign import CampaignConfig, open_store, run_campaign
-    from sitcov.campaign._draws import PerceptionDraws
-    from sitcov.sim import Judge
-    from sitcov.sim.embedded import EmbeddedBackend
 
-    bench = load_benchmark("campaign_in_camera")
     db = tmp_path / "c.db"
     store = open_store(db)
-    run_campaign(CampaignConfig(runs=6, executor="serial", workers=1), store)
-    runs = store.runs()
+    run_campaign(CampaignConfig(runs=runs, executor="serial", workers=1), store)
+    stored = store.runs()
     store.close()
     known = tmp_path / "camera.csv"
     with known.open("w", newline="") as f:
         writer = csv.DictWriter(f, fieldnames=bench.FIELDS)
         writer.writeheader()
-        for r in runs:
+        for r in stored:
             writer.writerow({"index": r.index, "intsit": "-", "side": "-", "pem_failed": 9,
                              "camera_failed": r.index % 2, "camera_status": "x",
                              "cpu_s": 1.5})  # fmt: skip
+    return db, stored, known
+
+
+def test_pem_draws_rerun_takes_the_camera_verdicts_from_a_rows_file(tmp_path) -> None:
+    """With --pem-draws and --camera-rows only the PEM side runs: its verdicts are the
+    majorities PerceptionDraws gives for the stored situations and seeds, the camera's are
+    the file's."""
+    from sitcov.av import make_stack
+    from sitcov.campaign._draws import PerceptionDraws
+    from sitcov.sim import Judge
+    from sitcov.sim.embedded import EmbeddedBackend
+
+    bench = load_benchmark("campaign_in_camera")
+    db, runs, known = _stored_campaign(tmp_path, 6, bench)
     rows = bench.rerun(db, "default", tmp_path / "out.csv", 1, pem_draws=3, camera_rows=known)
     judge = Judge.from_spec("default")
     draws = PerceptionDraws(EmbeddedBackend(), 3, lambda o: judge(o).failed)
@@ -91,33 +103,19 @@ def test_a_pem_file_reruns_the_pem_side_with_that_file(tmp_path) -> None:
     """--pem FILE: the PEM side runs (one draw, even without --pem-draws) with that car
     PEM file: a PEM that never reports the car fails every run that the same worlds fail
     with the file's sensor, more than the stored (shipped PEM) verdicts."""
-    import csv
-
     import yaml
 
     from sitcov.av import make_stack
-    from sitcov.campaign import CampaignConfig, open_store, run_campaign
     from sitcov.perception import PEMSensor
     from sitcov.perception._pem_params import load_pem_params
     from sitcov.sim import Judge
     from sitcov.sim.embedded import EmbeddedBackend
 
     bench = load_benchmark("campaign_in_camera")
-    db = tmp_path / "c.db"
-    store = open_store(db)
-    run_campaign(CampaignConfig(runs=8, executor="serial", workers=1), store)
-    runs = store.runs()
-    store.close()
+    db, runs, known = _stored_campaign(tmp_path, 8, bench)
     blind = tmp_path / "blind.yaml"
     params = load_pem_params().to_dict() | {"bias": -40.0}  # no score reaches the floor
     blind.write_text(yaml.safe_dump({"params": params}))
-    known = tmp_path / "camera.csv"
-    with known.open("w", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=bench.FIELDS)
-        writer.writeheader()
-        for r in runs:
-            writer.writerow({"index": r.index, "intsit": "-", "side": "-", "pem_failed": 9,
-                             "camera_failed": 0, "camera_status": "x", "cpu_s": 1.0})  # fmt: skip
     rows = bench.rerun(db, "default", tmp_path / "out.csv", 1, camera_rows=known, pem_file=blind)
     judge = Judge.from_spec("default")
     backend = EmbeddedBackend(sensor=PEMSensor(blind))
