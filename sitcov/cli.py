@@ -864,14 +864,28 @@ def experiment_agreement_cmd(
 def experiment_agreement_pool_cmd(
     files: list[Path] = typer.Argument(..., help="Rows files of `experiment agreement` runs."),
     pairs: str = typer.Option("all", "--pairs", help="all, or a comma-separated subset."),
+    by: Optional[str] = typer.Option(  # noqa: UP045
+        None,
+        "--by",
+        help="Split each pair by the situations' bin of a hyperspace element (e.g. intsit) "
+        "or by approach (where the road user comes from), with McNemar's test per bin.",
+    ),
+    kind: Optional[str] = typer.Option(  # noqa: UP045
+        None, "--kind", help="pedestrian | cyclist: the rows' derived situations (for --by)."
+    ),
+    stack: Optional[list[str]] = typer.Option(  # noqa: UP045
+        None, "--stack", help="Only this stack's rows (repeatable or comma-separated)."
+    ),
     as_json: bool = typer.Option(False, "--json", help="Print the pooled result as JSON."),
 ) -> None:
-    """Each pair's verdict agreement pooled over the rows files of several agreement runs."""
+    """Each pair's verdict agreement pooled over the rows files of several agreement runs,
+    per stack."""
     import json
 
     from sitcov.campaign import _agreement as ag
 
-    pooled = ag.pool_rows_files(files, ag.parse_pairs(pairs))
+    stacks = [n.strip() for v in stack or () for n in v.split(",") if n.strip()] or None
+    pooled = ag.pool_rows_files(files, ag.parse_pairs(pairs), by=by, kind=kind, stacks=stacks)
     if as_json:
         print(json.dumps(pooled, sort_keys=True))
         return

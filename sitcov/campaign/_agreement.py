@@ -645,26 +645,63 @@ def summarise(
     return result
 
 
-def pool_rows_files(paths: Sequence[Path], pairs: Sequence[str]) -> dict[str, Any]:
+def pool_rows_files(
+    paths: Sequence[Path], pairs: Sequence[str], by: str | None = None,
+    kind: str | None = None, stacks: Sequence[str] | None = None,
+) -> dict[str, Any]:  # fmt: skip
     """Each pair's agreement pooled over the rows files of several runs of the experiment
-    (e.g. seeds 2, 4 and seeds 8, 9, measured with different ``--situations``).
+    (e.g. seeds 2, 4 and seeds 8, 9, measured with different ``--situations``), per stack
+    (pairs are formed within a stack; ``pairs`` at the top level is the first stack's, as
+    in :func:`run_agreement`'s summary). With ``by`` (a hyperspace element, or
+    ``approach``: where the road user comes from), each stack's pairs split by the
+    situations' bin of it (:func:`split_agreement`); ``kind`` names the situations'
+    hyperspace (pedestrian or cyclist rows); ``stacks`` keeps those stacks only.
 
     Raises:
-        ConfigError: no file, or two files holding the same (seed, index, side) row.
+        ConfigError: no file, two files holding the same (stack, seed, index, side) row,
+            rows of several judges, a stack no file holds or an element the hyperspace
+            does not have.
     """
     if not paths:
         raise ConfigError(field="FILES", value="", expected="at least one rows file")
+    rows = _pooled_rows(paths)
+    judges = sorted({_field(r, "judge") for r in rows})
+    if len(judges) > 1:
+        raise ConfigError(field="judge", value=judges,
+                          expected="rows files of one judge (their verdicts differ)")  # fmt: skip
+    found = list(dict.fromkeys(_field(r, "stack") for r in rows))
+    for name in stacks or ():
+        if name not in found:
+            listed = ", ".join(found)
+            raise ConfigError(field="--stack", value=name,
+                              expected=f"a stack of the rows files ({listed})")  # fmt: skip
+    keep = list(stacks) if stacks else found
+    groups = situation_groups({(r["seed"], r["index"]) for r in rows}, by, kind) if by else None
+    per_stack: dict[str, Any] = {}
+    for name in keep:
+        mine = [r for r in rows if _field(r, "stack") == name]
+        entry: dict[str, Any] = {"pairs": {pair: compare(mine, pair) for pair in pairs}}
+        if groups is not None:
+            entry["by"] = {pair: split_agreement(mine, pair, groups) for pair in pairs}
+        per_stack[name] = entry
+    return {
+        "files": [str(p) for p in paths],
+        "judge": judges[0] if judges else DEFAULT_JUDGE,
+        "seeds": sorted({r["seed"] for r in rows}),
+        "pairs": per_stack[keep[0]]["pairs"] if keep else {},
+        "stacks": per_stack,
+        "by": by,
+    }
+
+
+def _pooled_rows(paths: Sequence[Path]) -> list[dict[str, Any]]:
+    """The rows of every file; a (stack, seed, index, side) row in two files is refused."""
     rows: list[dict[str, Any]] = []
     seen: dict[tuple, Path] = {}
     for path in paths:
         for row in read_rows(Path(path)):
-            key = (
-                row.get("stack", "reference"),
-                row["seed"],
-                row["index"],
-                row["perception"],
-                row["stream"],
-            )
+            key = (_field(row, "stack"), row["seed"], row["index"], row["perception"],
+                   row["stream"])  # fmt: skip
             if key in seen:
                 raise ConfigError(
                     file=str(path),
@@ -674,23 +711,92 @@ def pool_rows_files(paths: Sequence[Path], pairs: Sequence[str]) -> dict[str, An
                 )
             seen[key] = Path(path)
             rows.append(row)
-    judges = sorted({_field(r, "judge") for r in rows})
-    if len(judges) > 1:
-        raise ConfigError(field="judge", value=judges,
-                          expected="rows files of one judge (their verdicts differ)")  # fmt: skip
-    seeds = sorted({r["seed"] for r in rows})
-    return {
-        "files": [str(p) for p in paths],
-        "judge": judges[0] if judges else DEFAULT_JUDGE,
-        "seeds": seeds,
-        "pairs": {pair: compare(rows, pair) for pair in pairs},
-    }
+    return rows
+
+
+#: The split of :func:`situation_groups` that is not a hyperspace element: where the
+#: conflicting road user comes from (:func:`approach_side`).
+APPROACH = "approach"
+
+
+def situation_groups(
+    keys: Iterable[tuple[int, int]], by: str, kind: str | None = None
+) -> dict[tuple[int, int], str]:
+    """(seed, index) -> the situation's bin of the element ``by`` (or its
+    :func:`approach_side` for ``approach``), each situation regenerated.
+
+    Raises:
+        ConfigError: ``by`` is neither ``approach`` nor an element of the hyperspace.
+    """
+    from sitcov._seeding import ask_rng
+    from sitcov.generation import make_generator
+
+    space = _hyperspace(kind)
+    names = [e.name for e in space.elements]
+    if by != APPROACH and by not in names:
+        expected = f"{APPROACH} or an element of the hyperspace ({', '.join(names)})"
+        raise ConfigError(field="--by", value=by, expected=expected)
+    gen = make_generator("random", space)
+    out = {}
+    for seed, index in sorted(keys):
+        sit = gen.ask(ask_rng(seed, index))
+        side = approach_side(sit.bins, sit.values) if by == APPROACH else None
+        out[seed, index] = side or str(sit.bins[by])
+    return out
+
+
+def split_agreement(
+    rows: Sequence[Mapping[str, Any]], pair: str, groups: Mapping[tuple[int, int], str]
+) -> dict[str, dict[str, Any]]:
+    """:func:`compare` of one pair within each group of situations (``groups``: (seed,
+    index) -> label), with the exact McNemar test of its disagreements (two-sided: a
+    side that fails alone more often than the other in this group, ``p``) and the
+    Benjamini-Hochberg adjusted ``q`` over the groups (many groups give some small ``p``
+    by chance; ``q`` < 0.05 bounds the share of such false finds among the groups it
+    flags)."""
+    from scipy.stats import binomtest, false_discovery_control
+
+    by_label: dict[str, list[Mapping[str, Any]]] = {}
+    for r in rows:
+        label = groups.get((r["seed"], r["index"]))
+        if label is not None:
+            by_label.setdefault(label, []).append(r)
+    out = {label: compare(by_label[label], pair) for label in sorted(by_label, key=_natural_key)}
+    for row in out.values():
+        flips = row["a_fails_b_passes"] + row["b_fails_a_passes"]
+        row["p"] = binomtest(row["a_fails_b_passes"], flips, 0.5).pvalue if flips else 1.0
+    if out:
+        qs = false_discovery_control([row["p"] for row in out.values()])
+        for row, q in zip(out.values(), qs, strict=True):
+            row["p"], row["q"] = round(float(row["p"]), 6), round(float(q), 6)
+    return out
+
+
+def _natural_key(label: str) -> tuple[Any, ...]:
+    """``IntSit-2`` before ``IntSit-10``; numeric bins by value."""
+    import re
+
+    return tuple(int(p) if p.isdigit() else p for p in re.split(r"(\d+)", label))
 
 
 def pool_lines(pooled: Mapping[str, Any]) -> list[str]:
-    """The printed pooled table (same columns as :func:`table_lines`)."""
+    """The printed pooled table (same columns as :func:`table_lines`): one block per stack
+    when the files hold several, each pair's split by ``by`` under it."""
     lines = [f"pooled over {', '.join(pooled['files'])} (seeds {pooled['seeds']})"]
-    lines.extend(_line(pair, row) for pair, row in pooled["pairs"].items() if row["n"])
+    stacks = pooled.get("stacks") or {DEFAULT_STACK: {"pairs": pooled["pairs"]}}
+    for name, entry in stacks.items():
+        if len(stacks) > 1 or name != DEFAULT_STACK:
+            lines.append(f"== stack {name}")
+        for pair, row in entry["pairs"].items():
+            if not row["n"]:
+                continue
+            lines.append(_line(pair, row))
+            for label, cell in entry.get("by", {}).get(pair, {}).items():
+                lines.append(
+                    _line(f"  {pooled['by']} {label}", cell)
+                    + f"  McNemar p {_p(cell['p'])}, q {_p(cell['q'])}"
+                    + ("  <-" if cell["q"] < SIDE_ALPHA else "")
+                )
     return lines
 
 
