@@ -1280,10 +1280,10 @@ def calibrate_cmd(
         "--held-term",
         help="--frames-from: add this extra term (one with a PEM parameter, e.g. "
         "cut_tent220 or head_on, or up_rain_wind: the score noise's upper scale in windy "
-        "rain) to the chosen model, its gain fitted with the rest held; repeatable (each "
-        "term fitted in turn, those before it held) "
-        '(docs/pem.md, "The mid-size cut car", "The wind in the rain", "The head-on front '
-        'car").',
+        "rain, tau_size: its time constant's size gain, ceiling: the score's ceiling) to "
+        "the chosen model, its gain fitted with the rest held; repeatable (each term "
+        'fitted in turn, those before it held) (docs/pem.md, "The mid-size cut car", "The '
+        'wind in the rain", "The head-on front car", "The score\'s ceiling").',
     ),
     check_runs: str = typer.Option(
         "all", "--check-runs", help="--check: all, or the odd/even-index runs of the file."

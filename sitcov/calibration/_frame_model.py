@@ -31,7 +31,8 @@ In ``pem.yaml``: ``noise_sigma`` = sigma, ``noise_up_ratio`` = up, ``noise_frame
 ``detect_trunc_gain``/``detect_fill_gain`` = dt, df, ``noise_size_gain`` = k,
 ``noise_size_max_px`` = cap, ``noise_low_tail`` = tl, ``noise_bend_gain`` = kb,
 ``noise_bend_px`` = the knot, ``noise_up_rain_wind_gain``/``_px`` = uw and its knot
-(a held term, ``up_rain_wind``). It is
+(a held term, ``up_rain_wind``), ``noise_tau_size_gain`` = kt (``tau_size``),
+``noise_ceiling_logit``/``_size_gain``/``_slope`` = cl, cg, cs (``ceiling``). It is
 the same model for every stack: no term is chosen on any stack's verdicts.
 
 The data are recorded frames of the real detector (:mod:`sitcov.calibration._frames`):
@@ -76,6 +77,7 @@ lower tail"). The lower tail is fitted from the optimum without it (:func:`_with
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -647,9 +649,13 @@ UP_RAIN_WIND = "up_rain_wind"
 #: with the AR coefficient by the sequence likelihood (:func:`fit_tau_size`): the only
 #: held term the frames-alone likelihood cannot see.
 TAU_SIZE = "tau_size"
+#: The held term of the score's ceiling (``Noise.cl``, ``cg``, ``cs``), its three
+#: parameters fitted together by the frames-alone likelihood (:func:`fit_ceiling`).
+CEILING = "ceiling"
 #: Held terms of the score noise rather than of the logit (:func:`fit_held_terms`) and
-#: their PEM parameter.
-NOISE_HELD_TERMS = {UP_RAIN_WIND: "noise_up_rain_wind_gain", TAU_SIZE: "noise_tau_size_gain"}
+#: their PEM parameter (the ceiling's: the one that switches it on).
+NOISE_HELD_TERMS = {UP_RAIN_WIND: "noise_up_rain_wind_gain", TAU_SIZE: "noise_tau_size_gain",
+                    CEILING: "noise_ceiling_slope"}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -672,7 +678,10 @@ class Noise:
     ``exp(uw * rain_wind)`` (the run's precipitation times its wind, :func:`wind_column`;
     PEM ``noise_up_rain_wind_gain``, ``noise_up_rain_wind_px``); a step of ``g`` frames
     into a frame of log size ``s`` (:func:`scale_size`) has the AR coefficient ``rho **
-    (g exp(kt s))`` (PEM ``noise_tau_size_gain``: a close box's noise forgets faster)."""
+    (g exp(kt s))`` (PEM ``noise_tau_size_gain``: a close box's noise forgets faster);
+    above the median, a logit offset past the knee ``max(cl + cg s - m, 0)`` (``m`` the
+    frame's logit) grows ``cs`` times as fast (the score's ceiling, :func:`_knee`; PEM
+    ``noise_ceiling_logit``, ``_size_gain``, ``_slope``; ``cs`` 1: none)."""
 
     sigma: float
     share: float
@@ -695,6 +704,9 @@ class Noise:
     uw: float = 0.0
     uw_px: float = UP_WIND_PX
     kt: float = 0.0
+    cl: float = 0.0
+    cg: float = 0.0
+    cs: float = 1.0
 
 
 #: The log curvature at or below which the tail is off (0): its value while the rest of
@@ -746,13 +758,28 @@ def wind_column(t: Tracks, noise: Noise) -> np.ndarray | None:
     return np.where(h >= noise.uw_px, t.rain_wind, 0.0)
 
 
+def _knee(noise: Noise, m: np.ndarray, size: np.ndarray | None) -> np.ndarray | None:
+    """Per frame, how far above its logit ``m`` the score's ceiling bends the noise:
+    ``max(cl + cg * size - m, 0)`` (``size`` the frames' :func:`scale_size`;
+    :func:`sitcov.perception._pem.ceiling_knee`); None without a ceiling (``cs`` 1)."""
+    if noise.cs == 1.0:
+        return None
+    level = noise.cl + (noise.cg * size if size is not None else 0.0)
+    return np.maximum(level - m, 0.0)
+
+
 def _ginv(
-    v: np.ndarray, noise: Noise, sigma: np.ndarray | float | None = None, upper: Any = None
-) -> np.ndarray:
+    v: np.ndarray, noise: Noise, sigma: np.ndarray | float | None = None, upper: Any = None,
+    knee: np.ndarray | None = None,
+) -> np.ndarray:  # fmt: skip
     """The latent unit noise ``n`` whose score offset ``g(n)`` is ``v`` [logit] (``sigma``
     the scale below the median per frame, :func:`_scale`; ``noise.sigma`` if None;
-    ``upper`` the scale above it, :func:`_upper`; ``sigma * noise.up`` if None)."""
+    ``upper`` the scale above it, :func:`_upper`; ``sigma * noise.up`` if None; ``knee``
+    the ceiling's per frame, :func:`_knee`, past which ``g`` grows ``noise.cs`` times as
+    fast; None: no ceiling)."""
     sig = noise.sigma if sigma is None else sigma
+    if knee is not None:
+        v = np.where(v > knee, knee + (v - knee) / noise.cs, v)
     n = np.where(v < 0.0, v / sig, v / (sig * noise.up if upper is None else upper))
     if noise.tl != 0.0:  # beyond the knee, x - tl x**2 of the standard units x past it
         w = np.minimum(n + LOW_TAIL_KNEE, 0.0)
@@ -761,9 +788,14 @@ def _ginv(
     return n
 
 
-def _slope(v: np.ndarray, n: np.ndarray, noise: Noise, sig: Any, upper: Any) -> Any:
+def _slope(
+    v: np.ndarray, n: np.ndarray, noise: Noise, sig: Any, upper: Any,
+    knee: np.ndarray | None = None,
+) -> Any:  # fmt: skip
     """d g(n) / d n per frame at the latent noise ``n`` of the logit offset ``v``."""
     slope = np.where(v < 0.0, sig, upper)
+    if knee is not None:
+        slope = np.where(v > knee, slope * noise.cs, slope)
     if noise.tl != 0.0:
         slope = slope * (1.0 - 2.0 * noise.tl * np.minimum(n + LOW_TAIL_KNEE, 0.0))
     return slope
@@ -811,10 +843,11 @@ def frame_logliks(
     v = y - m
     sig = _scale(noise, size, near)
     upper = _upper(noise, sig, size, wind)
-    n = _ginv(v, noise, sig, upper)
-    slope = _slope(v, n, noise, sig, upper)
+    knee = _knee(noise, m, size)
+    n = _ginv(v, noise, sig, upper, knee)
+    slope = _slope(v, n, noise, sig, upper, knee)
     r = (n[:, None] - ra * u[None, :]) / re
-    nc = _ginv(c - m, noise, sig, upper)
+    nc = _ginv(c - m, noise, sig, upper, knee)
     below = log_ndtr((nc[:, None] - ra * u[None, :]) / re)
     if noise.po > 0.0:
         seen, below = _with_outliers(v, c - m, sig, noise, r, re, slope, below)
@@ -942,7 +975,8 @@ class FrameFit:
         frame when the fit has detection-only terms) of ``t``: what both likelihoods pass
         to the frame law besides the logit."""
         nz = self.noise
-        needs_size = nz.k != 0.0 or nz.ku != 0.0 or nz.kb != 0.0 or nz.kt != 0.0
+        needs_size = (nz.k != 0.0 or nz.ku != 0.0 or nz.kb != 0.0 or nz.kt != 0.0
+                      or nz.cs != 1.0)  # fmt: skip
         size = scale_size(t, self.size_ref, nz.cap) if needs_size else None
         det = self.extra(t, detection=True)
         return size, None if np.isscalar(det) else np.asarray(det)
@@ -1225,10 +1259,11 @@ def fit_held_terms(fit: FrameFit, t: Tracks, names: Sequence[str]) -> FrameFit:
     names = tuple(names)
     if not names:
         return fit
-    if TAU_SIZE in names:
-        if len(names) > 1:
-            raise SitcovError(f"{TAU_SIZE} is fitted alone (by the sequence likelihood)")
-        return fit_tau_size(fit, t)
+    for alone, fitter in ((TAU_SIZE, fit_tau_size), (CEILING, fit_ceiling)):
+        if alone in names:
+            if len(names) > 1:
+                raise SitcovError(f"{alone} is fitted alone (held terms one at a time)")
+            return fitter(fit, t)
     clash = [n for n in names if n in fit.extras]
     if UP_RAIN_WIND in names and fit.noise.uw != 0.0:
         clash.append(UP_RAIN_WIND)
@@ -1267,6 +1302,44 @@ def fit_held_terms(fit: FrameFit, t: Tracks, names: Sequence[str]) -> FrameFit:
     best = min((zero, start, np.atleast_1d(res.x)), key=nll)
     return replace(fit, noise=noise_at(best), extras=fit.extras + logit_names,
                    gains=fit.gains + tuple(float(g) for g in best[~in_noise]))  # fmt: skip
+
+
+#: The ceiling's starts of :func:`fit_ceiling`: its logit at the reference size, its size
+#: gain and its slope past the knee (the slope through a logistic, so it stays in (0, 1)).
+CEILING_GRID = ((-0.5, 0.0, 0.5), (0.0, 0.25, 0.5), (0.2, 0.5))
+
+
+def fit_ceiling(fit: FrameFit, t: Tracks) -> FrameFit:
+    """``fit`` with the score's ceiling (the held term :data:`CEILING`: ``Noise.cl``,
+    ``cg``, ``cs``) fitted by the frames-alone likelihood of ``t``, every other parameter
+    held: the best start of :data:`CEILING_GRID`, then Powell's search from it; no ceiling
+    (``cs`` 1) if neither is better. Past the knee the slope ``cs`` stays in (0, 1): a
+    ceiling bends the upper tail down, never up."""
+    from scipy.optimize import minimize
+
+    if fit.noise.cs != 1.0:
+        raise SitcovError(f"held terms ['{CEILING}'] are already terms of the fit")
+    y, obs = _observed(t)
+    m = fit.logit(t)
+    geom, _, near, det = fit.frames_alone_inputs(t)
+    size = scale_size(t, fit.size_ref, fit.noise.cap)
+    wind = wind_column(t, fit.noise)
+
+    def noise_at(x: Sequence[float]) -> Noise:
+        slope = 1.0 / (1.0 + math.exp(-min(30.0, max(-30.0, float(x[2])))))
+        return replace(fit.noise, cl=float(x[0]), cg=float(x[1]), cs=min(slope, 0.999999))
+
+    def nll(x: Sequence[float]) -> float:
+        return -frames_alone_loglik(m, y, obs, noise_at(x), geom, size, near, det, wind)
+
+    without = -frames_alone_loglik(m, y, obs, fit.noise, geom, size, near, det, wind)
+    starts = [np.asarray(x, dtype=float) for x in itertools.product(*CEILING_GRID)]
+    start = min(starts, key=nll)
+    res = minimize(nll, start, method="Powell", options={"xtol": 1e-3, "ftol": 1e-10})
+    best = min((start, np.asarray(res.x, dtype=float)), key=nll)
+    if nll(best) >= without:
+        return fit
+    return replace(fit, noise=noise_at(best))
 
 
 def fit_tau_size(fit: FrameFit, t: Tracks) -> FrameFit:
@@ -1583,6 +1656,9 @@ def to_params(
         noise_up_rain_wind_gain=round(nz.uw, 4),
         noise_up_rain_wind_px=nz.uw_px if nz.uw != 0.0 else base.noise_up_rain_wind_px,
         noise_tau_size_gain=round(nz.kt, 4),
+        noise_ceiling_logit=round(nz.cl, 4) if nz.cs != 1.0 else 0.0,
+        noise_ceiling_size_gain=round(nz.cg, 4) if nz.cs != 1.0 else 0.0,
+        noise_ceiling_slope=round(nz.cs, 4) if nz.cs != 1.0 else 1.0,
         side_gain=round(fit.side_gain, 4),
         **{param: round(gains.get(term, 0.0), 4) for term, param in EXTRA_TERM_PARAMS.items()},
         rain_sigma=0.0,
@@ -1712,7 +1788,7 @@ def fit_kind(
         "marginal_loglik_per_frame": round(fit.marginal_loglik(t) / max(1, len(t.score)), 4),
     }
     if held_terms:
-        noise_gains = {UP_RAIN_WIND: nz.uw, TAU_SIZE: nz.kt}
+        noise_gains = {UP_RAIN_WIND: nz.uw, TAU_SIZE: nz.kt, CEILING: nz.cs}
         gains = dict(zip(fit.extras, fit.gains, strict=True)) | noise_gains
         summary["held_terms"] = {
             "gains": {n: round(gains[n], 4) for n in held_terms},

@@ -492,7 +492,13 @@ class _PassLaw(NamedTuple):
         if sigma <= 0.0:
             need = -math.inf if gap >= 0.0 else math.inf
         else:
-            need = -gap / sigma if gap > 0.0 else -gap / upper
+            over = -gap
+            if gap < 0.0 and params.noise_ceiling_slope != 1.0:  # θ above the median
+                knee = ceiling_knee(z, features.height_px, params.noise_ceiling_logit,
+                                    params.noise_ceiling_size_gain, params.size_ref_px,
+                                    params.noise_size_max_px)  # fmt: skip
+                over = ceiling_inverse(over, knee, params.noise_ceiling_slope)
+            need = -gap / sigma if gap > 0.0 else over / upper
             if params.noise_low_tail != 0.0:  # the lower tail (below its knee only)
                 need = low_tail_inverse(need, params.noise_low_tail)
         base = params.detect_bias + params.detect_gain * z
@@ -584,6 +590,32 @@ def low_tail_inverse(v: float, curvature: float) -> float:
     if w >= 0.0 or curvature <= 0.0:
         return v
     return (1.0 - math.sqrt(1.0 - 4.0 * curvature * w)) / (2.0 * curvature) - LOW_TAIL_KNEE
+
+
+def ceiling_knee(
+    z: float, height_px: float, level: float, size_gain: float, size_ref: float, cap: float
+) -> float:
+    """How far above the mean logit ``z`` the score's ceiling bends the noise [logit]:
+    ``max(level + size_gain * ln(h / size_ref) - z, 0)``, ``h`` the box height clamped to
+    [1, ``cap``] (``noise_ceiling_logit``, ``noise_ceiling_size_gain``, ``size_ref_px``,
+    ``noise_size_max_px``; the frame model's :func:`~sitcov.calibration._frame_model.
+    scale_size` axis). Never below the median: the ceiling acts on the upper side only."""
+    h = 1.0 if height_px < 1.0 else height_px
+    h = cap if h > cap else h
+    knee = level + size_gain * math.log(h / size_ref) - z
+    return knee if knee > 0.0 else 0.0
+
+
+def ceiling(offset: float, knee: float, slope: float) -> float:
+    """A logit offset above the median under the score's ceiling: past ``knee`` it grows
+    ``slope`` times as fast (``noise_ceiling_slope``; 1 or an offset below the knee: the
+    offset itself, the same bits)."""
+    return offset if offset <= knee else knee + slope * (offset - knee)
+
+
+def ceiling_inverse(offset: float, knee: float, slope: float) -> float:
+    """The offset before the ceiling that :func:`ceiling` takes to ``offset``."""
+    return offset if offset <= knee else knee + (offset - knee) / slope
 
 
 def _normal_cdf(x: float) -> float:
@@ -709,18 +741,22 @@ def _view_kernel() -> Any:
 #: curvature (``noise_low_tail``), then the upper scale's factor in this scene's windy rain
 #: (:func:`up_wind_factor`) and the box height from which it acts
 #: (``noise_up_rain_wind_px``), then the AR part's size gain of its time constant
-#: (``noise_tau_size_gain``), its reference size and its clamp (:func:`tau_steps`).
+#: (``noise_tau_size_gain``), its reference size and its clamp (:func:`tau_steps`), then
+#: the score's ceiling: its logit at the reference size, its size gain and the slope past
+#: it (:func:`ceiling_knee`, :func:`ceiling`; the reference size and clamp are the two
+#: before).
 _F_PHI, _F_SHARE, _F_FRESH, _F_SIGMA, _F_RAIN_SIGMA, _F_UP, _F_GAIN, _F_AR, _F_BIAS = range(9)
 _F_FLOOR, _F_JITTER, _F_RAIN_JITTER, _F_RAIN_NOISE, _F_WIDTH, _F_HEIGHT = range(9, 15)
 _F_BOX, _F_JITTER_Y, _F_OUT_CUT, _F_OUT_RATIO, _F_UP_POWER, _F_LOW_TAIL = 15, 19, 20, 21, 22, 23
 _F_UP_WIND, _F_UP_WIND_PX, _F_TAU_GAIN, _F_TAU_REF, _F_TAU_CAP = 24, 25, 26, 27, 28
+_F_CEIL, _F_CEIL_GAIN, _F_CEIL_SLOPE = 29, 30, 31
 #: Most normals :func:`_pem_frame` takes for one actor and frame.
 FRAME_NORMALS = 11
 
 
 #: How many values of :func:`_pem_frame`'s ``state`` are its constants ``c`` (then the
 #: ``track``'s 5, then the view array ``q``).
-_F_N = 29
+_F_N = 32
 
 
 def example_frame_state() -> list[float]:
@@ -728,7 +764,7 @@ def example_frame_state() -> list[float]:
     of 5 and :func:`example_view_array`) for the compiled kernel's example call."""
     constants = [0.8, 0.0, 0.3, 1.0, 0.0, 0.7, -0.3, 0.4, 1.2, 0.1, 0.05, 0.0, 0.0, 800.0,
                  450.0, 0.0, 0.0, 0.0, 0.0, 0.05, -1.6, 3.0, -0.5, 0.2, 1.3, 100.0, 0.25,
-                 25.0, 450.0]  # fmt: skip
+                 25.0, 450.0, 0.05, 0.5, 0.55]  # fmt: skip
     return [*constants, *[0.0] * 5, *example_view_array()]
 
 
@@ -807,7 +843,11 @@ def _pem_frame(
             sig *= c[_F_UP_WIND]
     elif n < -LOW_TAIL_KNEE and c[_F_LOW_TAIL] != 0.0 and not outlier:  # the lower tail
         n = low_tail(n, c[_F_LOW_TAIL])
-    score = _sigmoid(z + sig * n)
+    if n > 0.0 and not outlier and c[_F_CEIL_SLOPE] != 1.0:  # the score's ceiling
+        knee = ceiling_knee(z, height, c[_F_CEIL], c[_F_CEIL_GAIN], c[_F_TAU_REF], c[_F_TAU_CAP])
+        score = _sigmoid(z + ceiling(sig * n, knee, c[_F_CEIL_SLOPE]))
+    else:
+        score = _sigmoid(z + sig * n)
     if (
         c[_F_GAIN] != 0.0
         or c[_F_AR] != 0.0
@@ -862,7 +902,8 @@ def _frame_kernel() -> Any:
 
         state, normals = np.array(example_frame_state()), np.zeros(FRAME_NORMALS)
         helpers = (_clip_near, _view_angle, _project, _offset, fog_transmittance, _logit)
-        helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid, low_tail)
+        helpers += (fill_of, noise_scale, _heading_sine, _pem_view, _sigmoid, low_tail,
+                    ceiling_knee, ceiling)  # fmt: skip
         example = (state, normals, 0, 1.0, 0.0, 0.0, 0.0, 10.0, 1.0, 0.3)
         fast = compiled(_pem_frame, *example, helpers=helpers, nrt=True)  # lists: as the view's
         _FRAME_FN = typed_entry(fast) or False
@@ -1211,6 +1252,7 @@ class PEMSensor(Sensor):
             outlier_cut(p.noise_outlier_share), p.noise_outlier_ratio, up_size_power(p),
             p.noise_low_tail, up_wind_factor(p, conditions.rain_wind),
             p.noise_up_rain_wind_px, p.noise_tau_size_gain, p.size_ref_px, p.noise_size_max_px,
+            p.noise_ceiling_logit, p.noise_ceiling_size_gain, p.noise_ceiling_slope,
         ]  # fmt: skip
         return np.array(values, dtype=np.float64)
 
@@ -1377,7 +1419,12 @@ class PEMSensor(Sensor):
                     sig *= up_wind_factor(p, conditions.rain_wind)
             elif n < -LOW_TAIL_KNEE and p.noise_low_tail != 0.0 and not outlier:
                 n = low_tail(n, p.noise_low_tail)  # the lower tail's stretch
-            score = _sigmoid(z + sig * n)
+            if n > 0.0 and not outlier and p.noise_ceiling_slope != 1.0:  # the ceiling
+                knee = ceiling_knee(z, height, p.noise_ceiling_logit, p.noise_ceiling_size_gain,
+                                    p.size_ref_px, p.noise_size_max_px)  # fmt: skip
+                score = _sigmoid(z + ceiling(sig * n, knee, p.noise_ceiling_slope))
+            else:
+                score = _sigmoid(z + sig * n)
             if (
                 p.detect_gain != 0.0
                 or p.detect_ar != 0.0

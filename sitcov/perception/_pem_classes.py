@@ -34,13 +34,15 @@ PEM_CLASSES_FILE = Path(__file__).parent / "data" / "pem_classes.yaml"
 #: file that does not set them has none, whatever the car PEM fitted; so are the score
 #: noise's outlier frames, upper size gain, size bend, lower tail and scale in windy rain
 #: (a class's own noise law), and the car's terms for a box cut by the image edge (``cut_gain``,
-#: ``cut_tent_gain``) and for one seen head-on from the front (``head_on_gain``).
+#: ``cut_tent_gain``) and for one seen head-on from the front (``head_on_gain``), and the
+#: car's score ceiling (``noise_ceiling_*``).
 OWN_TERMS = (
     "noise_size_gain", "noise_size_max_px", "noise_bend_gain", "noise_bend_px", "box_dx0",
     "box_dy0", "box_dx1", "box_dy1", "jitter_y", "size_hinge40_gain", "size_hinge80_gain",
     "view_hinge40_gain", "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain",
     "noise_low_tail", "cut_gain", "cut_tent_gain", "noise_up_rain_wind_gain",
-    "noise_up_rain_wind_px", "noise_tau_size_gain", "head_on_gain",
+    "noise_up_rain_wind_px", "noise_tau_size_gain", "head_on_gain", "noise_ceiling_logit",
+    "noise_ceiling_size_gain", "noise_ceiling_slope",
 )  # fmt: skip
 #: Kinds scored by the car PEM (``data/pem.yaml``), reported as ``car``.
 VEHICLE_KINDS = ("car", "truck")

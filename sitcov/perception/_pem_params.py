@@ -160,6 +160,16 @@ class PEMParams:
             frames below it; one normal scale spreads both ways and puts too few frames
             just under the ceiling (docs/pem.md, "The lower tail"). 0 (the default, files
             written before it) changes nothing [-].
+        noise_ceiling_logit, noise_ceiling_size_gain, noise_ceiling_slope: the score's
+            ceiling, which rises with the box: above the median, a logit offset past the
+            knee ``max(noise_ceiling_logit + noise_ceiling_size_gain * ln(h /
+            size_ref_px) - z, 0)`` (``z`` the mean logit, ``h`` clamped to [1,
+            ``noise_size_max_px``]) grows ``noise_ceiling_slope`` times as fast: the
+            detector's scores on a 60-80 px car almost never reach 0.7 and on a 200 px
+            one do in a fifth of frames, which one upper spread cannot give
+            (:func:`~sitcov.perception._pem.ceiling_knee`; docs/pem.md, "The score's
+            ceiling"). ``noise_ceiling_slope`` 1 (the default, files written before it)
+            changes nothing [logit], [-], [-].
         cut_gain: added to the logit of a box cut by the image edge, ramping from 0 to 1
             over the first ``CUT_RAMP`` (0.1) of truncation: the detector scores a close
             car partly out of the image higher than the truncation's linear term says
@@ -244,6 +254,9 @@ class PEMParams:
     noise_up_rain_wind_px: float = 100.0
     noise_tau_size_gain: float = 0.0
     head_on_gain: float = 0.0
+    noise_ceiling_logit: float = 0.0
+    noise_ceiling_size_gain: float = 0.0
+    noise_ceiling_slope: float = 1.0
 
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], *, file: str | None = None) -> PEMParams:
@@ -301,6 +314,11 @@ class PEMParams:
             raise ConfigError(
                 file=file, field="noise_low_tail", value=self.noise_low_tail, expected=">= 0"
             )
+        if not 0.0 < self.noise_ceiling_slope <= 1.0:
+            raise ConfigError(
+                file=file, field="noise_ceiling_slope", value=self.noise_ceiling_slope,
+                expected="in (0, 1] (1: no ceiling)",
+            )  # fmt: skip
         if self.noise_outlier_ratio <= 0:
             raise ConfigError(
                 file=file, field="noise_outlier_ratio", value=self.noise_outlier_ratio,

@@ -25,6 +25,7 @@ def _draw(
     near_gain: float = 0.0, hinge_gain: float = 0.0, outliers: tuple[float, float] = (0.0, 1.0),
     tail: float = 0.0, bend: tuple[float, float] = (0.0, 60.0),
     rain: tuple[float, float] | None = None, up_wind: float = 0.0, tau_gain: float = 0.0,
+    ceiling: tuple[float, float, float] | None = None,
 ) -> KindFrames:  # fmt: skip
     """Runs of one road user approaching (box height 15 -> ~120 px), logit scores drawn
     independently of the fit's code: ``bias + gain ln(h / 25) + AR(1) + frame noise``,
@@ -49,7 +50,9 @@ def _draw(
     box of ``fm.UP_WIND_PX`` or more, a positive noise times ``exp(up_wind * p w)`` (the
     upper spread in windy rain; needs ``rain``). ``tau_gain``: the AR step into a frame
     of a box ``h`` high has the coefficient ``rho ** ((h / 25) ** tau_gain)`` (a larger
-    box's noise forgets faster)."""
+    box's noise forgets faster). ``ceiling``: (level, size gain, slope): a positive
+    offset of the logit past ``max(level + size gain * ln(h / 25) - mean, 0)`` grows
+    ``slope`` times as fast (the score's ceiling, written out here)."""
     from scipy.stats import norm
 
     rng = np.random.default_rng(seed)
@@ -85,7 +88,11 @@ def _draw(
                 noise = outliers[1] * sigma * rng.standard_normal()
             if up_wind and noise > 0.0 and h >= fm.UP_WIND_PX:
                 noise *= math.exp(up_wind * p * w)
-            z += widen * noise
+            offset = widen * noise
+            if ceiling is not None and offset > 0.0:
+                knee = max(ceiling[0] + ceiling[1] * math.log(min(h, 450.0) / 25.0) - z, 0.0)
+                offset = offset if offset <= knee else knee + ceiling[2] * (offset - knee)
+            z += offset
             score = 1.0 / (1.0 + math.exp(-z))
             rec = score if score >= 0.05 else 0.0
             fill = math.log(min(max(2.5 * h / 800.0, 0.05), 1.0) / 0.05)
@@ -1084,6 +1091,40 @@ def test_the_held_tau_size_term_recovers_a_noise_that_forgets_faster_on_a_larger
     params = fm.to_params(fast, PEMParams(), t, [])
     assert params.noise_tau_size_gain == pytest.approx(fast.noise.kt, abs=1e-4)
     assert params.noise_tau == pytest.approx(-0.1 / math.log(fast.noise.rho), abs=1e-4)
+
+
+@pytest.mark.slow
+def test_the_held_ceiling_recovers_a_score_ceiling_that_rises_with_the_box() -> None:
+    """The held term ``ceiling`` (``--held-term ceiling``): frames whose logit offset
+    above the mean grows 0.4 times as fast past ``0.3 + 0.5 ln(h / 25)``. Fitted by the
+    frames-alone likelihood with the rest held, its level and size gain come out near
+    those and its slope under 1 (the base fit, without a ceiling, narrowed its upper
+    spread to take part of it), the likelihood rises, and the PEM's parameters are what
+    it wrote; drawn
+    without a ceiling, none is fitted that matters (the slope near 1). Fitted twice or
+    with another term at once it is refused."""
+
+    def held(ceiling: tuple[float, float, float] | None) -> tuple[fm.FrameFit, ...]:
+        t = fm.tracks_of(_draw(79, runs=200, length=40, sigma=0.9, share=0.5, bias=0.2,
+                               ceiling=ceiling))  # fmt: skip
+        fit = fm.fit_tracks(t, ridge=1.0, ar=True, size_ref=25.0)
+        return fit, fm.fit_held_terms(fit, t, (fm.CEILING,)), t
+
+    fit, ceiled, t = held((0.3, 0.5, 0.4))
+    nz = ceiled.noise
+    assert nz.cl == pytest.approx(0.3, abs=0.25) and nz.cg == pytest.approx(0.5, abs=0.2)
+    assert nz.cs < 0.85  # held: the base fit's narrower upper spread took part of it
+    assert ceiled.marginal_loglik(t) - fit.marginal_loglik(t) > 20.0
+    assert held(None)[1].noise.cs > 0.8
+    with pytest.raises(SitcovError, match="already"):
+        fm.fit_held_terms(ceiled, t, (fm.CEILING,))
+    with pytest.raises(SitcovError, match="alone"):
+        fm.fit_held_terms(fit, t, (fm.CEILING, "near"))
+    params = fm.to_params(ceiled, PEMParams(), t, [])
+    assert params.noise_ceiling_logit == round(nz.cl, 4)
+    assert params.noise_ceiling_size_gain == round(nz.cg, 4)
+    assert params.noise_ceiling_slope == round(nz.cs, 4)
+    assert fm.to_params(fit, PEMParams(), t, []).noise_ceiling_slope == 1.0
 
 
 def test_a_per_frame_coefficient_of_gain_zero_is_the_plain_filter() -> None:

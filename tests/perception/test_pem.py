@@ -617,6 +617,64 @@ def test_the_lower_tail_is_sampled_as_the_model_says():
         PEMParams.from_mapping({"noise_low_tail": -0.2})
 
 
+def test_the_score_ceiling_is_sampled_as_the_model_says():
+    """The score's ceiling (``noise_ceiling_*``): sampled frames of a close and a far car
+    reach θ as often as ``pass_probability`` says; past the knee (its documented formula)
+    a θ is reached less often than without the ceiling, below it as often; a smaller box
+    has a lower ceiling; slope 1 is no ceiling (the same numbers), and a slope outside
+    (0, 1] is refused."""
+    from sitcov.perception._pem import ceiling, ceiling_inverse, ceiling_knee
+
+    base = {"bias": 1.0, "noise_sigma": 0.6, "noise_tau": 0.0, "noise_frame_share": 0.3,
+            "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
+            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0,
+            "noise_size_gain": 0.0, "noise_low_tail": 0.0}  # fmt: skip
+    plain = PEMSensor(base)
+    ceil = PEMSensor({**base, "noise_ceiling_logit": 2.0, "noise_ceiling_size_gain": 0.5,
+                      "noise_ceiling_slope": 0.4})  # fmt: skip
+    near, far = car(6.0, 0.0, math.pi / 2), car(25.0, -2.0, 0.3)
+    rng = np.random.default_rng(23)
+    for actor in (near, far):
+        f = ceil.features(EGO, actor, CLEAR)
+        for theta in (0.6, 0.7):
+            expected = pass_probability(f, ceil.params, theta)
+            assert _sampled_rate(ceil, actor, theta, rng) == pytest.approx(expected, abs=TOLERANCE)
+    p = ceil.params
+    for actor in (near, far):
+        f = ceil.features(EGO, actor, CLEAR)
+        z = pem_logit(f, p)
+        h = min(max(f.height_px, 1.0), p.noise_size_max_px)
+        knee = max(2.0 + 0.5 * math.log(h / p.size_ref_px) - z, 0.0)
+        assert ceiling_knee(z, f.height_px, 2.0, 0.5, p.size_ref_px, p.noise_size_max_px) == knee
+        below, past = z + 0.5 * knee, z + knee + 0.8
+
+        def score(v: float) -> float:
+            return 1.0 / (1.0 + math.exp(-v))
+
+        assert pass_probability(f, p, score(below)) == pytest.approx(
+            pass_probability(f, plain.params, score(below)), abs=1e-9
+        )
+        assert (
+            pass_probability(f, p, score(past))
+            < pass_probability(f, plain.params, score(past)) - 0.005
+        )
+    assert {
+        ceiling_knee(pem_logit(ceil.features(EGO, a, CLEAR), p), ceil.features(EGO, a, CLEAR)
+                     .height_px, 2.0, 0.5, p.size_ref_px, p.noise_size_max_px) > 0.0
+        for a in (near, far)
+    } == {True, False}  # the far car's mean is past its ceiling, the close one's below  # fmt: skip
+    knees = [ceiling_knee(0.0, h, -0.3, 0.5, 25.0, 450.0) for h in (40.0, 80.0, 200.0)]
+    assert knees == sorted(knees) and knees[0] < knees[-1]  # it rises with the box
+    assert ceiling(1.5, 1.0, 0.4) == pytest.approx(1.2) and ceiling(0.5, 1.0, 0.4) == 0.5
+    assert ceiling_inverse(ceiling(2.3, 0.7, 0.4), 0.7, 0.4) == pytest.approx(2.3)
+    off = PEMSensor({**base, "noise_ceiling_logit": -0.3, "noise_ceiling_size_gain": 0.5})
+    f = off.features(EGO, near, CLEAR)
+    assert pass_probability(f, off.params, 0.7) == pass_probability(f, plain.params, 0.7)
+    for slope in (0.0, 1.2):
+        with pytest.raises(ConfigError, match="noise_ceiling_slope"):
+            PEMParams.from_mapping({"noise_ceiling_slope": slope})
+
+
 def test_rain_noise_and_misses_when_the_model_has_them():
     # The calibrated detector shows no extra noise or misses in rain (rain_sigma and
     # rain_miss fit to ~0); the model form still supports them, which this checks.

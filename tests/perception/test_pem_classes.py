@@ -192,8 +192,9 @@ def test_a_class_file_without_the_noises_size_gain_keeps_none(tmp_path: Path) ->
         "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain", "noise_low_tail",
         "cut_gain", "cut_tent_gain", "noise_bend_gain", "noise_bend_px",
         "noise_up_rain_wind_gain", "noise_up_rain_wind_px", "noise_tau_size_gain",
-        "head_on_gain",
+        "head_on_gain", "noise_ceiling_logit", "noise_ceiling_size_gain", "noise_ceiling_slope",
     }  # fmt: skip
+    assert params.noise_ceiling_slope == 1.0  # the car's ceiling is not the class's
     assert params.noise_outlier_share == params.noise_up_size_gain == 0.0  # none inherited
     assert params.noise_up_rain_wind_gain == params.noise_tau_size_gain == 0.0
     assert params.noise_low_tail == params.noise_bend_gain == 0.0

@@ -806,6 +806,7 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
         c += [rnd.choice([0.0, 0.4])]  # the lower tail's curvature
         c += [rnd.choice([1.0, 1.5]), rnd.choice([60.0, 100.0])]  # the windy rain's upper factor
         c += [rnd.choice([0.0, 0.3]), 25.0, 450.0]  # the AR part's size gain, reference, clamp
+        c += rnd.choice([[0.0, 0.0, 1.0], [-0.2, 0.45, 0.6]])  # the score's ceiling (or none)
         track = [rnd.gauss(0, 1), rnd.gauss(0, 1), rnd.gauss(0, 1), 3.0, rnd.choice([0.0, 1.0])]
         normals = [rnd.gauss(0, 1) for _ in range(_pem.FRAME_NORMALS + 3)]
         ex, ey, eyaw = rnd.uniform(-50, 50), rnd.uniform(-50, 50), rnd.uniform(-4, 4)
@@ -820,10 +821,12 @@ def test_compiled_pem_frame_is_bit_identical_and_is_the_sensors_python_loop(monk
     ego = SimpleNamespace(x=0.0, y=0.0, yaw=0.0)
     kinds = [("car", 4.6, 1.8, 1.5), ("cyclist", 1.8, 0.6, 1.7), ("pedestrian", 0.5, 0.5, 1.8)]
     # the shipped car PEM, and it with outlier frames, an upper size gain, a lower tail and
-    # a wider upper spread in windy rain and a noise that forgets faster on a larger box
+    # a wider upper spread in windy rain and a noise that forgets faster on a larger box,
+    # and a score ceiling
     wide = {"noise_outlier_share": 0.1, "noise_outlier_ratio": 3.0, "noise_up_size_gain": -0.4,
             "noise_low_tail": 0.4, "noise_up_rain_wind_gain": 0.8,
-            "noise_tau_size_gain": 0.3}  # fmt: skip
+            "noise_tau_size_gain": 0.3, "noise_ceiling_logit": -0.2,
+            "noise_ceiling_size_gain": 0.45, "noise_ceiling_slope": 0.6}  # fmt: skip
     for rain, car_params in ((0.0, None), (0.6, None), (0.0, wide), (0.6, wide)):
         cond = Conditions(rain_noise=rain, rain_wind=rain * 0.7)
         runs = {}
