@@ -1295,8 +1295,8 @@ def calibrate_cmd(
         "user comes from), view (front, side, rear), angle (head-on, oblique or side-on, "
         "front or rear), rain (the situation's precipitation), "
         "wind (dry, calm rain or windy rain: wind intensity 50 or more), "
-        "cut (the box cut by the image edge or whole) or bin:ELEMENT (the run's bin of a "
-        "hyperspace element, e.g. bin:intsit).",
+        "cut (the box cut by the image edge or whole), size (the box height's bin) or "
+        "bin:ELEMENT (the run's bin of a hyperspace element, e.g. bin:intsit).",
     ),
     check_tracks: bool = typer.Option(
         False,

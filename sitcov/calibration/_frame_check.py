@@ -113,6 +113,20 @@ def _cut(feats: Any, situation: Mapping[str, Any]) -> str:
     return "cut" if feats.truncation > CUT else "whole"
 
 
+#: The ``size`` split's bins of the box height [px]: lower edges (the last open above).
+SIZE_EDGES = (0.0, 60.0, 80.0, 100.0, 150.0, 300.0)
+
+
+def _size_labels() -> tuple[str, ...]:
+    pairs = zip(SIZE_EDGES, (*SIZE_EDGES[1:], None), strict=True)
+    return tuple(f"{lo:.0f}-{hi:.0f} px" if hi else f">= {lo:.0f} px" for lo, hi in pairs)
+
+
+def _size(feats: Any, situation: Mapping[str, Any]) -> str:
+    k = sum(feats.height_px >= edge for edge in SIZE_EDGES[1:])
+    return _size_labels()[k]
+
+
 #: The ways :func:`check_frames` can split each (class, band) cell: name -> (the group of
 #: a frame from its features and its run's situation, the groups in print order).
 #: ``approach``: where the run's road user comes from, seen by the ego (left, right, or
@@ -126,7 +140,8 @@ def _cut(feats: Any, situation: Mapping[str, Any]) -> str:
 #: (``unknown`` without that element); ``wind``: a dry run, or a rainy one with a wind
 #: intensity below :data:`WINDY` or from it (in camera mode the wind slants the rain
 #: streaks: docs/pem.md, "The wind in the rain"); ``cut``: the box cut by the image edge
-#: or whole.
+#: or whole; ``size``: the box height's bin of :data:`SIZE_EDGES` (the detector's scores
+#: have a ceiling that rises with the box: docs/pem.md, "The score's ceiling").
 SPLITS: dict[str, tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]]] = {
     "approach": (_approach, ("from left", "from right", "ahead/other")),
     "view": (_view, ("front", "side", "rear")),
@@ -134,6 +149,7 @@ SPLITS: dict[str, tuple[Callable[[Any, Mapping[str, Any]], str], tuple[str, ...]
     "rain": (_rain, ("dry", "light rain", "heavy rain", "unknown")),
     "wind": (_wind, ("dry", "calm rain", "windy rain", "unknown")),
     "cut": (_cut, ("whole", "cut")),
+    "size": (_size, _size_labels()),
 }
 #: A split by the run's bin of one hyperspace element: ``bin:`` and the element's name
 #: (``bin:intsit``, ``bin:wind_intensity``); its groups are the bins found, in natural

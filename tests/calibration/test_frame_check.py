@@ -133,6 +133,17 @@ def test_the_angle_split_puts_a_frame_by_its_view(view_deg: float, facing: float
     assert split(feats, {}) == group and group in groups
 
 
+@pytest.mark.parametrize(
+    ("height", "group"),
+    [(12.0, "0-60 px"), (60.0, "60-80 px"), (79.9, "60-80 px"), (80.0, "80-100 px"),
+     (149.0, "100-150 px"), (150.0, "150-300 px"), (300.0, ">= 300 px"), (4000.0, ">= 300 px")],
+)  # fmt: skip
+def test_the_size_split_puts_a_frame_by_its_box_height(height: float, group: str) -> None:
+    """Each bin holds its lower edge; the last is open above."""
+    split, groups = fc.SPLITS["size"]
+    assert split(PEMFeatures(height, 0.5, 0.0), {}) == group and group in groups
+
+
 def test_check_by_prints_a_group_column_and_names_a_wrong_split(tmp_path: Path, capsys) -> None:
     """``sitcov calibrate --check FILE --check-by rain``: a row per group (dry, light and
     heavy rain); an unknown split is one error line, exit 2."""
