@@ -26,18 +26,17 @@ import sys
 import time
 from typing import Any
 
-from pem_rain_wind import add_base_options, car_tracks, load_base, write_result
+from pem_rain_wind import add_base_options, before, car_tracks, load_base, write_result
 
 
-def shipped_fit(args: argparse.Namespace, fit_file: Any) -> Any:
-    """The base fit of ``args`` with ``pem.yaml``'s held noise terms fitted in turn on
-    ``fit_file``'s tracks (the logit's held terms are in the base already)."""
+def shipped_fit(args: argparse.Namespace, fit_file: Any, until: str) -> Any:
+    """The base fit of ``args`` with ``pem.yaml``'s held noise terms before ``until``
+    fitted in turn on ``fit_file``'s tracks (the logit's held terms before it are in the
+    base already): the shipped model as it was before the term ``until`` was added."""
     from sitcov.calibration._frame_model import NOISE_HELD_TERMS, fit_held_terms
-    from sitcov.perception._pem_params import PEM_PARAMS_FILE, read_yaml
 
-    meta = read_yaml(PEM_PARAMS_FILE, "PEM parameters")["meta"]["car"]
-    fit = load_base(args)
-    for name in meta.get("held_terms", {}).get("gains", {}):
+    fit = load_base(args, until)
+    for name in before(until):
         if name in NOISE_HELD_TERMS:
             fit = fit_held_terms(fit, fit_file, (name,))
     return fit
@@ -52,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
 
     t0 = time.process_time()
     tracks = car_tracks()
-    base = shipped_fit(args, tracks["fit file"])
+    base = shipped_fit(args, tracks["fit file"], "head_on")
     fit = fit_held_terms(base, tracks["fit file"], ("head_on",))
 
     def per_frame(f: Any, t: Any) -> float:

@@ -55,8 +55,24 @@ HEAVY_RAIN = 50.0  # precipitation from which a run counts as heavy rain
 WINDY = 50.0  # wind_intensity from which a run counts as windy
 
 
-def base_fit(path: Path, starts: int) -> Any:
-    """The car's shipped frame model fitted again on ``path`` (pem.yaml's meta)."""
+def held_order() -> list[str]:
+    """The car's held terms in ``pem.yaml``'s order (its meta's ``held_terms``)."""
+    from sitcov.perception._pem_params import PEM_PARAMS_FILE, read_yaml
+
+    meta = read_yaml(Path(PEM_PARAMS_FILE), "PEM parameters")["meta"]["car"]
+    return list(meta.get("held_terms", {}).get("gains", {}))
+
+
+def before(term: str | None) -> list[str]:
+    """The held terms of :func:`held_order` fitted before ``term`` (all without one, or
+    when the shipped file does not have it)."""
+    order = held_order()
+    return order[: order.index(term)] if term in order else order
+
+
+def base_fit(path: Path, starts: int, until: str | None = None) -> Any:
+    """The car's shipped frame model fitted again on ``path`` (pem.yaml's meta), with the
+    held logit terms fitted before ``until`` (:func:`before`; all without it)."""
     from sitcov.calibration._frame_model import (
         NOISE_HELD_TERMS,
         candidates_for,
@@ -69,8 +85,7 @@ def base_fit(path: Path, starts: int) -> Any:
 
     meta = read_yaml(Path(PEM_PARAMS_FILE), "PEM parameters")["meta"]["car"]
     chosen = meta["model_choice"]["chosen"]
-    gains = meta.get("held_terms", {}).get("gains", {})
-    held = tuple(n for n in gains if n not in NOISE_HELD_TERMS)
+    held = tuple(n for n in before(until) if n not in NOISE_HELD_TERMS)
     t = tracks_of(read_frames(path)["car"])
     cand = next(c for c in candidates_for("car") if c[0] == chosen)
     fit = fit_candidate(t, cand, load_pem_params().size_ref_px, stages=2, starts=starts)
@@ -144,9 +159,12 @@ def add_base_options(ap: argparse.ArgumentParser) -> None:
     ap.add_argument("--json", type=Path, help="write the result here")
 
 
-def load_base(args: argparse.Namespace) -> Any:
-    """The base fit :func:`add_base_options`' ``args`` ask for: pickled, or fitted again."""
-    return pickle.loads(args.base.read_bytes()) if args.base else base_fit(FIT_FILE, args.starts)
+def load_base(args: argparse.Namespace, until: str | None = None) -> Any:
+    """The base fit :func:`add_base_options`' ``args`` ask for: pickled, or fitted again
+    (with the held logit terms before ``until``, :func:`base_fit`)."""
+    if args.base:
+        return pickle.loads(args.base.read_bytes())
+    return base_fit(FIT_FILE, args.starts, until)
 
 
 def car_tracks() -> dict[str, Any]:

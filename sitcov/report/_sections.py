@@ -183,7 +183,7 @@ PEM_NOTE = (
     'and over-reports oncoming cars at 10-20 m (docs/pem.md, "Within a band"): a stack '
     "braking at a score of 0.5 then fails road users from the left more often, and those "
     "from the right less often, than in camera mode (the default campaign re-run in camera "
-    "mode: 54.3 % against 49.7 % from the left, 38.8 % against 40.5 % from the right). "
+    "mode: 52.5 % against 49.7 % from the left, 38.5 % against 40.5 % from the right). "
     "Confirm an effect of approach side or route with --perception camera before "
     "reporting it."
 )

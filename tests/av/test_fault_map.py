@@ -87,9 +87,12 @@ def test_threshold_follows_a_recalibrated_pem(shift, pem):
     Both F1 and the nominal acceptance it is measured against rise, so F1's logit moves by
     less than the shift; shifting the nominal threshold too makes the move exact.
     """
-    # every score logit higher, the detection odds kept (detect_gain multiplies the logit)
+    # every score logit higher (the score's ceiling with it), the detection odds kept
+    # (detect_gain multiplies the logit)
     keep = pem.detect_bias - pem.detect_gain * shift
-    moved = dataclasses.replace(pem, bias=pem.bias + shift, detect_bias=keep)
+    ceiling = pem.noise_ceiling_logit + shift
+    moved = dataclasses.replace(pem, bias=pem.bias + shift, detect_bias=keep,
+                                noise_ceiling_logit=ceiling)  # fmt: skip
     base = _logit(mapped_threshold(params=pem))
     delta = _logit(mapped_threshold(params=moved)) - base
     assert 0.0 < delta / shift <= 1.0 + 2e-3

@@ -39,7 +39,7 @@ EGO = Pose(0.0, 0.0, 0.0)
 NOT_IN_SHIPPED_FIT: tuple[str, ...] = (
     "box_dx0", "box_dy0", "box_dx1", "box_dy1", "jitter_y",
     "noise_outlier_share", "noise_outlier_ratio", "noise_up_size_gain", "cut_gain",
-    "noise_bend_gain", "noise_bend_px", "head_on_gain",
+    "noise_bend_gain", "noise_bend_px",
 )  # fmt: skip
 CLEAR = conditions_from_values({})
 N_RANDOM_SETS = 8
