@@ -625,10 +625,21 @@ def test_the_score_ceiling_is_sampled_as_the_model_says():
     (0, 1] is refused."""
     from sitcov.perception._pem import ceiling, ceiling_inverse, ceiling_knee
 
-    base = {"bias": 1.0, "noise_sigma": 0.6, "noise_tau": 0.0, "noise_frame_share": 0.3,
-            "noise_run_share": 0.0, "noise_up_ratio": 1.0, "rain_miss": 0.0,
-            "detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0,
-            "noise_size_gain": 0.0, "noise_low_tail": 0.0}  # fmt: skip
+    base = {
+        "bias": 1.0,
+        "noise_sigma": 0.6,
+        "noise_tau": 0.0,
+        "noise_frame_share": 0.3,
+        "noise_run_share": 0.0,
+        "noise_up_ratio": 1.0,
+        "rain_miss": 0.0,
+        "detect_bias": 8.0,
+        "detect_gain": 0.0,
+        "detect_ar": 0.0,
+        "noise_size_gain": 0.0,
+        "noise_low_tail": 0.0,
+        "noise_ceiling_slope": 1.0,
+    }  # fmt: skip  (the shipped car PEM has a ceiling)
     plain = PEMSensor(base)
     ceil = PEMSensor({**base, "noise_ceiling_logit": 2.0, "noise_ceiling_size_gain": 0.5,
                       "noise_ceiling_slope": 0.4})  # fmt: skip
@@ -667,7 +678,8 @@ def test_the_score_ceiling_is_sampled_as_the_model_says():
     assert knees == sorted(knees) and knees[0] < knees[-1]  # it rises with the box
     assert ceiling(1.5, 1.0, 0.4) == pytest.approx(1.2) and ceiling(0.5, 1.0, 0.4) == 0.5
     assert ceiling_inverse(ceiling(2.3, 0.7, 0.4), 0.7, 0.4) == pytest.approx(2.3)
-    off = PEMSensor({**base, "noise_ceiling_logit": -0.3, "noise_ceiling_size_gain": 0.5})
+    off = PEMSensor({**base, "noise_ceiling_logit": -0.3, "noise_ceiling_size_gain": 0.5,
+                     "noise_ceiling_slope": 1.0})  # fmt: skip
     f = off.features(EGO, near, CLEAR)
     assert pass_probability(f, off.params, 0.7) == pass_probability(f, plain.params, 0.7)
     for slope in (0.0, 1.2):

@@ -14,11 +14,12 @@ from sitcov.sim import conditions_from_values
 EGO = Pose(0.0, 0.0, 0.0)
 CLEAR = conditions_from_values({})
 CAR = ActorView(Pose(15.0, 0.5, 0.3), 4.7, 1.85, 1.5)
-#: The shipped file's noise shape, its size gain and detection term switched off: these
-#: tests set the noise structure they check (a normal law of one scale; the actor always
-#: output).
+#: The shipped file's noise shape, its size gain, score ceiling and detection term switched
+#: off: these tests set the noise structure they check (a normal law of one scale; the actor
+#: always output).
 PLAIN = {"detect_bias": 8.0, "detect_gain": 0.0, "detect_ar": 0.0, "noise_up_ratio": 1.0,
-         "noise_frame_share": 0.0, "noise_size_gain": 0.0}  # fmt: skip
+         "noise_frame_share": 0.0, "noise_size_gain": 0.0,
+         "noise_ceiling_slope": 1.0}  # fmt: skip
 
 
 def _noise_series(sensor: PEMSensor, runs: int, frames: int) -> np.ndarray:
