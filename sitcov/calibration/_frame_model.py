@@ -1326,8 +1326,8 @@ def fit_ceiling(fit: FrameFit, t: Tracks) -> FrameFit:
     wind = wind_column(t, fit.noise)
 
     def noise_at(x: Sequence[float]) -> Noise:
-        slope = 1.0 / (1.0 + math.exp(-min(30.0, max(-30.0, float(x[2])))))
-        return replace(fit.noise, cl=float(x[0]), cg=float(x[1]), cs=min(slope, 0.999999))
+        slope = min(logistic(x[2]), 0.999999)  # past |x| = 50 it is 0 or 1: kept under 1
+        return replace(fit.noise, cl=float(x[0]), cg=float(x[1]), cs=slope)
 
     def nll(x: Sequence[float]) -> float:
         return -frames_alone_loglik(m, y, obs, noise_at(x), geom, size, near, det, wind)
